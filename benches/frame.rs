@@ -1,0 +1,32 @@
+//! Whole-frame throughput: one sample per pixel of the Cornell box at 256×256, every step of the
+//! schedule included (emit, trace, scatter, shadow, gather).
+
+use caustica::scene::{IntegratorKind, load};
+use caustica::systems::render::{init_thread_pools, prepare};
+use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+use std::path::Path;
+
+fn bench_frame(c: &mut Criterion) {
+    init_thread_pools(None);
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box.gltf");
+    let mut group = c.benchmark_group("frame");
+    group.sample_size(10);
+    for kind in [IntegratorKind::Pt, IntegratorKind::PtNaive] {
+        let (scene, mut run) = load(&path).expect("scene loads");
+        run.render.integrator = kind;
+        run.render.spp = 1;
+        let pixels = 256 * 256;
+        group.throughput(Throughput::Elements(pixels));
+        group.bench_function(BenchmarkId::new(format!("{kind:?}"), "cornell-box 1spp"), |b| {
+            b.iter_batched(
+                || prepare(scene.clone(), &run).expect("prepares"),
+                |mut renderer| renderer.run(|_| {}),
+                criterion::BatchSize::PerIteration,
+            )
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bench_frame);
+criterion_main!(benches);

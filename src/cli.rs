@@ -1,0 +1,101 @@
+//! Command-line arguments (clap derive: the doc comments are the help text).
+
+use crate::scene::{FilterKind, IntegratorKind, LightSelection, RunFile};
+use clap::{Args, Parser, Subcommand};
+use std::path::PathBuf;
+
+/// Caustica: a physically based renderer on a data-oriented ECS.
+#[derive(Parser, Debug)]
+#[command(version, about)]
+pub struct Cli {
+    /// What to do; with none, renders scenes/default.toml.
+    #[command(subcommand)]
+    pub command: Option<Command>,
+}
+
+/// Subcommands.
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Render a run file (.toml) or a glTF file (.gltf / .glb).
+    Render(RenderArgs),
+    /// Print RMSE, relMSE and MAE of IMAGE against REFERENCE (linear EXR files).
+    Compare {
+        /// The image to judge.
+        image: PathBuf,
+        /// The reference.
+        reference: PathBuf,
+    },
+}
+
+/// Arguments of `caustica render`.
+#[derive(Args, Debug, Default, Clone)]
+pub struct RenderArgs {
+    /// Run file or glTF to render (default: scenes/default.toml).
+    pub scene: Option<PathBuf>,
+    /// Samples per pixel; overrides the run file.
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Integrator; overrides the run file.
+    #[arg(long, value_enum)]
+    pub integrator: Option<IntegratorKind>,
+    /// How next-event estimation picks a light; overrides the run file.
+    #[arg(long, value_enum)]
+    pub light_selection: Option<LightSelection>,
+    /// Sampler seed; overrides the run file.
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Worker threads (default: all cores). The image does not depend on it.
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Image width; overrides the run file and the glTF's extras.
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Image height; overrides the run file and the glTF's extras.
+    #[arg(long)]
+    pub height: Option<u32>,
+    /// Maximum bounces (default unbounded, Russian roulette ends paths); overrides the run file.
+    #[arg(long)]
+    pub max_depth: Option<u32>,
+    /// First bounce at which Russian roulette may end a path; overrides the run file.
+    #[arg(long)]
+    pub rr_depth: Option<u32>,
+    /// Pixel reconstruction filter; overrides the run file.
+    #[arg(long, value_enum)]
+    pub filter: Option<FilterKind>,
+    /// PNG exposure in stops; overrides the run file.
+    #[arg(long)]
+    pub exposure: Option<f32>,
+    /// glTF camera to use, by name; overrides the run file.
+    #[arg(long)]
+    pub camera: Option<String>,
+    /// Output image(s), .exr (linear) or .png (sRGB); repeatable; overrides the run file.
+    #[arg(short, long)]
+    pub output: Vec<PathBuf>,
+    /// Reference EXR: print the error of the result against it.
+    #[arg(long)]
+    pub reference: Option<PathBuf>,
+    /// No progress bar.
+    #[arg(short, long)]
+    pub quiet: bool,
+}
+
+impl RenderArgs {
+    /// Apply the command-line overrides to a run file.
+    pub fn apply(&self, run: &mut RunFile) {
+        let r = &mut run.render;
+        r.spp = self.spp.unwrap_or(r.spp);
+        r.integrator = self.integrator.unwrap_or(r.integrator);
+        r.light_selection = self.light_selection.unwrap_or(r.light_selection);
+        r.seed = self.seed.unwrap_or(r.seed);
+        r.max_depth = self.max_depth.or(r.max_depth);
+        r.rr_depth = self.rr_depth.unwrap_or(r.rr_depth);
+        let f = &mut run.film;
+        f.width = self.width.or(f.width);
+        f.height = self.height.or(f.height);
+        f.filter = self.filter.unwrap_or(f.filter);
+        f.exposure = self.exposure.unwrap_or(f.exposure);
+        if self.camera.is_some() {
+            run.camera.name = self.camera.clone();
+        }
+    }
+}

@@ -1,0 +1,67 @@
+//! Everything a user can get wrong, one variant each; every message names the file and the object.
+
+use std::path::PathBuf;
+
+/// A user-facing error: bad input, never a broken internal assumption.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A file could not be read.
+    #[error("{path}: cannot read file: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// A glTF file is malformed or not glTF at all.
+    #[error("{path}: not a valid glTF 2.0 file: {message}")]
+    Gltf {
+        /// The file.
+        path: PathBuf,
+        /// What the parser said.
+        message: String,
+    },
+    /// A scene file whose type the loader does not know (by its extension).
+    #[error("{path}: unknown scene file type: expected a run file (.toml) or glTF 2.0 (.gltf, .glb)")]
+    UnknownFormat {
+        /// The file.
+        path: PathBuf,
+    },
+    /// A run file is not valid TOML or has unknown or mistyped keys.
+    #[error("{path}: invalid run file: {message}")]
+    RunFile {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong, with the key.
+        message: String,
+    },
+    /// Some value in a scene breaks a constraint (NaN transform, bad primitive mode, ...).
+    #[error("{path}: {object}: {problem}")]
+    InvalidScene {
+        /// The file.
+        path: PathBuf,
+        /// The object: node/mesh/material name and index, or TOML key.
+        object: String,
+        /// The constraint that failed.
+        problem: String,
+    },
+    /// A setting is out of range (spp 0, width 0, ...).
+    #[error("invalid setting {name}: {problem}")]
+    Setting {
+        /// The setting.
+        name: String,
+        /// The constraint that failed.
+        problem: String,
+    },
+    /// An image could not be written.
+    #[error("{path}: cannot write image: {message}")]
+    Output {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        message: String,
+    },
+}
+
+/// Result with [`Error`].
+pub type Result<T, E = Error> = std::result::Result<T, E>;

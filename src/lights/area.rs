@@ -1,0 +1,174 @@
+//! One emitter: a one-sided emissive triangle (uniform area sampling) or an emissive sphere (uniform
+//! sampling of the cone it subtends, pbrt-v4 `Sphere::Sample`).
+
+use crate::sampling::warp::{Frame, UNIFORM_SPHERE_PDF, uniform_sphere, uniform_triangle};
+use glam::{Vec2, Vec3};
+use std::f32::consts::PI;
+
+/// Emitter geometry at shutter open.
+#[derive(Clone, Copy, Debug)]
+pub enum LightShape {
+    /// A triangle emitting from its front (counter-clockwise) side.
+    Triangle {
+        /// Vertices.
+        p: [Vec3; 3],
+        /// Unit front normal.
+        n: Vec3,
+        /// Area.
+        area: f32,
+    },
+    /// A sphere emitting outward.
+    Sphere {
+        /// Centre.
+        center: Vec3,
+        /// Radius.
+        radius: f32,
+    },
+}
+
+impl LightShape {
+    /// A triangle light from its vertices.
+    pub fn triangle(p: [Vec3; 3]) -> Self {
+        let c = (p[1] - p[0]).cross(p[2] - p[0]);
+        let len = c.length();
+        LightShape::Triangle { p, n: c / len, area: 0.5 * len }
+    }
+
+    fn area(&self) -> f32 {
+        match *self {
+            LightShape::Triangle { area, .. } => area,
+            LightShape::Sphere { radius, .. } => 4.0 * PI * radius * radius,
+        }
+    }
+}
+
+/// An emitter with constant radiance.
+#[derive(Clone, Copy, Debug)]
+pub struct Light {
+    /// Shape at shutter open.
+    pub shape: LightShape,
+    /// Emitted radiance.
+    pub le: Vec3,
+    /// Displacement over the shutter.
+    pub motion: Vec3,
+    /// The primitive that carries it.
+    pub prim: u32,
+}
+
+/// A point sampled on a light.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    /// The point.
+    pub p: Vec3,
+    /// Surface normal there (front side).
+    pub n: Vec3,
+    /// Radiance leaving the point towards the reference point (zero from the back of a triangle).
+    pub le: Vec3,
+    /// Solid-angle density at the reference point.
+    pub pdf: f32,
+}
+
+fn luminance(c: Vec3) -> f32 {
+    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
+}
+
+impl Light {
+    /// Emitted power, by luminance: π · area · L for a one-sided Lambertian emitter.
+    pub fn power(&self) -> f32 {
+        PI * self.shape.area() * luminance(self.le)
+    }
+
+    /// Sample a point as seen from `p_ref` at normalized time `time`.
+    #[inline]
+    pub fn sample(&self, p_ref: Vec3, time: f32, u: Vec2) -> Option<LightSample> {
+        let shift = self.motion * time;
+        match self.shape {
+            LightShape::Triangle { p, n, area } => {
+                let b = uniform_triangle(u);
+                let point = (1.0 - b.x - b.y) * p[0] + b.x * p[1] + b.y * p[2] + shift;
+                let to_ref = p_ref - point;
+                let dist2 = to_ref.length_squared();
+                let cos_l = n.dot(to_ref) / dist2.sqrt();
+                if cos_l <= 0.0 || dist2 == 0.0 {
+                    return None;
+                }
+                Some(LightSample { p: point, n, le: self.le, pdf: dist2 / (cos_l * area) })
+            }
+            LightShape::Sphere { center, radius } => {
+                let c = center + shift;
+                let dc2 = (p_ref - c).length_squared();
+                if dc2 <= radius * radius {
+                    // Inside: uniform area sampling, converted to solid angle.
+                    let n = uniform_sphere(u);
+                    let point = c + radius * n;
+                    let w = point - p_ref;
+                    let dist2 = w.length_squared();
+                    let cos_l = n.dot(-w).abs() / dist2.sqrt();
+                    if cos_l == 0.0 {
+                        return None;
+                    }
+                    let pdf = UNIFORM_SPHERE_PDF / (radius * radius) * dist2 / cos_l;
+                    return Some(LightSample { p: point, n, le: self.le, pdf });
+                }
+                // Outside: sample the cone of directions the sphere subtends (pbrt-v4 Sphere::Sample).
+                let sin2_max = radius * radius / dc2;
+                let sin_max = sin2_max.sqrt();
+                let cos_max = (1.0 - sin2_max).max(0.0).sqrt();
+                let mut one_minus_cos_max = 1.0 - cos_max;
+                let mut cos_theta = (cos_max - 1.0) * u.x + 1.0;
+                let mut sin2_theta = 1.0 - cos_theta * cos_theta;
+                if sin2_max < 0.000_685_23 {
+                    // Small cones: 1 − cos loses all precision; use its Taylor expansion (sin²(1.5°)).
+                    sin2_theta = sin2_max * u.x;
+                    cos_theta = (1.0 - sin2_theta).sqrt();
+                    one_minus_cos_max = sin2_max / 2.0;
+                }
+                // The angle at the sphere centre between the direction to p_ref and the sampled point.
+                let cos_alpha =
+                    sin2_theta / sin_max + cos_theta * (1.0 - sin2_theta / sin2_max).max(0.0).sqrt();
+                let sin_alpha = (1.0 - cos_alpha * cos_alpha).max(0.0).sqrt();
+                let phi = u.y * 2.0 * PI;
+                let frame = Frame::from_z((c - p_ref).normalize());
+                let w = Vec3::new(sin_alpha * phi.cos(), sin_alpha * phi.sin(), cos_alpha);
+                let n = frame.to_world(-w);
+                Some(LightSample {
+                    p: c + radius * n,
+                    n,
+                    le: self.le,
+                    pdf: 1.0 / (2.0 * PI * one_minus_cos_max),
+                })
+            }
+        }
+    }
+
+    /// Density of [`Light::sample`] returning `p` (normal `n`) from `p_ref`, per unit solid angle.
+    #[inline]
+    pub fn pdf(&self, p_ref: Vec3, p: Vec3, n: Vec3, time: f32) -> f32 {
+        match self.shape {
+            LightShape::Triangle { area, .. } => {
+                let to_ref = p_ref - p;
+                let dist2 = to_ref.length_squared();
+                let cos_l = n.dot(to_ref) / dist2.sqrt();
+                if cos_l <= 0.0 { 0.0 } else { dist2 / (cos_l * area) }
+            }
+            LightShape::Sphere { center, radius } => {
+                let c = center + self.motion * time;
+                let dc2 = (p_ref - c).length_squared();
+                if dc2 <= radius * radius {
+                    let w = p - p_ref;
+                    let dist2 = w.length_squared();
+                    let cos_l = n.dot(-w).abs() / dist2.sqrt();
+                    return if cos_l == 0.0 {
+                        0.0
+                    } else {
+                        UNIFORM_SPHERE_PDF / (radius * radius) * dist2 / cos_l
+                    };
+                }
+                let sin2_max = radius * radius / dc2;
+                let cos_max = (1.0 - sin2_max).max(0.0).sqrt();
+                let one_minus_cos_max = if sin2_max < 0.000_685_23 { sin2_max / 2.0 } else { 1.0 - cos_max };
+                1.0 / (2.0 * PI * one_minus_cos_max)
+            }
+        }
+    }
+}

@@ -1,0 +1,80 @@
+//! Lights: emissive triangles and spheres, sampled for next-event estimation, and light selection.
+
+pub mod area;
+pub mod select;
+
+pub use area::{Light, LightSample, LightShape};
+pub use select::LightSelector;
+
+use crate::geometry::Geometry;
+use crate::geometry::bvh::PrimitiveShape;
+use crate::scene::{LightSelection, MaterialDesc};
+use glam::{Vec2, Vec3};
+
+/// Every emitter in the scene and the distribution that picks one for a shadow ray.
+#[derive(Clone, Debug, Default)]
+pub struct Lights {
+    /// The lights; index = light id stored on the emitting primitive.
+    pub lights: Vec<Light>,
+    selector: LightSelector,
+}
+
+impl Lights {
+    /// Find the emissive primitives, give each a light id in `geometry`, and build the selector.
+    pub fn build(geometry: &mut Geometry, materials: &[MaterialDesc], selection: LightSelection) -> Self {
+        let mut lights = Vec::new();
+        let mut ids = Vec::new();
+        for (prim, shape, info, motion) in geometry.primitives() {
+            let le = materials[info.material as usize].emission;
+            if le.max_element() <= 0.0 {
+                continue;
+            }
+            let shape = match *shape {
+                PrimitiveShape::Triangle(p) => LightShape::triangle(p),
+                PrimitiveShape::Sphere(c, r) => LightShape::Sphere { center: c, radius: r },
+            };
+            ids.push(prim);
+            lights.push(Light { shape, le, motion, prim });
+        }
+        for (i, &prim) in ids.iter().enumerate() {
+            geometry.set_light(prim, i as u32);
+        }
+        let weights: Vec<f32> = match selection {
+            LightSelection::Uniform => vec![1.0; lights.len()],
+            LightSelection::Power => lights.iter().map(Light::power).collect(),
+        };
+        Self { selector: LightSelector::new(&weights), lights }
+    }
+
+    /// Whether the scene has no emitter.
+    pub fn is_empty(&self) -> bool {
+        self.lights.is_empty()
+    }
+
+    /// Total emitted power (luminance-weighted watts in renderer units).
+    pub fn total_power(&self) -> f32 {
+        self.lights.iter().map(Light::power).sum()
+    }
+
+    /// Pick a light with `u_select` and a point on it as seen from `p_ref` at `time`.
+    /// The returned pdf is per unit solid angle at `p_ref` and includes the selection probability.
+    #[inline]
+    pub fn sample(&self, p_ref: Vec3, time: f32, u_select: f32, u: Vec2) -> Option<(u32, LightSample)> {
+        let (index, pmf) = self.selector.sample(u_select)?;
+        let mut s = self.lights[index as usize].sample(p_ref, time, u)?;
+        s.pdf *= pmf;
+        Some((index, s))
+    }
+
+    /// Solid-angle pdf (selection included) with which [`Lights::sample`] picks the point `p` with normal
+    /// `n` on light `index` from `p_ref`: what MIS needs when a BSDF-sampled ray hits that light.
+    #[inline]
+    pub fn pdf(&self, index: u32, p_ref: Vec3, p: Vec3, n: Vec3, time: f32) -> f32 {
+        self.selector.pmf(index) * self.lights[index as usize].pdf(p_ref, p, n, time)
+    }
+
+    /// Probability of picking light `index`.
+    pub fn pmf(&self, index: u32) -> f32 {
+        self.selector.pmf(index)
+    }
+}

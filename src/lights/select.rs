@@ -1,0 +1,80 @@
+//! Discrete light selection by a cumulative distribution (uniform or by power).
+
+/// Picks index i with probability w_i / Σw by binary search over the CDF: O(log n) per sample.
+#[derive(Clone, Debug, Default)]
+pub struct LightSelector {
+    cdf: Vec<f32>,
+    pmf: Vec<f32>,
+}
+
+impl LightSelector {
+    /// A selector over non-negative weights; all-zero weights fall back to uniform.
+    pub fn new(weights: &[f32]) -> Self {
+        let total: f64 = weights.iter().map(|&w| w.max(0.0) as f64).sum();
+        let n = weights.len();
+        let pmf: Vec<f32> = if total > 0.0 {
+            weights.iter().map(|&w| (w.max(0.0) as f64 / total) as f32).collect()
+        } else {
+            vec![1.0 / n.max(1) as f32; n]
+        };
+        let mut acc = 0.0f64;
+        let mut cdf: Vec<f32> = pmf
+            .iter()
+            .map(|&p| {
+                acc += p as f64;
+                acc as f32
+            })
+            .collect();
+        if let Some(last) = cdf.last_mut() {
+            *last = 1.0;
+        }
+        Self { cdf, pmf }
+    }
+
+    /// The index for `u` in [0, 1) and its probability; `None` with no lights.
+    #[inline]
+    pub fn sample(&self, u: f32) -> Option<(u32, f32)> {
+        if self.cdf.is_empty() {
+            return None;
+        }
+        // First index whose CDF exceeds u; zero-probability entries are never chosen because their
+        // CDF equals the previous one.
+        let i = self.cdf.partition_point(|&c| c <= u).min(self.cdf.len() - 1);
+        Some((i as u32, self.pmf[i]))
+    }
+
+    /// Probability of index `i`.
+    #[inline]
+    pub fn pmf(&self, i: u32) -> f32 {
+        self.pmf.get(i as usize).copied().unwrap_or(0.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sampling_frequencies_follow_the_weights() {
+        let weights = [1.0, 0.0, 3.0, 6.0];
+        let sel = LightSelector::new(&weights);
+        let n = 100_000;
+        let mut counts = [0u32; 4];
+        for i in 0..n {
+            let u = crate::sampling::Sampler::new(9, i, 0).get1d(0);
+            let (k, p) = sel.sample(u).unwrap();
+            assert_eq!(p, sel.pmf(k));
+            counts[k as usize] += 1;
+        }
+        assert_eq!(counts[1], 0, "a zero-weight light was chosen");
+        let mut chi2 = 0.0;
+        for k in [0, 2, 3] {
+            let expected = n as f64 * weights[k] as f64 / 10.0;
+            chi2 += (counts[k] as f64 - expected).powi(2) / expected;
+        }
+        // 2 degrees of freedom: the 0.999 quantile is 13.8.
+        assert!(chi2 < 13.8, "chi-square {chi2}, counts {counts:?}");
+        let total: f32 = (0..4).map(|k| sel.pmf(k)).sum();
+        assert!((total - 1.0).abs() < 1e-6);
+    }
+}

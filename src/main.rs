@@ -1,0 +1,114 @@
+//! The `caustica` command: load a scene, render it, write the images, report.
+
+use anyhow::{Context, Result};
+use caustica::cli::{Cli, Command, RenderArgs};
+use caustica::film::{compare::compare, output};
+use caustica::scene;
+use caustica::systems::render::{init_thread_pools, prepare};
+use clap::Parser;
+use indicatif::{ProgressBar, ProgressStyle};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+use tracing_subscriber::EnvFilter;
+
+const DEFAULT_SCENE: &str = "scenes/default.toml";
+
+fn main() -> Result<()> {
+    tracing_subscriber::fmt()
+        .with_env_filter(EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new("warn")))
+        .with_writer(std::io::stderr)
+        .init();
+    match Cli::parse().command {
+        None => render(&RenderArgs::default()),
+        Some(Command::Render(args)) => render(&args),
+        Some(Command::Compare { image, reference }) => compare_files(&image, &reference),
+    }
+}
+
+fn default_scene() -> PathBuf {
+    let here = PathBuf::from(DEFAULT_SCENE);
+    if here.exists() { here } else { Path::new(env!("CARGO_MANIFEST_DIR")).join(DEFAULT_SCENE) }
+}
+
+fn render(args: &RenderArgs) -> Result<()> {
+    let start = Instant::now();
+    init_thread_pools(args.threads);
+    let scene_path = args.scene.clone().unwrap_or_else(default_scene);
+    let (scene, mut run) = scene::load(&scene_path)?;
+    args.apply(&mut run);
+    let outputs = output_paths(args, &run, &scene_path);
+    for path in &outputs {
+        output::check_output_path(path)?;
+    }
+    let reference = args.reference.as_deref().map(output::read_exr).transpose()?;
+
+    let mut renderer = prepare(scene, &run).with_context(|| format!("preparing {}", scene_path.display()))?;
+    let total = renderer.world.resource::<caustica::systems::resources::Workload>().total_samples();
+    let bar = if args.quiet { ProgressBar::hidden() } else { ProgressBar::new(total) };
+    bar.set_style(
+        ProgressStyle::with_template("{bar:40} {pos}/{len} samples  {per_sec}  ETA {eta}")
+            .expect("valid template"),
+    );
+    let summary = renderer.run(|stats| bar.set_position(stats.samples));
+    bar.finish_and_clear();
+    let image = renderer.image();
+    for path in &outputs {
+        output::write_image(&image, path, run.film.exposure)?;
+    }
+
+    let s = summary.stats;
+    let wall = start.elapsed().as_secs_f64();
+    println!("scene       {}", scene_path.display());
+    println!(
+        "integrator  {:?}, {} spp, {}x{}",
+        run.render.integrator, run.render.spp, image.width, image.height
+    );
+    println!("time        {wall:.3} s total, {:.3} s rendering", summary.seconds);
+    println!("samples/s   {:.3} M", s.samples as f64 / summary.seconds / 1e6);
+    println!(
+        "rays/s      {:.3} M ({} rays, {} shadow rays)",
+        (s.rays + s.shadow_rays) as f64 / summary.seconds / 1e6,
+        s.rays,
+        s.shadow_rays
+    );
+    println!("NaN/Inf     {} samples dropped", s.nan_samples);
+    if let Some(reference) = reference {
+        let e = compare(&image, &reference).context("the reference's size differs from the image")?;
+        println!("error       RMSE {:.5}  relMSE {:.5}  MAE {:.5}", e.rmse, e.relmse, e.mae);
+    }
+    for path in &outputs {
+        println!("wrote       {}", path.display());
+    }
+    Ok(())
+}
+
+/// `-o` flags, else the run file's `[output]`, else `out/<scene>.exr` and `.png`.
+fn output_paths(args: &RenderArgs, run: &scene::RunFile, scene_path: &Path) -> Vec<PathBuf> {
+    if !args.output.is_empty() {
+        return args.output.clone();
+    }
+    let listed: Vec<PathBuf> = [&run.output.exr, &run.output.png].into_iter().flatten().cloned().collect();
+    if !listed.is_empty() {
+        return listed;
+    }
+    let stem = scene_path.file_stem().map_or("render".into(), |s| s.to_string_lossy().into_owned());
+    vec![PathBuf::from(format!("out/{stem}.exr")), PathBuf::from(format!("out/{stem}.png"))]
+}
+
+fn compare_files(image: &Path, reference: &Path) -> Result<()> {
+    let a = output::read_exr(image)?;
+    let b = output::read_exr(reference)?;
+    let e = compare(&a, &b).with_context(|| {
+        format!(
+            "{} is {}x{} but {} is {}x{}",
+            image.display(),
+            a.width,
+            a.height,
+            reference.display(),
+            b.width,
+            b.height
+        )
+    })?;
+    println!("RMSE {:.6}\nrelMSE {:.6}\nMAE {:.6}", e.rmse, e.relmse, e.mae);
+    Ok(())
+}

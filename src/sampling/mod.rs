@@ -1,0 +1,10 @@
+//! Random numbers and the warps that turn them into directions and points.
+//!
+//! Every random number is a pure function of (seed, pixel, sample index, dimension), so images do not
+//! depend on how work is split between threads.
+
+pub mod chi2;
+pub mod rng;
+pub mod warp;
+
+pub use rng::Sampler;

@@ -1,0 +1,234 @@
+//! Scene description: what the loaders produce and the renderer consumes.
+//!
+//! Everything here is plain data in world space. Loaders (`gltf`, `run_file`) fill it and `validate`
+//! checks it, so that the systems downstream can take it as valid and return nothing.
+
+pub mod gltf;
+pub mod run_file;
+pub mod validate;
+
+use crate::error::{Error, Result};
+use glam::{Mat4, Vec2, Vec3, Vec4};
+use std::path::{Path, PathBuf};
+
+pub use run_file::{FilterKind, IntegratorKind, LightSelection, RenderSettings, RunFile};
+pub use validate::{ValidationSummary, validate};
+
+/// Loads and validates a scene: a run file (.toml) with the glTF it names and its additions, or a bare .gltf/.glb
+/// with the default settings.
+pub fn load(path: &Path) -> Result<(Scene, RunFile)> {
+    let extension = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    let (mut scene, run) = match extension.as_deref() {
+        Some("toml") => {
+            let run = RunFile::load(path)?;
+            (run.load_scene(path)?, run)
+        }
+        Some("gltf" | "glb") => (self::gltf::load_gltf(path)?, RunFile::default()),
+        _ => {
+            return Err(Error::UnknownFormat { path: path.to_path_buf() });
+        }
+    };
+    validate(&mut scene, path)?;
+    Ok((scene, run))
+}
+
+/// A whole scene, flattened to world space.
+#[derive(Clone, Debug, Default)]
+pub struct Scene {
+    /// The file the scene was read from (for messages).
+    pub source: PathBuf,
+    /// Triangle meshes with node transforms applied.
+    pub meshes: Vec<Mesh>,
+    /// Analytic spheres (from run files).
+    pub spheres: Vec<Sphere>,
+    /// Materials referenced by index from meshes and spheres.
+    pub materials: Vec<MaterialDesc>,
+    /// Textures referenced from materials.
+    pub textures: Vec<Texture>,
+    /// The camera, if the file has one.
+    pub camera: Option<CameraDesc>,
+    /// Resolution suggested by the file (glTF `scenes[i].extras.width/height`).
+    pub resolution: Option<(u32, u32)>,
+}
+
+/// A triangle mesh in world space.
+#[derive(Clone, Debug, Default)]
+pub struct Mesh {
+    /// A name that identifies the object in messages: `node 'name' (#3) mesh 'name' (#1) primitive 0`.
+    pub name: String,
+    /// The glTF node this mesh instance came from (for motion in run files).
+    pub node: Option<usize>,
+    /// The glTF node's name, if any.
+    pub node_name: Option<String>,
+    /// World-space positions.
+    pub positions: Vec<Vec3>,
+    /// World-space unit normals per vertex; `None` means flat (geometric) normals.
+    pub normals: Option<Vec<Vec3>>,
+    /// Texture coordinate sets (TEXCOORD_0, TEXCOORD_1, ...), each one per vertex.
+    pub uvs: Vec<Vec<Vec2>>,
+    /// Per-vertex colour (COLOR_0, linear RGB) multiplying the base colour.
+    pub colors: Option<Vec<Vec3>>,
+    /// Triangles as vertex indices, counter-clockwise = front face (winding already fixed for
+    /// negative-determinant transforms).
+    pub indices: Vec<[u32; 3]>,
+    /// Index into [`Scene::materials`].
+    pub material: u32,
+    /// Displacement over the shutter interval (linear motion); `None` for static meshes.
+    pub motion: Option<Vec3>,
+}
+
+/// An analytic sphere.
+#[derive(Clone, Debug)]
+pub struct Sphere {
+    /// Name for messages.
+    pub name: String,
+    /// Centre at shutter open.
+    pub center: Vec3,
+    /// Radius (positive).
+    pub radius: f32,
+    /// Index into [`Scene::materials`].
+    pub material: u32,
+    /// Displacement over the shutter interval.
+    pub motion: Option<Vec3>,
+}
+
+/// A reference to a texture and the UV set it reads.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TextureRef {
+    /// Index into [`Scene::textures`].
+    pub texture: u32,
+    /// Which TEXCOORD_n set.
+    pub tex_coord: u32,
+    /// KHR_texture_transform as a 2x3 affine map applied to uv (columns: x axis, y axis, offset).
+    pub transform: Option<[Vec2; 3]>,
+}
+
+/// A material as the file describes it (glTF metallic-roughness with extensions); the BSDF is built
+/// from it at each hit after textures are looked up.
+#[derive(Clone, Debug)]
+pub struct MaterialDesc {
+    /// Name for messages.
+    pub name: String,
+    /// Linear RGB base colour factor.
+    pub base_color: Vec3,
+    /// sRGB base colour texture (decoded to linear at load).
+    pub base_color_texture: Option<TextureRef>,
+    /// Metallic factor in [0, 1].
+    pub metallic: f32,
+    /// Perceptual roughness in [0, 1]; GGX alpha = roughness².
+    pub roughness: f32,
+    /// Linear texture: roughness in G, metallic in B.
+    pub metallic_roughness_texture: Option<TextureRef>,
+    /// Emitted radiance: emissiveFactor × KHR_materials_emissive_strength.
+    pub emission: Vec3,
+    /// KHR_materials_transmission factor in [0, 1].
+    pub transmission: f32,
+    /// KHR_materials_ior (1.5 by default).
+    pub ior: f32,
+    /// KHR_materials_specular factor in [0, 1] (1 by default).
+    pub specular: f32,
+    /// KHR_materials_specular colour factor (linear RGB, 1 by default).
+    pub specular_color: Vec3,
+    /// KHR_materials_volume thickness > 0 means a closed solid; 0 means a thin-walled surface.
+    pub thickness: f32,
+    /// glTF doubleSided.
+    pub double_sided: bool,
+}
+
+impl Default for MaterialDesc {
+    /// The glTF 2.0 default material: white, metallic 1, roughness 1, no emission.
+    fn default() -> Self {
+        Self {
+            name: "default".into(),
+            base_color: Vec3::ONE,
+            base_color_texture: None,
+            metallic: 1.0,
+            roughness: 1.0,
+            metallic_roughness_texture: None,
+            emission: Vec3::ZERO,
+            transmission: 0.0,
+            ior: 1.5,
+            specular: 1.0,
+            specular_color: Vec3::ONE,
+            thickness: 0.0,
+            double_sided: false,
+        }
+    }
+}
+
+/// Texture wrap mode (glTF sampler).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Wrap {
+    /// Tile.
+    #[default]
+    Repeat,
+    /// Clamp to the edge texel.
+    ClampToEdge,
+    /// Tile, mirroring every other copy.
+    MirroredRepeat,
+}
+
+/// A decoded texture in linear RGBA floats, row 0 at the top (uv (0,0) is the top-left corner, as in glTF).
+#[derive(Clone, Debug, Default)]
+pub struct Texture {
+    /// Name or URI for messages.
+    pub name: String,
+    /// Width in texels.
+    pub width: u32,
+    /// Height in texels.
+    pub height: u32,
+    /// Linear RGBA texels, row-major.
+    pub texels: Vec<Vec4>,
+    /// Wrap mode along u.
+    pub wrap_s: Wrap,
+    /// Wrap mode along v.
+    pub wrap_t: Wrap,
+}
+
+impl Texture {
+    /// Bilinear lookup at `uv` with the texture's wrap modes.
+    pub fn sample(&self, uv: Vec2) -> Vec4 {
+        if self.texels.is_empty() {
+            return Vec4::ONE;
+        }
+        let x = uv.x * self.width as f32 - 0.5;
+        let y = uv.y * self.height as f32 - 0.5;
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let texel = |ix: i64, iy: i64| {
+            let cx = wrap_index(ix, self.width, self.wrap_s);
+            let cy = wrap_index(iy, self.height, self.wrap_t);
+            self.texels[cy * self.width as usize + cx]
+        };
+        let (ix, iy) = (x0 as i64, y0 as i64);
+        let top = texel(ix, iy).lerp(texel(ix + 1, iy), fx);
+        let bottom = texel(ix, iy + 1).lerp(texel(ix + 1, iy + 1), fx);
+        top.lerp(bottom, fy)
+    }
+}
+
+fn wrap_index(i: i64, n: u32, wrap: Wrap) -> usize {
+    let n = n as i64;
+    let r = match wrap {
+        Wrap::Repeat => i.rem_euclid(n),
+        Wrap::ClampToEdge => i.clamp(0, n - 1),
+        Wrap::MirroredRepeat => {
+            let m = i.rem_euclid(2 * n);
+            if m < n { m } else { 2 * n - 1 - m }
+        }
+    };
+    r as usize
+}
+
+/// A perspective camera from the file.
+#[derive(Clone, Debug)]
+pub struct CameraDesc {
+    /// Name for messages and selection.
+    pub name: String,
+    /// Camera-to-world transform (the camera looks down its local -Z, +Y up).
+    pub camera_to_world: Mat4,
+    /// Vertical field of view in radians.
+    pub yfov: f32,
+    /// Aspect ratio width/height, if the file gives one.
+    pub aspect_ratio: Option<f32>,
+}

@@ -1,0 +1,400 @@
+//! Run files (TOML): which glTF to load, what to add to it, and how to render it.
+
+use super::{MaterialDesc, Scene, Sphere};
+use crate::error::{Error, Result};
+use clap::ValueEnum;
+use glam::Vec3;
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+/// Which integrator renders the image (the name used in run files and on the command line).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum IntegratorKind {
+    /// Path tracing with next-event estimation and MIS (power heuristic).
+    #[default]
+    Pt,
+    /// Path tracing with BSDF sampling only; light is found only by hitting it.
+    PtNaive,
+}
+
+/// How next-event estimation picks a light.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum LightSelection {
+    /// Every light equally likely.
+    Uniform,
+    /// In proportion to emitted power.
+    #[default]
+    Power,
+}
+
+/// Pixel reconstruction filter, sampled by importance (each sample lands in one pixel with weight 1).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum FilterKind {
+    /// Box of radius 0.5 pixel (the references' filter).
+    #[default]
+    Box,
+    /// Tent (triangle) of radius 1 pixel.
+    Tent,
+    /// Gaussian with sigma 0.5 pixel, truncated at radius 1.5.
+    Gaussian,
+}
+
+/// The `[render]` table.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RenderSettings {
+    /// Integrator.
+    pub integrator: IntegratorKind,
+    /// Samples per pixel (at least 1).
+    pub spp: u32,
+    /// Seed of the counter-based sampler.
+    pub seed: u64,
+    /// Maximum number of bounces; `None` is unbounded (Russian roulette ends paths).
+    pub max_depth: Option<u32>,
+    /// First depth at which Russian roulette may end a path.
+    pub rr_depth: u32,
+    /// Light selection for next-event estimation.
+    pub light_selection: LightSelection,
+}
+
+impl Default for RenderSettings {
+    /// 64 spp of `pt`, unbounded depth with Russian roulette from depth 5 (as the references).
+    fn default() -> Self {
+        Self {
+            integrator: IntegratorKind::Pt,
+            spp: 64,
+            seed: 0,
+            max_depth: None,
+            rr_depth: 5,
+            light_selection: LightSelection::Power,
+        }
+    }
+}
+
+/// The `[film]` table.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FilmSettings {
+    /// Image width in pixels (glTF extras or 512 when absent).
+    pub width: Option<u32>,
+    /// Image height in pixels.
+    pub height: Option<u32>,
+    /// Reconstruction filter.
+    pub filter: FilterKind,
+    /// PNG exposure in stops (EXR is always written unscaled).
+    pub exposure: f32,
+}
+
+impl Default for FilmSettings {
+    fn default() -> Self {
+        Self { width: None, height: None, filter: FilterKind::Box, exposure: 0.0 }
+    }
+}
+
+/// The `[camera]` table: overrides of the file's camera.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CameraOverrides {
+    /// Pick the glTF camera with this name.
+    pub name: Option<String>,
+    /// Eye position.
+    pub eye: Option<[f32; 3]>,
+    /// Look-at target.
+    pub target: Option<[f32; 3]>,
+    /// Up vector (default +Y).
+    pub up: Option<[f32; 3]>,
+    /// Vertical field of view in degrees.
+    pub yfov_degrees: Option<f32>,
+    /// Thin-lens aperture radius in meters (0 = pinhole).
+    pub aperture_radius: f32,
+    /// Distance to the plane in focus (default: distance from eye to target).
+    pub focus_distance: Option<f32>,
+    /// Shutter open and close times (motion is given over this interval).
+    pub shutter: Option<[f32; 2]>,
+}
+
+/// The `[output]` table.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct OutputSettings {
+    /// Linear EXR path (relative to the working directory).
+    pub exr: Option<PathBuf>,
+    /// sRGB PNG path.
+    pub png: Option<PathBuf>,
+}
+
+/// A material given inline in a run file (the same parameters as glTF's).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MaterialSpec {
+    /// Linear base colour.
+    pub base_color: [f32; 3],
+    /// Metallic in [0, 1].
+    pub metallic: f32,
+    /// Perceptual roughness in [0, 1].
+    pub roughness: f32,
+    /// Transmission in [0, 1] (1 = glass).
+    pub transmission: f32,
+    /// Index of refraction.
+    pub ior: f32,
+    /// Specular factor of the dielectric layer (0 = pure Lambertian).
+    pub specular: f32,
+    /// Emitted radiance.
+    pub emission: [f32; 3],
+}
+
+impl Default for MaterialSpec {
+    fn default() -> Self {
+        Self {
+            base_color: [0.8; 3],
+            metallic: 0.0,
+            roughness: 1.0,
+            transmission: 0.0,
+            ior: 1.5,
+            specular: 0.0,
+            emission: [0.0; 3],
+        }
+    }
+}
+
+/// A `[[sphere]]` entry.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SphereSpec {
+    /// Name for messages.
+    #[serde(default)]
+    pub name: Option<String>,
+    /// Centre.
+    pub center: [f32; 3],
+    /// Radius.
+    pub radius: f32,
+    /// Material.
+    #[serde(default)]
+    pub material: MaterialSpec,
+    /// Displacement over the shutter.
+    #[serde(default)]
+    pub motion: Option<[f32; 3]>,
+}
+
+/// A `[[motion]]` entry: move a glTF node linearly over the shutter.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MotionSpec {
+    /// Node name in the glTF file.
+    pub node: String,
+    /// Displacement from shutter open to shutter close, in meters.
+    pub translate: [f32; 3],
+}
+
+/// A whole run file.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RunFile {
+    /// glTF asset, relative to the run file (absent: only analytic spheres).
+    pub gltf: Option<PathBuf>,
+    /// Camera overrides.
+    pub camera: CameraOverrides,
+    /// Film settings.
+    pub film: FilmSettings,
+    /// Render settings.
+    pub render: RenderSettings,
+    /// Output files.
+    pub output: OutputSettings,
+    /// Analytic spheres.
+    #[serde(rename = "sphere")]
+    pub spheres: Vec<SphereSpec>,
+    /// Linear node motions.
+    pub motion: Vec<MotionSpec>,
+}
+
+impl MaterialSpec {
+    /// Emission as a vector.
+    pub fn emission(&self) -> Vec3 {
+        Vec3::from(self.emission)
+    }
+}
+
+impl RunFile {
+    /// Reads and parses a run file; unknown keys and out-of-range settings are errors naming the key.
+    pub fn load(path: &Path) -> Result<RunFile> {
+        let text =
+            std::fs::read_to_string(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+        Self::parse(&text, path)
+    }
+
+    /// Parses run-file text; `path` is the file named in messages (and nothing is read from it).
+    pub fn parse(text: &str, path: &Path) -> Result<RunFile> {
+        let run: RunFile = toml::from_str(text).map_err(|e| Error::RunFile {
+            path: path.to_path_buf(),
+            message: describe_toml_error(&e, text),
+        })?;
+        run.check_settings().map_err(|message| Error::RunFile { path: path.to_path_buf(), message })?;
+        Ok(run)
+    }
+
+    /// The scene this run file (read from `path`) describes, not yet validated: its glTF, resolved against the run
+    /// file's directory and with the camera `[camera] name` picks, plus its `[[sphere]]`s and `[[motion]]`s.
+    pub fn load_scene(&self, path: &Path) -> Result<Scene> {
+        let mut scene = match &self.gltf {
+            Some(gltf) => {
+                let resolved = path.parent().unwrap_or(Path::new("")).join(gltf);
+                // Name the path as written too: the resolved one alone hides which key was wrong.
+                if let Err(e) = std::fs::metadata(&resolved) {
+                    let context = format!(
+                        "{e} (gltf = \"{}\" in {}, relative to the run file's directory)",
+                        gltf.display(),
+                        path.display()
+                    );
+                    return Err(Error::Io { path: resolved, source: std::io::Error::new(e.kind(), context) });
+                }
+                super::gltf::load_gltf_with_camera(&resolved, self.camera.name.as_deref())?
+            }
+            None => {
+                if let Some(name) = &self.camera.name {
+                    return Err(Error::RunFile {
+                        path: path.to_path_buf(),
+                        message: format!(
+                            "camera.name = \"{name}\" but the run file loads no glTF to pick it from"
+                        ),
+                    });
+                }
+                Scene { source: path.to_path_buf(), ..Scene::default() }
+            }
+        };
+        self.add_spheres(&mut scene);
+        self.apply_motions(&mut scene, path)?;
+        Ok(scene)
+    }
+
+    fn add_spheres(&self, scene: &mut Scene) {
+        for (i, spec) in self.spheres.iter().enumerate() {
+            let name = spec.name.clone().unwrap_or_else(|| format!("sphere #{i}"));
+            let material = spec.material.to_material(&name, spec.radius);
+            scene.materials.push(material);
+            scene.spheres.push(Sphere {
+                name,
+                center: Vec3::from(spec.center),
+                radius: spec.radius,
+                material: (scene.materials.len() - 1) as u32,
+                motion: spec.motion.map(Vec3::from),
+            });
+        }
+    }
+
+    fn apply_motions(&self, scene: &mut Scene, path: &Path) -> Result<()> {
+        for motion in &self.motion {
+            let mut found = false;
+            for mesh in
+                scene.meshes.iter_mut().filter(|m| m.node_name.as_deref() == Some(motion.node.as_str()))
+            {
+                mesh.motion = Some(Vec3::from(motion.translate));
+                found = true;
+            }
+            if !found {
+                let mut names: Vec<&str> =
+                    scene.meshes.iter().filter_map(|m| m.node_name.as_deref()).collect();
+                names.dedup();
+                let names = if names.is_empty() { "none".to_owned() } else { names.join(", ") };
+                return Err(Error::InvalidScene {
+                    path: path.to_path_buf(),
+                    object: format!("[[motion]] node = \"{}\"", motion.node),
+                    problem: format!("no node of that name carries a mesh; named nodes with meshes: {names}"),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Ranges serde cannot express; the message names the key.
+    fn check_settings(&self) -> Result<(), String> {
+        let finite = |key: &str, values: &[f32]| {
+            if values.iter().all(|v| v.is_finite()) { Ok(()) } else { Err(format!("{key} must be finite")) }
+        };
+        if self.render.spp == 0 {
+            return Err("render.spp is 0, must be at least 1".to_owned());
+        }
+        if self.film.width == Some(0) || self.film.height == Some(0) {
+            return Err("film.width and film.height must be at least 1".to_owned());
+        }
+        finite("film.exposure", &[self.film.exposure])?;
+        let camera = &self.camera;
+        for (key, value) in
+            [("camera.eye", camera.eye), ("camera.target", camera.target), ("camera.up", camera.up)]
+        {
+            finite(key, &value.unwrap_or_default())?;
+        }
+        if let Some(yfov) = camera.yfov_degrees
+            && !(yfov > 0.0 && yfov < 180.0)
+        {
+            return Err(format!("camera.yfov_degrees is {yfov}, must be in (0, 180)"));
+        }
+        if !(camera.aperture_radius >= 0.0 && camera.aperture_radius.is_finite()) {
+            return Err(format!(
+                "camera.aperture_radius is {}, must be finite and >= 0",
+                camera.aperture_radius
+            ));
+        }
+        if let Some(focus) = camera.focus_distance
+            && !(focus > 0.0 && focus.is_finite())
+        {
+            return Err(format!("camera.focus_distance is {focus}, must be finite and > 0"));
+        }
+        if let Some([open, close]) = camera.shutter
+            && !(open.is_finite() && close.is_finite() && open <= close)
+        {
+            return Err(format!("camera.shutter is [{open}, {close}], must be finite with open <= close"));
+        }
+        for (i, sphere) in self.spheres.iter().enumerate() {
+            finite(&format!("sphere[{i}].center"), &sphere.center)?;
+            finite(&format!("sphere[{i}].motion"), &sphere.motion.unwrap_or_default())?;
+        }
+        for (i, motion) in self.motion.iter().enumerate() {
+            finite(&format!("motion[{i}].translate"), &motion.translate)?;
+        }
+        Ok(())
+    }
+}
+
+impl MaterialSpec {
+    /// The material a sphere of this radius gets: double-sided, and a closed solid as thick as the sphere.
+    pub fn to_material(&self, name: &str, radius: f32) -> MaterialDesc {
+        MaterialDesc {
+            name: name.to_owned(),
+            base_color: Vec3::from(self.base_color),
+            base_color_texture: None,
+            metallic: self.metallic,
+            roughness: self.roughness,
+            metallic_roughness_texture: None,
+            emission: self.emission(),
+            transmission: self.transmission,
+            ior: self.ior,
+            specular: self.specular,
+            specular_color: Vec3::ONE,
+            thickness: 2.0 * radius,
+            double_sided: true,
+        }
+    }
+}
+
+/// `line L, column C in [table]: message`, on one line (toml's own display spans several).
+fn describe_toml_error(error: &toml::de::Error, text: &str) -> String {
+    let message = error.message().trim_end();
+    let Some(span) = error.span() else {
+        return message.to_owned();
+    };
+    let before = text.get(..span.start).unwrap_or(text);
+    let line = before.matches('\n').count() + 1;
+    let column = before.chars().rev().take_while(|&c| c != '\n').count() + 1;
+    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+    let table = before[..line_start]
+        .lines()
+        .rev()
+        .map(|l| l.split('#').next().unwrap_or("").trim())
+        .find(|l| l.starts_with('['))
+        .map(|header| format!(" in {header}"))
+        .unwrap_or_default();
+    format!("line {line}, column {column}{table}: {message}")
+}

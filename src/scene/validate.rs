@@ -1,0 +1,263 @@
+//! Load-time checks, so that the systems downstream can take the scene as valid: user errors become
+//! [`Error::InvalidScene`], harmless defects (degenerate triangles, empty meshes) are dropped with one warning each.
+
+use super::{MaterialDesc, Mesh, Scene, TextureRef};
+use crate::error::{Error, Result};
+use glam::{Vec2, Vec3};
+use std::path::Path;
+use tracing::{info, warn};
+
+/// What validation kept and dropped.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ValidationSummary {
+    /// Meshes kept.
+    pub meshes: usize,
+    /// Triangles kept.
+    pub triangles: usize,
+    /// Zero-area or non-finite triangles dropped (emitting ones included).
+    pub degenerate_triangles: usize,
+    /// Of the dropped triangles, those whose material emits.
+    pub degenerate_emitter_triangles: usize,
+    /// Meshes removed because no triangle was left.
+    pub removed_meshes: usize,
+    /// Kept triangles whose material emits.
+    pub emitter_triangles: usize,
+    /// Spheres whose material emits.
+    pub emitter_spheres: usize,
+}
+
+/// Checks `scene` (read from `path`), drops degenerate triangles and empty meshes, and warns when nothing emits.
+///
+/// Messages about meshes and their materials name `scene.source` (the glTF), others name `path`.
+pub fn validate(scene: &mut Scene, path: &Path) -> Result<ValidationSummary> {
+    let mesh_file = if scene.source.as_os_str().is_empty() { path } else { scene.source.as_path() };
+    let invalid = |file: &Path, object: &str, problem: String| Error::InvalidScene {
+        path: file.to_path_buf(),
+        object: object.to_owned(),
+        problem,
+    };
+
+    // Check spheres first: a bad radius also makes a bad thickness of its material
+    for s in &scene.spheres {
+        let object = format!("sphere '{}'", s.name);
+        if !(s.radius > 0.0 && s.radius.is_finite()) {
+            return Err(invalid(
+                path,
+                &object,
+                format!("radius is {}, must be positive and finite", s.radius),
+            ));
+        }
+        if !s.center.is_finite() || !s.motion.unwrap_or_default().is_finite() {
+            return Err(invalid(path, &object, "centre or motion is not finite".to_owned()));
+        }
+        if s.material as usize >= scene.materials.len() {
+            return Err(invalid(path, &object, format!("material index {} out of range", s.material)));
+        }
+    }
+
+    // Check materials and textures
+    let mut used_by_sphere = vec![false; scene.materials.len()];
+    for s in &scene.spheres {
+        if let Some(used) = used_by_sphere.get_mut(s.material as usize) {
+            *used = true;
+        }
+    }
+    for (i, texture) in scene.textures.iter().enumerate() {
+        if texture.width == 0
+            || texture.height == 0
+            || texture.texels.len() != texture.width as usize * texture.height as usize
+        {
+            let problem =
+                format!("has {} texels for {}x{}", texture.texels.len(), texture.width, texture.height);
+            return Err(invalid(mesh_file, &format!("texture '{}' (#{i})", texture.name), problem));
+        }
+    }
+    for (i, m) in scene.materials.iter().enumerate() {
+        let file = if used_by_sphere[i] { path } else { mesh_file };
+        check_material(m, scene.textures.len())
+            .map_err(|problem| invalid(file, &format!("material '{}' (#{i})", m.name), problem))?;
+    }
+    let emits = |material: u32| {
+        scene.materials.get(material as usize).is_some_and(|m| m.emission.max_element() > 0.0)
+    };
+    let mut summary = ValidationSummary {
+        emitter_spheres: scene.spheres.iter().filter(|s| emits(s.material)).count(),
+        ..ValidationSummary::default()
+    };
+
+    // Check meshes and drop degenerate triangles
+    for mesh in &mut scene.meshes {
+        check_mesh(mesh, &scene.materials, mesh_file)
+            .map_err(|problem| invalid(mesh_file, &mesh.name, problem))?;
+        let emitter = emits(mesh.material);
+        let before = mesh.indices.len();
+        let positions = &mesh.positions;
+        mesh.indices.retain(|&[a, b, c]| {
+            let (a, b, c) = (positions[a as usize], positions[b as usize], positions[c as usize]);
+            let area2 = (b - a).cross(c - a).length_squared();
+            area2 > 0.0 && area2.is_finite()
+        });
+        let dropped = before - mesh.indices.len();
+        if dropped > 0 {
+            let removed = if mesh.indices.is_empty() { "; no triangle left, mesh removed" } else { "" };
+            let what = if emitter {
+                "zero-area emitting triangle(s): they would be lights of no area"
+            } else {
+                "degenerate triangle(s) (zero area or non-finite)"
+            };
+            warn!(file = %mesh_file.display(), "{}: dropped {dropped} {what}{removed}", mesh.name);
+        } else if before == 0 {
+            warn!(file = %mesh_file.display(), "{}: has no triangles, removed", mesh.name);
+        }
+        summary.degenerate_triangles += dropped;
+        if emitter {
+            summary.degenerate_emitter_triangles += dropped;
+            summary.emitter_triangles += mesh.indices.len();
+        }
+    }
+    let before = scene.meshes.len();
+    scene.meshes.retain(|m| !m.indices.is_empty());
+    summary.removed_meshes = before - scene.meshes.len();
+    summary.meshes = scene.meshes.len();
+    summary.triangles = scene.meshes.iter().map(|m| m.indices.len()).sum();
+
+    // Check camera and film
+    if let Some(camera) = &scene.camera {
+        let object = format!("camera '{}'", camera.name);
+        if !(camera.yfov > 0.0 && camera.yfov < std::f32::consts::PI) {
+            return Err(invalid(
+                mesh_file,
+                &object,
+                format!("yfov is {} rad, must be in (0, π)", camera.yfov),
+            ));
+        }
+        if camera.aspect_ratio.is_some_and(|a| !(a > 0.0 && a.is_finite())) {
+            return Err(invalid(mesh_file, &object, "aspectRatio must be positive and finite".to_owned()));
+        }
+        if !camera.camera_to_world.is_finite() {
+            return Err(invalid(mesh_file, &object, "transform is not finite".to_owned()));
+        }
+    }
+    if scene.resolution.is_some_and(|(w, h)| w == 0 || h == 0) {
+        return Err(invalid(mesh_file, "resolution", "width and height must be at least 1".to_owned()));
+    }
+
+    if summary.emitter_triangles == 0 && summary.emitter_spheres == 0 {
+        warn!(file = %path.display(), "no lights: the image will be black");
+    }
+    info!(
+        file = %path.display(),
+        meshes = summary.meshes,
+        triangles = summary.triangles,
+        spheres = scene.spheres.len(),
+        emitter_triangles = summary.emitter_triangles,
+        emitter_spheres = summary.emitter_spheres,
+        degenerate_triangles = summary.degenerate_triangles,
+        removed_meshes = summary.removed_meshes,
+        "scene validated"
+    );
+    Ok(summary)
+}
+
+fn check_material(m: &MaterialDesc, textures: usize) -> Result<(), String> {
+    let unit = |name: &str, v: f32| {
+        if (0.0..=1.0).contains(&v) { Ok(()) } else { Err(format!("{name} is {v}, must be in [0, 1]")) }
+    };
+    let non_negative = |name: &str, v: Vec3| {
+        if v.is_finite() && v.min_element() >= 0.0 {
+            Ok(())
+        } else {
+            Err(format!("{name} is {v}, must be finite and non-negative"))
+        }
+    };
+    non_negative("base colour", m.base_color)?;
+    unit("metallic", m.metallic)?;
+    unit("roughness", m.roughness)?;
+    unit("transmission", m.transmission)?;
+    unit("specular", m.specular)?;
+    non_negative("specular colour", m.specular_color)?;
+    non_negative("emission", m.emission)?;
+    if !(m.ior > 0.0 && m.ior.is_finite()) {
+        return Err(format!("ior is {}, must be positive and finite", m.ior));
+    }
+    if !(m.thickness >= 0.0 && m.thickness.is_finite()) {
+        return Err(format!("thickness is {}, must be finite and non-negative", m.thickness));
+    }
+    for (name, texture) in textures_of(m) {
+        if texture.texture as usize >= textures {
+            return Err(format!("{name} refers to texture {} of {textures}", texture.texture));
+        }
+        if texture.transform.is_some_and(|t| !t.iter().all(|c| c.is_finite())) {
+            return Err(format!("{name} has a non-finite KHR_texture_transform"));
+        }
+    }
+    Ok(())
+}
+
+fn textures_of(m: &MaterialDesc) -> impl Iterator<Item = (&'static str, TextureRef)> {
+    [("baseColorTexture", m.base_color_texture), ("metallicRoughnessTexture", m.metallic_roughness_texture)]
+        .into_iter()
+        .filter_map(|(name, t)| Some((name, t?)))
+}
+
+/// Errors on what the renderer cannot take; zero normals are not an error but fall back to flat normals.
+fn check_mesh(mesh: &mut Mesh, materials: &[MaterialDesc], file: &Path) -> Result<(), String> {
+    let n = mesh.positions.len();
+    let material = materials.get(mesh.material as usize).ok_or_else(|| {
+        format!("material index {} out of range ({} materials)", mesh.material, materials.len())
+    })?;
+    if let Some(i) = mesh.positions.iter().position(|p| !p.is_finite()) {
+        return Err(format!("position of vertex {i} is {}, not finite", mesh.positions[i]));
+    }
+    if let Some(normals) = &mesh.normals {
+        if normals.len() != n {
+            return Err(format!("{} normals for {n} vertices", normals.len()));
+        }
+        if let Some(i) = normals.iter().position(|v| !v.is_finite()) {
+            return Err(format!("normal of vertex {i} is {}, not finite", normals[i]));
+        }
+        let zero = normals.iter().filter(|v| v.length_squared() == 0.0).count();
+        if zero > 0 {
+            warn!(
+                file = %file.display(),
+                "{}: {zero} zero-length normal(s); using flat normals for the whole mesh",
+                mesh.name
+            );
+            mesh.normals = None;
+        }
+    }
+    for (set, uvs) in mesh.uvs.iter().enumerate() {
+        if uvs.len() != n {
+            return Err(format!("TEXCOORD_{set} has {} values for {n} vertices", uvs.len()));
+        }
+        if let Some(i) = uvs.iter().position(|v: &Vec2| !v.is_finite()) {
+            return Err(format!("TEXCOORD_{set} of vertex {i} is {}, not finite", uvs[i]));
+        }
+    }
+    if let Some(colors) = &mesh.colors {
+        if colors.len() != n {
+            return Err(format!("{} colours for {n} vertices", colors.len()));
+        }
+        if let Some(i) = colors.iter().position(|c| !(c.is_finite() && c.min_element() >= 0.0)) {
+            return Err(format!("colour of vertex {i} is {}, must be finite and non-negative", colors[i]));
+        }
+    }
+    if let Some(t) = mesh.indices.iter().position(|t| t.iter().any(|&i| i as usize >= n)) {
+        return Err(format!(
+            "triangle {t} has vertex indices {:?}, out of range for {n} vertices",
+            mesh.indices[t]
+        ));
+    }
+    for (name, texture) in textures_of(material) {
+        if texture.tex_coord as usize >= mesh.uvs.len() {
+            return Err(format!(
+                "material '{}' {name} reads TEXCOORD_{}, which the mesh does not have",
+                material.name, texture.tex_coord
+            ));
+        }
+    }
+    if mesh.motion.is_some_and(|m| !m.is_finite()) {
+        return Err("motion is not finite".to_owned());
+    }
+    Ok(())
+}

@@ -1,0 +1,68 @@
+//! Procedural scenes for tests and benches (no files needed), like obvhs's `test_util`.
+
+use crate::scene::{CameraDesc, MaterialDesc, Mesh, Scene};
+use glam::{Mat4, Vec3};
+
+/// A diffuse material with the given albedo and emission.
+pub fn diffuse(name: &str, albedo: Vec3, emission: Vec3) -> MaterialDesc {
+    MaterialDesc {
+        name: name.into(),
+        base_color: albedo,
+        metallic: 0.0,
+        specular: 0.0,
+        emission,
+        double_sided: true,
+        ..MaterialDesc::default()
+    }
+}
+
+/// A UV sphere of `radius` at `center` with `rings` × `2·rings` quads; `inward` makes the front faces
+/// (and normals) point to the centre.
+pub fn uv_sphere(name: &str, center: Vec3, radius: f32, rings: u32, inward: bool, material: u32) -> Mesh {
+    let segments = 2 * rings;
+    let mut positions = Vec::new();
+    let mut normals = Vec::new();
+    for i in 0..=rings {
+        let theta = std::f32::consts::PI * i as f32 / rings as f32;
+        for j in 0..=segments {
+            let phi = 2.0 * std::f32::consts::PI * j as f32 / segments as f32;
+            let n = Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin());
+            positions.push(center + radius * n);
+            normals.push(if inward { -n } else { n });
+        }
+    }
+    let mut indices = Vec::new();
+    let row = segments + 1;
+    for i in 0..rings {
+        for j in 0..segments {
+            let (a, b, c, d) = (i * row + j, i * row + j + 1, (i + 1) * row + j, (i + 1) * row + j + 1);
+            // Outward counter-clockwise order seen from outside; reversed for an inward sphere.
+            for tri in [[a, b, d], [a, d, c]] {
+                indices.push(if inward { [tri[0], tri[2], tri[1]] } else { tri });
+            }
+        }
+    }
+    Mesh { name: name.into(), positions, normals: Some(normals), indices, material, ..Mesh::default() }
+}
+
+/// The closed furnace: the camera at the centre of a sphere whose inside is Lambertian with `albedo`
+/// and emits `le`. Every path sees L = le / (1 − albedo) exactly, whatever the tessellation, as long
+/// as shading uses the facets' own normals (interpolated normals tilt the hemisphere below the facet
+/// and let energy escape, which is a property of shading normals, not of the integrator).
+pub fn furnace(albedo: f32, le: f32) -> Scene {
+    let mut sphere = uv_sphere("furnace", Vec3::ZERO, 1.0, 12, true, 0);
+    sphere.normals = None;
+    Scene {
+        meshes: vec![sphere],
+        materials: vec![diffuse("furnace", Vec3::splat(albedo), Vec3::splat(le))],
+        camera: Some(CameraDesc {
+            name: "centre".into(),
+            camera_to_world: Mat4::IDENTITY,
+            yfov: 1.2,
+            aspect_ratio: None,
+        }),
+        resolution: Some((16, 16)),
+        source: "furnace (procedural)".into(),
+        ..Scene::default()
+    }
+}

@@ -1,0 +1,59 @@
+//! Gather: splat finished paths onto the film and hand their entity the next sample.
+//!
+//! Reads: `Workload`, finished `PathState`s. Writes: `Film`, `RenderStats`, `PathState` (next pixel
+//! and sample). Runs on one thread on purpose: each pixel belongs to one entity, and adding its
+//! samples in sample order makes the image bit-identical whatever the thread count. The loop does
+//! no more than an add per finished path, a small share of a bounce.
+
+use super::components::{PathState, PathStatus};
+use super::resources::{RenderStats, Workload};
+use crate::film::Film;
+use bevy_ecs::prelude::*;
+use glam::Vec3;
+
+/// Splat finished paths, count rays and dropped samples, and advance each entity's work.
+pub fn splat_paths_to_film(
+    workload: Res<Workload>,
+    mut film: ResMut<Film>,
+    mut stats: ResMut<RenderStats>,
+    mut paths: Query<&mut PathState>,
+) {
+    let mut active = 0;
+    for mut state in &mut paths {
+        match state.status {
+            PathStatus::Idle => continue,
+            PathStatus::Active | PathStatus::NeedsCamera => {
+                active += 1;
+                continue;
+            }
+            PathStatus::Finished => {}
+        }
+        let state = &mut *state;
+        // NaN/Inf never reach the film: the sample counts, its radiance does not.
+        let l = if state.l.is_finite() {
+            state.l
+        } else {
+            stats.nan_samples += 1;
+            Vec3::ZERO
+        };
+        film.add(state.pixel, l);
+        stats.samples += 1;
+        stats.rays += state.rays as u64;
+        stats.shadow_rays += state.shadow_rays as u64;
+        state.rays = 0;
+        state.shadow_rays = 0;
+        state.sample += 1;
+        if state.sample == workload.spp_end {
+            state.sample = workload.spp_begin;
+            state.pixel += workload.wavefront;
+        }
+        if state.pixel >= workload.pixels {
+            state.status = PathStatus::Idle;
+        } else {
+            state.status = PathStatus::NeedsCamera;
+            active += 1;
+        }
+    }
+    stats.active_paths = active;
+    stats.steps += 1;
+}

@@ -1,0 +1,3 @@
+//! Integrators as schedule builders: each only places systems into the `PassSystems` stages.
+
+pub mod path;

@@ -1,0 +1,52 @@
+//! Path tracing: `pt` (next-event estimation + MIS) and `pt-naive` (BSDF sampling only).
+//!
+//! | parameter | type | default | meaning |
+//! |---|---|---|---|
+//! | `integrator` | `pt` \| `pt-naive` | `pt` | light sampling with MIS, or BSDF sampling alone |
+//! | `spp` | u32 | 64 | samples per pixel |
+//! | `max_depth` | u32 or none | none | maximum bounces; none = unbounded, Russian roulette ends paths |
+//! | `rr_depth` | u32 | 5 | first bounce at which Russian roulette may end a path |
+//! | `light_selection` | `uniform` \| `power` | `power` | how NEE picks a light |
+//! | `seed` | u64 | 0 | sampler seed |
+//!
+//! The schedule is built from the scene: the camera system draws lens and time samples only when the
+//! camera has an aperture or something moves, and `pt` drops light sampling when there is no light.
+
+use crate::scene::IntegratorKind;
+use crate::systems::PassSystems;
+use crate::systems::emit::emit_camera_paths;
+use crate::systems::gather::splat_paths_to_film;
+use crate::systems::resources::SceneFeatures;
+use crate::systems::scatter::scatter_paths;
+use crate::systems::trace::{trace_paths, trace_shadow_rays};
+use bevy_ecs::prelude::*;
+
+/// Add the path tracer's systems to `schedule` (the host's or our own).
+pub fn build(schedule: &mut Schedule, features: SceneFeatures, kind: IntegratorKind) {
+    schedule.configure_sets(
+        (
+            PassSystems::Emit,
+            PassSystems::Trace,
+            PassSystems::Scatter,
+            PassSystems::Shadow,
+            PassSystems::Gather,
+        )
+            .chain(),
+    );
+    let emit = match (features.lens, features.motion) {
+        (false, false) => emit_camera_paths::<false, false>.into_configs(),
+        (true, false) => emit_camera_paths::<true, false>.into_configs(),
+        (false, true) => emit_camera_paths::<false, true>.into_configs(),
+        (true, true) => emit_camera_paths::<true, true>.into_configs(),
+    };
+    schedule.add_systems(emit.in_set(PassSystems::Emit));
+    schedule.add_systems(trace_paths.in_set(PassSystems::Trace));
+    let nee = kind == IntegratorKind::Pt && features.lights;
+    if nee {
+        schedule.add_systems(scatter_paths::<true>.in_set(PassSystems::Scatter));
+        schedule.add_systems(trace_shadow_rays.in_set(PassSystems::Shadow));
+    } else {
+        schedule.add_systems(scatter_paths::<false>.in_set(PassSystems::Scatter));
+    }
+    schedule.add_systems(splat_paths_to_film.in_set(PassSystems::Gather));
+}

@@ -1,0 +1,41 @@
+//! The ECS layer: components, resources and the staged systems that move paths through a frame.
+//!
+//! One run of the schedule advances every path of the wavefront by one bounce:
+//!
+//! | `PassSystems::` | file | systems | reads | writes |
+//! |---|---|---|---|---|
+//! | `Emit` | `emit.rs` | `emit_camera_paths` | `Camera`, `RenderConfig` | `PathRay`, `PathState` (new sample) |
+//! | `Trace` | `trace.rs` | `trace_paths` | `SceneGeometry`, `PathRay` | `PathHit` |
+//! | `Scatter` | `scatter.rs` | `scatter_paths` | `PathHit`, `SceneGeometry` | `PathRay`, `PathState`, `ShadowRay` |
+//! | `Shadow` | `trace.rs` | `trace_shadow_rays` | `ShadowRay` | `PathState::l` |
+//! | `Gather` | `gather.rs` | `splat_paths_to_film` | finished `PathState`s | `Film`, `RenderStats` |
+//!
+//! Paths are entities of a wavefront spawned once; a path that ends is regenerated with its pixel's
+//! next sample (Laine, Karras & Aila 2013), and its state lives in component fields, so no entity
+//! changes archetype while rendering.
+
+pub mod components;
+pub mod emit;
+pub mod gather;
+pub mod integrators;
+pub mod render;
+pub mod resources;
+pub mod scatter;
+pub mod trace;
+
+use bevy_ecs::schedule::SystemSet;
+
+/// The stages of one bounce, in order. Integrators place their systems into these sets.
+#[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum PassSystems {
+    /// Start new camera paths where the previous ones ended.
+    Emit,
+    /// Closest-hit queries for every active path.
+    Trace,
+    /// Shade hits: emission, light sampling (NEE), BSDF sampling, Russian roulette.
+    Scatter,
+    /// Any-hit queries for the shadow rays of this bounce.
+    Shadow,
+    /// Splat finished paths onto the film.
+    Gather,
+}

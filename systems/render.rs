@@ -1,0 +1,152 @@
+//! The driver: turn a loaded scene and its settings into a World and a Schedule, and run it.
+//!
+//! A host application can call [`prepare`] and then run the schedule itself, or put the resources
+//! and `integrators::path::build` into its own World and Schedule (see the crate docs).
+
+use super::components::{PathHit, PathRay, PathState, ShadowRay};
+use super::integrators;
+use super::resources::{RenderConfig, RenderStats, SceneFeatures, SceneGeometry, Workload};
+use crate::camera::Camera;
+use crate::error::{Error, Result};
+use crate::film::{Film, Image};
+use crate::geometry::Geometry;
+use crate::lights::Lights;
+use crate::scene::{RunFile, Scene};
+use bevy_ecs::prelude::*;
+use bevy_ecs::schedule::SingleThreadedExecutor;
+use std::time::Instant;
+
+/// Largest wavefront: enough paths to keep every core busy and the tables in cache-sized batches;
+/// larger images reuse each entity for several pixels.
+pub const MAX_WAVEFRONT: u32 = 1 << 18;
+
+/// Default image size when neither the run file nor the glTF gives one.
+pub const DEFAULT_RESOLUTION: u32 = 512;
+
+/// Size the worker pools once per process: bevy's compute pool (parallel queries) and rayon's (BVH
+/// builds). They never run at the same time, so they do not oversubscribe the cores.
+pub fn init_thread_pools(threads: Option<usize>) {
+    let n = threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get())).max(1);
+    bevy_tasks::ComputeTaskPool::get_or_init(|| bevy_tasks::TaskPoolBuilder::new().num_threads(n).build());
+    // Err means the global pool already exists (a second render in one process): keep it.
+    let _ = rayon::ThreadPoolBuilder::new().num_threads(n).build_global();
+}
+
+/// A World ready to render and the Schedule that advances it by one bounce per run.
+pub struct Renderer {
+    /// Scene, settings, film and path entities.
+    pub world: World,
+    /// The staged systems of the chosen integrator.
+    pub schedule: Schedule,
+    /// What the scene uses (decides which systems are in the schedule).
+    pub features: SceneFeatures,
+}
+
+/// Resolve the image size: run file, then the glTF's extras, then the camera's aspect ratio.
+pub fn resolution(scene: &Scene, run: &RunFile) -> Result<(u32, u32)> {
+    let aspect = scene.camera.as_ref().and_then(|c| c.aspect_ratio);
+    let (w, h) = match (run.film.width, run.film.height, scene.resolution) {
+        (Some(w), Some(h), _) => (w, h),
+        (Some(w), None, Some((sw, sh))) => (w, ((w as u64 * sh as u64) / sw.max(1) as u64) as u32),
+        (None, Some(h), Some((sw, sh))) => (((h as u64 * sw as u64) / sh.max(1) as u64) as u32, h),
+        (None, None, Some(r)) => r,
+        (w, h, None) => {
+            let a = aspect.unwrap_or(1.0);
+            let w = w.unwrap_or_else(|| h.map_or(DEFAULT_RESOLUTION, |h| (h as f32 * a).round() as u32));
+            let h = h.unwrap_or_else(|| (w as f32 / a).round() as u32);
+            (w, h)
+        }
+    };
+    for (name, v) in [("width", w), ("height", h)] {
+        if v == 0 || v > 1 << 15 {
+            return Err(Error::Setting { name: name.into(), problem: format!("{v} is not in 1..=32768") });
+        }
+    }
+    Ok((w, h))
+}
+
+/// Build the World (resources + one wavefront of path entities) and the Schedule for a scene.
+pub fn prepare(scene: Scene, run: &RunFile) -> Result<Renderer> {
+    let settings = &run.render;
+    if settings.spp == 0 {
+        return Err(Error::Setting { name: "spp".into(), problem: "must be at least 1".into() });
+    }
+    let (width, height) = resolution(&scene, run)?;
+    let mut geometry = Geometry::build(&scene);
+    let camera_desc = match &scene.camera {
+        Some(c) => c.clone(),
+        None => {
+            let (min, max) = geometry.bounds();
+            tracing::warn!(
+                "{}: no camera in the file; framing the scene from +Z with a 45° field of view",
+                scene.source.display()
+            );
+            Camera::framing(min, max)
+        }
+    };
+    let camera = Camera::new(&camera_desc, &run.camera, width, height, run.film.filter)?;
+    let lights = Lights::build(&mut geometry, &scene.materials, settings.light_selection);
+    let scene_geometry =
+        SceneGeometry { geometry, lights, materials: scene.materials, textures: scene.textures };
+    let features = SceneFeatures::of(&camera, &scene_geometry);
+
+    let pixels = width * height;
+    let wavefront = pixels.min(MAX_WAVEFRONT);
+    let workload = Workload { pixels, spp_begin: 0, spp_end: settings.spp, wavefront };
+    let mut world = World::new();
+    world.insert_resource(RenderConfig {
+        integrator: settings.integrator,
+        seed: settings.seed,
+        max_depth: settings.max_depth.unwrap_or(u32::MAX),
+        rr_depth: settings.rr_depth,
+    });
+    world.insert_resource(Film::new(width, height));
+    world.insert_resource(camera);
+    world.insert_resource(scene_geometry);
+    world.insert_resource(workload);
+    world.insert_resource(RenderStats::default());
+    spawn_wavefront(&mut world, &workload);
+
+    let mut schedule = Schedule::default();
+    schedule.set_executor(SingleThreadedExecutor::new());
+    integrators::path::build(&mut schedule, features, settings.integrator);
+    Ok(Renderer { world, schedule, features })
+}
+
+/// Spawn the path entities once; they are reused until the render ends.
+pub fn spawn_wavefront(world: &mut World, workload: &Workload) {
+    world.spawn_batch((0..workload.wavefront).map(|i| {
+        (PathRay::default(), PathHit::default(), PathState::new(i, workload.spp_begin), ShadowRay::default())
+    }));
+}
+
+/// What a finished render reports.
+#[derive(Clone, Debug)]
+pub struct RenderSummary {
+    /// Counters.
+    pub stats: RenderStats,
+    /// Wall time of the bounce loop, in seconds.
+    pub seconds: f64,
+}
+
+impl Renderer {
+    /// Run bounce steps until every path is idle, calling `progress` after each step.
+    pub fn run(&mut self, mut progress: impl FnMut(&RenderStats)) -> RenderSummary {
+        let start = Instant::now();
+        loop {
+            let _span = tracing::trace_span!("step").entered();
+            self.schedule.run(&mut self.world);
+            let stats = *self.world.resource::<RenderStats>();
+            progress(&stats);
+            if stats.active_paths == 0 {
+                break;
+            }
+        }
+        RenderSummary { stats: *self.world.resource::<RenderStats>(), seconds: start.elapsed().as_secs_f64() }
+    }
+
+    /// The mean radiance per pixel so far.
+    pub fn image(&self) -> Image {
+        self.world.resource::<Film>().image()
+    }
+}

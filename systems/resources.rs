@@ -1,0 +1,130 @@
+//! Resources shared by the systems: the scene, the settings of this render, the film and statistics.
+
+use crate::camera::Camera;
+use crate::geometry::{Geometry, SurfaceHit};
+use crate::lights::Lights;
+use crate::materials::ShadingParams;
+use crate::scene::{IntegratorKind, MaterialDesc, Texture, TextureRef};
+use bevy_ecs::resource::Resource;
+
+/// The scene as the systems see it: BVHs, lights, materials and textures.
+#[derive(Resource, Clone, Debug)]
+pub struct SceneGeometry {
+    /// Primitives and their BVHs.
+    pub geometry: Geometry,
+    /// Emitters and light selection.
+    pub lights: Lights,
+    /// Materials by index.
+    pub materials: Vec<MaterialDesc>,
+    /// Textures by index.
+    pub textures: Vec<Texture>,
+}
+
+impl SceneGeometry {
+    /// Resolve the material at a hit: textures looked up, vertex colour applied.
+    #[inline]
+    pub fn shading_params(&self, hit: &SurfaceHit) -> ShadingParams {
+        let m = &self.materials[hit.material as usize];
+        let lookup = |t: &TextureRef| {
+            let mut uv = hit.uv[(t.tex_coord as usize).min(1)];
+            if let Some([x, y, o]) = t.transform {
+                uv = x * uv.x + y * uv.y + o;
+            }
+            self.textures[t.texture as usize].sample(uv)
+        };
+        let mut base_color = m.base_color * hit.color;
+        if let Some(t) = &m.base_color_texture {
+            base_color *= lookup(t).truncate();
+        }
+        let (mut metallic, mut roughness) = (m.metallic, m.roughness);
+        if let Some(t) = &m.metallic_roughness_texture {
+            let texel = lookup(t);
+            roughness *= texel.y;
+            metallic *= texel.z;
+        }
+        ShadingParams {
+            base_color,
+            metallic,
+            roughness,
+            transmission: m.transmission,
+            ior: m.ior,
+            specular: m.specular,
+            specular_color: m.specular_color,
+        }
+    }
+}
+
+/// Settings of the path integrators.
+#[derive(Resource, Clone, Debug)]
+pub struct RenderConfig {
+    /// `pt` or `pt-naive`.
+    pub integrator: IntegratorKind,
+    /// Sampler seed.
+    pub seed: u64,
+    /// Maximum bounces (`u32::MAX` = unbounded).
+    pub max_depth: u32,
+    /// Depth from which Russian roulette may end paths.
+    pub rr_depth: u32,
+}
+
+/// Which pixels and samples this render covers, and how the wavefront is laid over them.
+///
+/// Entity `i` of a wavefront of `n` renders pixels `i, i + n, i + 2n, …`, each for samples
+/// `spp_begin..spp_end`, in that order; so every pixel is written by exactly one entity.
+#[derive(Resource, Clone, Copy, Debug)]
+pub struct Workload {
+    /// Number of pixels.
+    pub pixels: u32,
+    /// First sample index.
+    pub spp_begin: u32,
+    /// One past the last sample index.
+    pub spp_end: u32,
+    /// Number of path entities.
+    pub wavefront: u32,
+}
+
+impl Workload {
+    /// Total camera samples.
+    pub fn total_samples(&self) -> u64 {
+        self.pixels as u64 * (self.spp_end - self.spp_begin) as u64
+    }
+}
+
+/// Counters, summed in `gather` (no atomics in the hot systems).
+#[derive(Resource, Clone, Copy, Debug, Default)]
+pub struct RenderStats {
+    /// Camera samples splatted.
+    pub samples: u64,
+    /// Closest-hit rays traced.
+    pub rays: u64,
+    /// Shadow rays traced.
+    pub shadow_rays: u64,
+    /// Samples whose radiance was NaN or infinite, dropped (counted as black).
+    pub nan_samples: u64,
+    /// Paths still working (not idle) after the last step.
+    pub active_paths: u32,
+    /// Schedule runs (bounce steps).
+    pub steps: u64,
+}
+
+/// Whether the camera needs lens and time samples (decided from the scene, once).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SceneFeatures {
+    /// The camera has an aperture.
+    pub lens: bool,
+    /// Something moves over the shutter.
+    pub motion: bool,
+    /// There is at least one emitter (otherwise NEE is skipped).
+    pub lights: bool,
+}
+
+impl SceneFeatures {
+    /// Features of a camera and scene.
+    pub fn of(camera: &Camera, scene: &SceneGeometry) -> Self {
+        Self {
+            lens: camera.has_lens(),
+            motion: scene.geometry.has_motion(),
+            lights: !scene.lights.is_empty(),
+        }
+    }
+}

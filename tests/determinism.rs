@@ -1,0 +1,37 @@
+//! The same scene, seed and sample count give the same bits whatever the thread count.
+
+mod common;
+
+use caustica::film::output::read_exr;
+use std::process::Command;
+
+fn render_with_threads(threads: u32, out: &std::path::Path, scene: &str) {
+    let status = Command::new(env!("CARGO_BIN_EXE_caustica"))
+        .args(["render", scene, "--spp", "4", "--width", "48", "--height", "48", "--quiet", "--seed", "7"])
+        .args(["--threads", &threads.to_string(), "-o"])
+        .arg(out)
+        .status()
+        .expect("caustica runs");
+    assert!(status.success(), "render with {threads} threads failed");
+}
+
+#[test]
+fn one_and_two_threads_give_bit_identical_images() {
+    let dir = std::env::temp_dir().join(format!("caustica-determinism-{}", std::process::id()));
+    for scene in ["cornell-spheres.gltf", "cornell-box.gltf"] {
+        let path = common::data(scene);
+        let scene = path.to_str().unwrap();
+        let (a, b) = (dir.join("t1.exr"), dir.join("t2.exr"));
+        render_with_threads(1, &a, scene);
+        render_with_threads(2, &b, scene);
+        let (a, b) = (read_exr(&a).unwrap(), read_exr(&b).unwrap());
+        assert!(a.mean().max_element() > 0.0, "{scene}: black image");
+        let same = a
+            .pixels
+            .iter()
+            .zip(&b.pixels)
+            .all(|(x, y)| x.to_array().map(f32::to_bits) == y.to_array().map(f32::to_bits));
+        assert!(same, "{scene}: images differ between 1 and 2 threads");
+    }
+    std::fs::remove_dir_all(dir).ok();
+}
