@@ -1,6 +1,9 @@
 //! Whole-frame throughput: one sample per pixel of the Cornell box at 256×256, every step of the
 //! schedule included (emit, trace, scatter, shadow, gather).
 
+// criterion_group! generates an undocumented public fn.
+#![allow(missing_docs)]
+
 use caustica::scene::{IntegratorKind, load};
 use caustica::systems::render::{init_thread_pools, prepare};
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};

@@ -2,6 +2,9 @@
 //! our `Geometry` (watertight intersector), through the ECS `trace_paths` system, and through raw
 //! obvhs CwBvh traversal with its own triangle test (the ceiling we compare against).
 
+// criterion_group! generates an undocumented public fn.
+#![allow(missing_docs)]
+
 use bevy_ecs::prelude::*;
 use caustica::geometry::{Geometry, Ray};
 use caustica::sampling::Sampler;

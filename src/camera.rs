@@ -57,7 +57,7 @@ impl Camera {
         }
         if let Some(target) = overrides.target {
             let dir = Vec3::from(target) - origin;
-            if !(dir.length() > 0.0) || !dir.is_finite() {
+            if !dir.is_finite() || dir.length() == 0.0 {
                 return Err(setting("target", "must differ from the eye and be finite"));
             }
             forward = dir.normalize();
@@ -78,7 +78,7 @@ impl Camera {
             ));
         }
         let right = forward.cross(up);
-        if !(right.length() > 1e-6) || !origin.is_finite() {
+        if !right.is_finite() || right.length() <= 1e-6 || !origin.is_finite() {
             return Err(setting("up", "is parallel to the view direction or not finite"));
         }
         let right = right.normalize();

@@ -25,6 +25,9 @@ mod dim {
     pub const ROULETTE: u32 = 6;
 }
 
+/// Highest Russian-roulette survival probability: bounds the expected length of any path.
+const MAX_SURVIVAL: f32 = 0.95;
+
 /// The power heuristic with β = 2 for one sample from each of two strategies.
 #[inline]
 pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
@@ -141,17 +144,17 @@ fn scatter_one<const NEE: bool>(
         time: ray.time,
     };
 
-    // Possibly terminate the path with Russian roulette. The throughput is divided by the squared
-    // relative IOR first so that light refracted into a dense medium is not killed for being
-    // "bright" only because radiance is compressed there (pbrt-v4 `etaScale`).
-    let rr_beta = state.beta * state.eta_scale;
-    if state.depth >= config.rr_depth && rr_beta.max_element() < 1.0 {
-        let q = (1.0 - rr_beta.max_element()).max(0.0);
-        if sampler.get1d(base + dim::ROULETTE) < q {
+    // Russian roulette. The throughput is divided by the squared relative IOR first so that light
+    // refracted into a dense medium is not killed for being "bright" only because radiance is
+    // compressed there (pbrt-v4 `etaScale`). Survival is capped at 0.95 (as Mitsuba does): a path
+    // trapped by total internal reflection keeps β = 1 forever, and without the cap it would never end.
+    if state.depth >= config.rr_depth {
+        let survive = (state.beta * state.eta_scale).max_element().min(MAX_SURVIVAL);
+        if sampler.get1d(base + dim::ROULETTE) >= survive {
             state.status = PathStatus::Finished;
             return;
         }
-        state.beta /= 1.0 - q;
+        state.beta /= survive;
     }
     if !state.beta.is_finite() {
         // Keep the broken path's radiance so far; gather counts and drops non-finite samples.

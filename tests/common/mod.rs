@@ -32,13 +32,38 @@ pub fn downsample2(image: &Image) -> Image {
     Image { width: w, height: h, pixels }
 }
 
-/// Mean and standard error of the per-pixel, per-channel differences a − b (pixels are independent
-/// estimates, so the mean difference of two unbiased renders is 0 within a few standard errors).
+/// Mean and standard error of the per-pixel differences a − b, channels averaged first (the channels
+/// of one pixel come from the same paths; pixels are independent estimates, so the mean difference of
+/// two unbiased renders is 0 within a few standard errors).
 pub fn paired_difference(a: &Image, b: &Image) -> (f64, f64) {
-    let d: Vec<f64> =
-        a.pixels.iter().zip(&b.pixels).flat_map(|(x, y)| (0..3).map(move |c| (x[c] - y[c]) as f64)).collect();
+    let d: Vec<f64> = a
+        .pixels
+        .iter()
+        .zip(&b.pixels)
+        .map(|(x, y)| (0..3).map(|c| (x[c] - y[c]) as f64).sum::<f64>() / 3.0)
+        .collect();
     let n = d.len() as f64;
     let mean = d.iter().sum::<f64>() / n;
     let var = d.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
     (mean, (var / n).sqrt())
+}
+
+/// z-score of the mean difference a − b in each cell of an n×n grid of pixel blocks: a bias confined
+/// to one object (a glass sphere, a caustic) shows in its block long before it moves the image mean.
+pub fn block_z_scores(a: &Image, b: &Image, n: u32) -> Vec<f64> {
+    let (bw, bh) = (a.width / n, a.height / n);
+    let mut z = Vec::new();
+    for by in 0..n {
+        for bx in 0..n {
+            let d: Vec<f64> = (by * bh..(by + 1) * bh)
+                .flat_map(|y| (bx * bw..(bx + 1) * bw).map(move |x| (y * a.width + x) as usize))
+                .map(|i| (0..3).map(|c| (a.pixels[i][c] - b.pixels[i][c]) as f64).sum::<f64>() / 3.0)
+                .collect();
+            let m = d.len() as f64;
+            let mean = d.iter().sum::<f64>() / m;
+            let var = d.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (m - 1.0);
+            z.push(if var > 0.0 { mean / (var / m).sqrt() } else { 0.0 });
+        }
+    }
+    z
 }
