@@ -17,23 +17,25 @@ pub fn emit_camera_paths<const LENS: bool, const MOTION: bool>(
     config: Res<RenderConfig>,
     mut paths: Query<(&mut PathRay, &mut PathState)>,
 ) {
-    paths.par_iter_mut().for_each(|(mut ray, mut state)| {
-        if state.status != PathStatus::NeedsCamera {
-            return;
-        }
-        let sampler = Sampler::new(config.seed, state.pixel, state.sample);
-        let x = state.pixel % camera.width;
-        let y = state.pixel / camera.width;
-        let u_lens = if LENS { sampler.get2d(2) } else { Vec2::splat(0.5) };
-        let time = if MOTION { sampler.get1d(4) } else { 0.0 };
-        ray.0 = camera.generate_ray(x, y, sampler.get2d(0), u_lens, time);
-        let s = &mut *state;
-        s.depth = 0;
-        s.beta = Vec3::ONE;
-        s.l = Vec3::ZERO;
-        s.eta_scale = 1.0;
-        s.prev_pdf = 0.0;
-        s.specular_bounce = false;
-        s.status = PathStatus::Active;
-    });
+    paths.par_iter_mut().batching_strategy(super::resources::wavefront_batching()).for_each(
+        |(mut ray, mut state)| {
+            if state.status != PathStatus::NeedsCamera {
+                return;
+            }
+            let sampler = Sampler::new(config.seed, state.pixel, state.sample);
+            let x = state.pixel % camera.width;
+            let y = state.pixel / camera.width;
+            let u_lens = if LENS { sampler.get2d(2) } else { Vec2::splat(0.5) };
+            let time = if MOTION { sampler.get1d(4) } else { 0.0 };
+            ray.0 = camera.generate_ray(x, y, sampler.get2d(0), u_lens, time);
+            let s = &mut *state;
+            s.depth = 0;
+            s.beta = Vec3::ONE;
+            s.l = Vec3::ZERO;
+            s.eta_scale = 1.0;
+            s.prev_pdf = 0.0;
+            s.specular_bounce = false;
+            s.status = PathStatus::Active;
+        },
+    );
 }

@@ -128,3 +128,10 @@ impl SceneFeatures {
         }
     }
 }
+
+/// How bevy splits a wavefront among the workers: many small batches per thread, because the work
+/// per path varies (a path that ended costs nothing, a glass hit costs more) and a thread that
+/// finishes its share early would otherwise wait idle at the end of every stage.
+pub fn wavefront_batching() -> bevy_ecs::batching::BatchingStrategy {
+    bevy_ecs::batching::BatchingStrategy::new().batches_per_thread(16)
+}

@@ -47,13 +47,15 @@ pub fn scatter_paths<const NEE: bool>(
     config: Res<RenderConfig>,
     mut paths: Query<(&PathHit, &mut PathRay, &mut PathState, &mut ShadowRay)>,
 ) {
-    paths.par_iter_mut().for_each(|(hit, mut ray, mut state, mut shadow)| {
-        if state.status != PathStatus::Active {
-            return;
-        }
-        state.rays += 1;
-        scatter_one::<NEE>(&scene, &config, &hit.0, &mut ray.0, &mut state, &mut shadow);
-    });
+    paths.par_iter_mut().batching_strategy(super::resources::wavefront_batching()).for_each(
+        |(hit, mut ray, mut state, mut shadow)| {
+            if state.status != PathStatus::Active {
+                return;
+            }
+            state.rays += 1;
+            scatter_one::<NEE>(&scene, &config, &hit.0, &mut ray.0, &mut state, &mut shadow);
+        },
+    );
 }
 
 #[inline]

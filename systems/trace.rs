@@ -10,24 +10,28 @@ use bevy_ecs::prelude::*;
 
 /// Find the closest hit of every active path's ray.
 pub fn trace_paths(scene: Res<SceneGeometry>, mut paths: Query<(&PathRay, &mut PathHit, &PathState)>) {
-    paths.par_iter_mut().for_each(|(ray, mut hit, state)| {
-        if state.status != PathStatus::Active {
-            return;
-        }
-        hit.0 = scene.geometry.intersect(&ray.0);
-    });
+    paths.par_iter_mut().batching_strategy(super::resources::wavefront_batching()).for_each(
+        |(ray, mut hit, state)| {
+            if state.status != PathStatus::Active {
+                return;
+            }
+            hit.0 = scene.geometry.intersect(&ray.0);
+        },
+    );
 }
 
 /// Test every pending shadow ray and add its contribution when nothing blocks it.
 pub fn trace_shadow_rays(scene: Res<SceneGeometry>, mut paths: Query<(&mut ShadowRay, &mut PathState)>) {
-    paths.par_iter_mut().for_each(|(mut shadow, mut state)| {
-        if !shadow.pending {
-            return;
-        }
-        shadow.pending = false;
-        state.shadow_rays += 1;
-        if !scene.geometry.occluded(&shadow.ray) {
-            state.l += shadow.contribution;
-        }
-    });
+    paths.par_iter_mut().batching_strategy(super::resources::wavefront_batching()).for_each(
+        |(mut shadow, mut state)| {
+            if !shadow.pending {
+                return;
+            }
+            shadow.pending = false;
+            state.shadow_rays += 1;
+            if !scene.geometry.occluded(&shadow.ray) {
+                state.l += shadow.contribution;
+            }
+        },
+    );
 }
