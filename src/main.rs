@@ -71,6 +71,13 @@ fn render(args: &RenderArgs) -> Result<()> {
         s.rays,
         s.shadow_rays
     );
+    let wavefront = renderer.world.resource::<caustica::systems::resources::Workload>().wavefront;
+    println!(
+        "wavefront   {} paths, {} steps, {:.0}% busy",
+        wavefront,
+        s.steps,
+        100.0 * s.rays as f64 / (s.steps as f64 * wavefront as f64)
+    );
     println!("NaN/Inf     {} samples dropped", s.nan_samples);
     if let Some(reference) = reference {
         let e = compare(&image, &reference).context("the reference's size differs from the image")?;

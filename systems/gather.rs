@@ -1,8 +1,8 @@
-//! Gather: splat finished paths onto the film and hand their entity the next sample.
+//! Gather: splat finished paths onto the film and hand their entity the next work item.
 //!
-//! Reads: `Workload`, finished `PathState`s. Writes: `Film`, `RenderStats`, `PathState` (next pixel
-//! and sample). Runs on one thread on purpose: each pixel belongs to one entity, and adding its
-//! samples in sample order makes the image bit-identical whatever the thread count. The loop does
+//! Reads: finished `PathState`s. Writes: `Film`, `RenderStats`, `Workload`, `PathState` (next pixel
+//! and sample). Runs on one thread on purpose: visiting finished paths in entity order to splat them
+//! and hand out work makes the image bit-identical whatever the thread count. The loop does
 //! no more than an add per finished path, a small share of a bounce.
 
 use super::components::{PathState, PathStatus};
@@ -13,7 +13,7 @@ use glam::Vec3;
 
 /// Splat finished paths, count rays and dropped samples, and advance each entity's work.
 pub fn splat_paths_to_film(
-    workload: Res<Workload>,
+    mut workload: ResMut<Workload>,
     mut film: ResMut<Film>,
     mut stats: ResMut<RenderStats>,
     mut paths: Query<&mut PathState>,
@@ -42,16 +42,14 @@ pub fn splat_paths_to_film(
         stats.shadow_rays += state.shadow_rays as u64;
         state.rays = 0;
         state.shadow_rays = 0;
-        state.sample += 1;
-        if state.sample == workload.spp_end {
-            state.sample = workload.spp_begin;
-            state.pixel += workload.wavefront;
-        }
-        if state.pixel >= workload.pixels {
-            state.status = PathStatus::Idle;
-        } else {
-            state.status = PathStatus::NeedsCamera;
-            active += 1;
+        match workload.take() {
+            Some((pixel, sample)) => {
+                state.pixel = pixel;
+                state.sample = sample;
+                state.status = PathStatus::NeedsCamera;
+                active += 1;
+            }
+            None => state.status = PathStatus::Idle,
         }
     }
     stats.active_paths = active;

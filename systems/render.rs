@@ -3,7 +3,7 @@
 //! A host application can call [`prepare`] and then run the schedule itself, or put the resources
 //! and `integrators::path::build` into its own World and Schedule (see the crate docs).
 
-use super::components::{PathHit, PathRay, PathState, ShadowRay};
+use super::components::{PathHit, PathRay, PathState, PathStatus, ShadowRay};
 use super::integrators;
 use super::resources::{RenderConfig, RenderStats, SceneFeatures, SceneGeometry, Workload};
 use crate::camera::Camera;
@@ -92,7 +92,7 @@ pub fn prepare(scene: Scene, run: &RunFile) -> Result<Renderer> {
 
     let pixels = width * height;
     let wavefront = pixels.min(MAX_WAVEFRONT);
-    let workload = Workload { pixels, spp_begin: 0, spp_end: settings.spp, wavefront };
+    let mut workload = Workload::new(pixels, 0, settings.spp, wavefront);
     let mut world = World::new();
     world.insert_resource(RenderConfig {
         integrator: settings.integrator,
@@ -103,9 +103,9 @@ pub fn prepare(scene: Scene, run: &RunFile) -> Result<Renderer> {
     world.insert_resource(Film::new(width, height));
     world.insert_resource(camera);
     world.insert_resource(scene_geometry);
+    spawn_wavefront(&mut world, &mut workload);
     world.insert_resource(workload);
     world.insert_resource(RenderStats::default());
-    spawn_wavefront(&mut world, &workload);
 
     let mut schedule = Schedule::default();
     schedule.set_executor(SingleThreadedExecutor::new());
@@ -113,11 +113,17 @@ pub fn prepare(scene: Scene, run: &RunFile) -> Result<Renderer> {
     Ok(Renderer { world, schedule, features })
 }
 
-/// Spawn the path entities once; they are reused until the render ends.
-pub fn spawn_wavefront(world: &mut World, workload: &Workload) {
-    world.spawn_batch((0..workload.wavefront).map(|i| {
-        (PathRay::default(), PathHit::default(), PathState::new(i, workload.spp_begin), ShadowRay::default())
-    }));
+/// Spawn the path entities once, each with its first work item; they are reused until the render ends.
+pub fn spawn_wavefront(world: &mut World, workload: &mut Workload) {
+    let items: Vec<PathState> = (0..workload.wavefront)
+        .map(|_| match workload.take() {
+            Some((pixel, sample)) => PathState::new(pixel, sample),
+            None => PathState { status: PathStatus::Idle, ..PathState::new(0, 0) },
+        })
+        .collect();
+    world.spawn_batch(
+        items.into_iter().map(|state| (PathRay::default(), PathHit::default(), state, ShadowRay::default())),
+    );
 }
 
 /// What a finished render reports.

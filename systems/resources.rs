@@ -69,8 +69,11 @@ pub struct RenderConfig {
 
 /// Which pixels and samples this render covers, and how the wavefront is laid over them.
 ///
-/// Entity `i` of a wavefront of `n` renders pixels `i, i + n, i + 2n, …`, each for samples
-/// `spp_begin..spp_end`, in that order; so every pixel is written by exactly one entity.
+/// The camera samples still to hand out. Work item `k` is sample `spp_begin + k / pixels` of pixel
+/// `k % pixels` (sample-major, so the whole image fills in evenly). A path that finishes takes the next
+/// item, so every entity stays busy until the work runs out and only the last paths form a tail.
+/// `gather` hands items out on one thread in entity order, so which entity renders what, and the order
+/// in which a pixel's samples reach the film, do not depend on the thread count.
 #[derive(Resource, Clone, Copy, Debug)]
 pub struct Workload {
     /// Number of pixels.
@@ -81,12 +84,29 @@ pub struct Workload {
     pub spp_end: u32,
     /// Number of path entities.
     pub wavefront: u32,
+    /// Next work item to hand out.
+    pub next: u64,
 }
 
 impl Workload {
+    /// Work for `pixels` pixels and samples `spp_begin..spp_end` on `wavefront` entities, none handed out yet.
+    pub fn new(pixels: u32, spp_begin: u32, spp_end: u32, wavefront: u32) -> Self {
+        Self { pixels, spp_begin, spp_end, wavefront, next: 0 }
+    }
+
     /// Total camera samples.
     pub fn total_samples(&self) -> u64 {
         self.pixels as u64 * (self.spp_end - self.spp_begin) as u64
+    }
+
+    /// The next (pixel, sample) to render, if any is left.
+    pub fn take(&mut self) -> Option<(u32, u32)> {
+        if self.next >= self.total_samples() {
+            return None;
+        }
+        let k = self.next;
+        self.next += 1;
+        Some(((k % self.pixels as u64) as u32, self.spp_begin + (k / self.pixels as u64) as u32))
     }
 }
 

@@ -23,7 +23,10 @@ pub struct TriangleHit {
 /// the edge functions in the per-triangle loop.
 #[derive(Clone, Copy, Debug)]
 pub struct ShearedRay {
-    k: [usize; 3],
+    /// The axis of the largest |d| component; it becomes z. The cyclic permutation that moves it there
+    /// is a swizzle chosen by a branch that is the same for every triangle of the ray (well predicted),
+    /// not an indexed load per vertex.
+    kz: u8,
     shear: Vec3,
 }
 
@@ -31,19 +34,27 @@ impl ShearedRay {
     /// Prepare direction `d` (need not be unit length).
     #[inline]
     pub fn new(d: Vec3) -> Self {
-        let kz = d.abs().max_position();
-        let kx = if kz == 2 { 0 } else { kz + 1 };
-        let ky = if kx == 2 { 0 } else { kx + 1 };
-        let d = d.to_array();
-        let sz = 1.0 / d[kz];
-        Self { k: [kx, ky, kz], shear: Vec3::new(-d[kx] * sz, -d[ky] * sz, sz) }
+        let kz = d.abs().max_position() as u8;
+        let d = permute(d, kz);
+        let sz = 1.0 / d.z;
+        Self { kz, shear: Vec3::new(-d.x * sz, -d.y * sz, sz) }
     }
 
     #[inline(always)]
     fn transform(&self, p: Vec3) -> Vec3 {
-        let p = p.to_array();
-        let z = p[self.k[2]];
-        Vec3::new(p[self.k[0]] + self.shear.x * z, p[self.k[1]] + self.shear.y * z, z * self.shear.z)
+        let p = permute(p, self.kz);
+        Vec3::new(p.x + self.shear.x * p.z, p.y + self.shear.y * p.z, p.z * self.shear.z)
+    }
+}
+
+/// Cyclic permutation that puts axis `kz` last: (kx, ky, kz) = (kz + 1, kz + 2, kz) mod 3, which keeps
+/// the handedness (and so the sign of the edge functions).
+#[inline(always)]
+fn permute(p: Vec3, kz: u8) -> Vec3 {
+    match kz {
+        0 => Vec3::new(p.y, p.z, p.x),
+        1 => Vec3::new(p.z, p.x, p.y),
+        _ => p,
     }
 }
 

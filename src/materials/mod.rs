@@ -23,8 +23,10 @@ pub use dielectric::Dielectric;
 pub use microfacet::Ggx;
 pub use plastic::Plastic;
 
+use crate::sampling::warp::cosine_hemisphere;
 use fresnel::f0_from_ior;
 use glam::{Vec2, Vec3};
+use std::f32::consts::FRAC_1_PI;
 
 /// Resolved parameters at a hit point (textures already looked up). glTF metallic-roughness semantics.
 #[derive(Clone, Copy, Debug)]
@@ -84,6 +86,9 @@ pub struct Bsdf {
     dielectric: Dielectric,
     /// Mixture coefficients of conductor, plastic and dielectric; they sum to one.
     weights: [f32; LOBES],
+    /// Albedo when the whole BSDF is Lambertian (plastic without its specular layer), the common case
+    /// in diffuse scenes: it skips the mixture's lobe selection and Fresnel coupling entirely.
+    lambert: Option<Vec3>,
 }
 
 impl Bsdf {
@@ -97,11 +102,14 @@ impl Bsdf {
         let ggx = Ggx::from_roughness(p.roughness);
         // KHR_materials_specular: F0 = min(F0(ior) · specular_colour, 1) · specular, F90 = specular.
         let spec_f0 = (f0_from_ior(ior) * p.specular_color.max(Vec3::ZERO)).min(Vec3::ONE) * specular;
+        let weights = [metallic, (1.0 - metallic) * (1.0 - transmission), (1.0 - metallic) * transmission];
+        let lambert = (weights[1] == 1.0 && specular == 0.0).then_some(base);
         Self {
             conductor: Conductor::new(base, ggx),
             plastic: Plastic::new(base, spec_f0, specular, ggx),
             dielectric: Dielectric::new(ior, base, ggx),
-            weights: [metallic, (1.0 - metallic) * (1.0 - transmission), (1.0 - metallic) * transmission],
+            weights,
+            lambert,
         }
     }
 
@@ -114,6 +122,9 @@ impl Bsdf {
     /// f(wo, wi) WITHOUT the cosine, local shading frame (z = shading normal), both vectors unit and pointing
     /// away from the surface. Delta lobes contribute 0 here.
     pub fn eval(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Vec3 {
+        if let Some(albedo) = self.lambert {
+            return if wo.z * wi.z > 0.0 { albedo * FRAC_1_PI } else { Vec3::ZERO };
+        }
         (0..LOBES)
             .filter(|&k| self.weights[k] > 0.0)
             .map(|k| self.weights[k] * self.lobe_eval(k, wo, wi, mode))
@@ -122,6 +133,9 @@ impl Bsdf {
 
     /// Solid-angle pdf of sample() producing wi (non-delta part only; delta lobes 0).
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if self.lambert.is_some() {
+            return if wo.z * wi.z > 0.0 { wi.z.abs() * FRAC_1_PI } else { 0.0 };
+        }
         let p = self.lobe_probabilities(wo);
         (0..LOBES).filter(|&k| p[k] > 0.0).map(|k| p[k] * self.lobe_pdf(k, wo, wi)).sum()
     }
@@ -132,6 +146,15 @@ impl Bsdf {
     pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2, mode: TransportMode) -> Option<BsdfSample> {
         if wo.z == 0.0 || !wo.is_finite() {
             return None;
+        }
+        if let Some(albedo) = self.lambert {
+            if albedo.max_element() <= 0.0 {
+                return None;
+            }
+            let wi = cosine_hemisphere(u);
+            let wi = if wo.z < 0.0 { flip_z(wi) } else { wi };
+            let pdf = wi.z.abs() * FRAC_1_PI;
+            return (pdf > 0.0).then(|| reflection_sample(wi, albedo * FRAC_1_PI, pdf, false, false));
         }
         let p = self.lobe_probabilities(wo);
         // Pick the lobe and reuse the rest of u_lobe inside it (for glass: reflect or refract).
