@@ -1,7 +1,7 @@
 //! One emitter: a one-sided emissive triangle (uniform area sampling) or an emissive sphere (uniform
 //! sampling of the cone it subtends, pbrt-v4 `Sphere::Sample`).
 
-use crate::sampling::warp::{Frame, UNIFORM_SPHERE_PDF, uniform_sphere, uniform_triangle};
+use crate::sampling::warp::{Frame, uniform_triangle};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
@@ -98,17 +98,8 @@ impl Light {
                 let c = center + shift;
                 let dc2 = (p_ref - c).length_squared();
                 if dc2 <= radius * radius {
-                    // Inside: uniform area sampling, converted to solid angle.
-                    let n = uniform_sphere(u);
-                    let point = c + radius * n;
-                    let w = point - p_ref;
-                    let dist2 = w.length_squared();
-                    let cos_l = n.dot(-w).abs() / dist2.sqrt();
-                    if cos_l == 0.0 {
-                        return None;
-                    }
-                    let pdf = UNIFORM_SPHERE_PDF / (radius * radius) * dist2 / cos_l;
-                    return Some(LightSample { p: point, n, le: self.le, pdf });
+                    // Spheres emit outward only: from inside (or on) the surface nothing is seen.
+                    return None;
                 }
                 // Outside: sample the cone of directions the sphere subtends (pbrt-v4 Sphere::Sample).
                 let sin2_max = radius * radius / dc2;
@@ -155,14 +146,7 @@ impl Light {
                 let c = center + self.motion * time;
                 let dc2 = (p_ref - c).length_squared();
                 if dc2 <= radius * radius {
-                    let w = p - p_ref;
-                    let dist2 = w.length_squared();
-                    let cos_l = n.dot(-w).abs() / dist2.sqrt();
-                    return if cos_l == 0.0 {
-                        0.0
-                    } else {
-                        UNIFORM_SPHERE_PDF / (radius * radius) * dist2 / cos_l
-                    };
+                    return 0.0;
                 }
                 let sin2_max = radius * radius / dc2;
                 let cos_max = (1.0 - sin2_max).max(0.0).sqrt();
@@ -170,5 +154,70 @@ impl Light {
                 1.0 / (2.0 * PI * one_minus_cos_max)
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::sphere::intersect_sphere;
+    use crate::geometry::triangle::intersect_triangle;
+    use crate::sampling::Sampler;
+    use crate::sampling::chi2::{Chi2Config, chi2_test};
+
+    const SAMPLES: u32 = 200_000;
+    /// Four light-sampling chi-square tests share the 1% family-wise level.
+    const CONFIG: Chi2Config =
+        Chi2Config { cos_theta_bins: 48, phi_bins: 96, min_expected: 5.0, significance: 0.01, test_count: 4 };
+
+    fn light(shape: LightShape) -> Light {
+        Light { shape, le: Vec3::ONE, motion: Vec3::ZERO, prim: 0 }
+    }
+
+    /// Directions from `p_ref` follow `Light::pdf` evaluated where each direction meets the light.
+    fn check(light: &Light, p_ref: Vec3, hit: impl Fn(Vec3) -> Option<(Vec3, Vec3)>) {
+        let p = chi2_test(
+            |i| light.sample(p_ref, 0.0, Sampler::new(5, i, 0).get2d(0)).map(|s| s.p - p_ref),
+            |d| hit(d).map_or(0.0, |(p, n)| light.pdf(p_ref, p, n, 0.0)),
+            SAMPLES,
+            &CONFIG,
+        );
+        assert!(p.is_ok(), "{:?} from {p_ref}: {p:?}", light.shape);
+    }
+
+    #[test]
+    fn triangle_samples_follow_the_solid_angle_pdf() {
+        let tri = [Vec3::new(-1.0, 1.0, -1.0), Vec3::new(1.0, 1.0, -1.0), Vec3::new(0.0, 1.0, 1.5)];
+        let light = light(LightShape::triangle(tri));
+        let LightShape::Triangle { n, .. } = light.shape else { unreachable!() };
+        // Seen from its front side and obliquely, so the pdf varies strongly across the triangle.
+        let p_ref = Vec3::new(0.7, 1.0 + 0.6 * n.y.signum(), 0.2);
+        check(&light, p_ref, |d| {
+            intersect_triangle(p_ref, d, f32::INFINITY, tri[0], tri[1], tri[2]).map(|h| (p_ref + h.t * d, n))
+        });
+    }
+
+    #[test]
+    fn sphere_cone_samples_follow_the_pdf_near_and_far() {
+        let (center, radius) = (Vec3::new(0.3, -0.2, 0.1), 0.5);
+        let light = light(LightShape::Sphere { center, radius });
+        // 1.5 radii away: a wide cone; 60 radii away: the small-angle branch (sin²θmax < 6.9e-4).
+        for distance in [1.5f32, 60.0] {
+            let p_ref = center + Vec3::new(0.6, 0.0, 0.8) * radius * distance;
+            check(&light, p_ref, |d| {
+                intersect_sphere(p_ref, d, f32::INFINITY, center, radius).map(|t| {
+                    let p = p_ref + t * d;
+                    (p, (p - center).normalize())
+                })
+            });
+        }
+    }
+
+    #[test]
+    fn a_sphere_light_is_invisible_from_inside() {
+        let light = light(LightShape::Sphere { center: Vec3::ZERO, radius: 1.0 });
+        let p_ref = Vec3::new(0.2, 0.1, -0.3);
+        assert!(light.sample(p_ref, 0.0, Vec2::splat(0.3)).is_none());
+        assert_eq!(light.pdf(p_ref, Vec3::X, Vec3::X, 0.0), 0.0);
     }
 }
