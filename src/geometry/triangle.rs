@@ -5,7 +5,7 @@
 //! no cracks between triangles, which obvhs's own (Möller–Trumbore) test does not promise.
 
 use super::offset::gamma;
-use glam::Vec3;
+use glam::{Vec3, Vec3A, Vec3Swizzles};
 
 /// Barycentric hit on a triangle: `p = b0·p0 + b1·p1 + b2·p2` at distance `t`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -27,7 +27,10 @@ pub struct ShearedRay {
     /// is a swizzle chosen by a branch that is the same for every triangle of the ray (well predicted),
     /// not an indexed load per vertex.
     kz: u8,
-    shear: Vec3,
+    /// (Sx, Sy, 0): the shear that sends the permuted direction to +z.
+    shear_xy: Vec3A,
+    /// (1, 1, Sz): the scale of the sheared z.
+    scale: Vec3A,
 }
 
 impl ShearedRay {
@@ -35,25 +38,26 @@ impl ShearedRay {
     #[inline]
     pub fn new(d: Vec3) -> Self {
         let kz = d.abs().max_position() as u8;
-        let d = permute(d, kz);
+        let d = permute(Vec3A::from(d), kz);
         let sz = 1.0 / d.z;
-        Self { kz, shear: Vec3::new(-d.x * sz, -d.y * sz, sz) }
+        Self { kz, shear_xy: Vec3A::new(-d.x * sz, -d.y * sz, 0.0), scale: Vec3A::new(1.0, 1.0, sz) }
     }
 
+    /// Vertex `p` relative to the origin, in ray space; SIMD lanes do the three coordinates at once.
     #[inline(always)]
-    fn transform(&self, p: Vec3) -> Vec3 {
+    fn transform(&self, p: Vec3A) -> Vec3 {
         let p = permute(p, self.kz);
-        Vec3::new(p.x + self.shear.x * p.z, p.y + self.shear.y * p.z, p.z * self.shear.z)
+        Vec3::from((p + self.shear_xy * Vec3A::splat(p.z)) * self.scale)
     }
 }
 
 /// Cyclic permutation that puts axis `kz` last: (kx, ky, kz) = (kz + 1, kz + 2, kz) mod 3, which keeps
 /// the handedness (and so the sign of the edge functions).
 #[inline(always)]
-fn permute(p: Vec3, kz: u8) -> Vec3 {
+fn permute(p: Vec3A, kz: u8) -> Vec3A {
     match kz {
-        0 => Vec3::new(p.y, p.z, p.x),
-        1 => Vec3::new(p.z, p.x, p.y),
+        0 => p.yzx(),
+        1 => p.zxy(),
         _ => p,
     }
 }
@@ -75,9 +79,10 @@ pub fn intersect_triangle_sheared(
     p2: Vec3,
 ) -> Option<TriangleHit> {
     // Translate to the ray origin, permute so the ray runs along z, shear so it points along +z.
-    let p0t = ray.transform(p0 - o);
-    let p1t = ray.transform(p1 - o);
-    let p2t = ray.transform(p2 - o);
+    let o = Vec3A::from(o);
+    let p0t = ray.transform(Vec3A::from(p0) - o);
+    let p1t = ray.transform(Vec3A::from(p1) - o);
+    let p2t = ray.transform(Vec3A::from(p2) - o);
     // Edge functions; fall back to f64 when one is exactly zero (pbrt-v4 does the same).
     let mut e0 = p1t.x * p2t.y - p1t.y * p2t.x;
     let mut e1 = p2t.x * p0t.y - p2t.y * p0t.x;
