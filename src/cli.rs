@@ -71,6 +71,24 @@ pub struct RenderArgs {
     /// Output image(s), .exr (linear) or .png (sRGB); repeatable; overrides the run file.
     #[arg(short, long)]
     pub output: Vec<PathBuf>,
+    /// Photon mapping: photons for the global map.
+    #[arg(long)]
+    pub photons: Option<u32>,
+    /// Photon mapping: photons for the caustic map.
+    #[arg(long)]
+    pub caustic_photons: Option<u32>,
+    /// Photon mapping: photons per radiance estimate.
+    #[arg(long)]
+    pub k: Option<u32>,
+    /// Photon mapping: largest gather radius (scene units).
+    #[arg(long)]
+    pub max_radius: Option<f32>,
+    /// Photon mapping: density kernel over the gather disc.
+    #[arg(long, value_enum)]
+    pub kernel: Option<crate::density::kernels::Kernel>,
+    /// Photon mapping: final-gather rays per pixel sample (0 = read the global map directly).
+    #[arg(long)]
+    pub final_gather: Option<u32>,
     /// Reference EXR: print the error of the result against it.
     #[arg(long)]
     pub reference: Option<PathBuf>,
@@ -89,6 +107,13 @@ impl RenderArgs {
         r.seed = self.seed.unwrap_or(r.seed);
         r.max_depth = self.max_depth.or(r.max_depth);
         r.rr_depth = self.rr_depth.unwrap_or(r.rr_depth);
+        let p = &mut run.photons;
+        p.photons = self.photons.unwrap_or(p.photons);
+        p.caustic_photons = self.caustic_photons.unwrap_or(p.caustic_photons);
+        p.k = self.k.unwrap_or(p.k);
+        p.max_radius = self.max_radius.or(p.max_radius);
+        p.kernel = self.kernel.unwrap_or(p.kernel);
+        p.final_gather = self.final_gather.unwrap_or(p.final_gather);
         let f = &mut run.film;
         f.width = self.width.or(f.width);
         f.height = self.height.or(f.height);

@@ -33,11 +33,13 @@
 
 pub mod camera;
 pub mod cli;
+pub mod density;
 pub mod error;
 pub mod film;
 pub mod geometry;
 pub mod lights;
 pub mod materials;
+pub mod photon;
 pub mod sampling;
 pub mod scene;
 #[path = "../systems/mod.rs"]

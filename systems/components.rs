@@ -67,6 +67,8 @@ pub struct PathState {
     pub prev_p: Vec3,
     /// Whether the last bounce was a delta lobe (no MIS, emission counted fully).
     pub specular_bounce: bool,
+    /// Photon mapping: the path is a final-gather ray that ends at the next diffuse hit.
+    pub gathering: bool,
     /// Life-cycle state.
     pub status: PathStatus,
     /// Rays traced by this path since the last splat (for statistics, summed in `gather`).
@@ -88,9 +90,45 @@ impl PathState {
             prev_pdf: 0.0,
             prev_p: Vec3::ZERO,
             specular_bounce: false,
+            gathering: false,
             status: PathStatus::NeedsCamera,
             rays: 0,
             shadow_rays: 0,
         }
     }
+}
+
+/// The ray a photon will trace next.
+#[derive(Component, Clone, Copy, Debug, Default)]
+pub struct PhotonRay(pub Ray);
+
+/// The closest hit of a photon's last trace.
+#[derive(Component, Clone, Copy, Debug)]
+pub struct PhotonHit(pub Hit);
+
+impl Default for PhotonHit {
+    fn default() -> Self {
+        Self(Hit::MISS)
+    }
+}
+
+/// A photon in flight. `status` reuses the path life cycle (`NeedsCamera` = needs emitting).
+#[derive(Component, Clone, Copy, Debug, Default)]
+pub struct PhotonState {
+    /// Photon number within its pass (selects its random numbers).
+    pub index: u32,
+    /// Power carried, per channel.
+    pub power: Vec3,
+    /// Bounces so far.
+    pub depth: u32,
+    /// Whether every bounce so far was specular (a caustic path L S* while it lasts).
+    pub specular_only: bool,
+    /// Life-cycle state.
+    pub status: PathStatus,
+    /// A photon left at this bounce's hit, waiting for `store_photons`.
+    pub deposit: Option<crate::photon::Photon>,
+    /// Rays traced since the last store (statistics).
+    pub bounces: u32,
+    /// Russian-roulette terminations since the last store (statistics).
+    pub roulette_kills: u32,
 }

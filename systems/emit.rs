@@ -35,6 +35,7 @@ pub fn emit_camera_paths<const LENS: bool, const MOTION: bool>(
             s.eta_scale = 1.0;
             s.prev_pdf = 0.0;
             s.specular_bounce = false;
+            s.gathering = false;
             s.status = PathStatus::Active;
         },
     );

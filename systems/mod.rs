@@ -18,6 +18,8 @@ pub mod components;
 pub mod emit;
 pub mod gather;
 pub mod integrators;
+pub mod photon_estimate;
+pub mod photons;
 pub mod render;
 pub mod resources;
 pub mod scatter;

@@ -11,7 +11,7 @@ use crate::error::{Error, Result};
 use crate::film::{Film, Image};
 use crate::geometry::Geometry;
 use crate::lights::Lights;
-use crate::scene::{RunFile, Scene};
+use crate::scene::{IntegratorKind, RunFile, Scene};
 use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::SingleThreadedExecutor;
 use std::time::Instant;
@@ -92,7 +92,13 @@ pub fn prepare(scene: Scene, run: &RunFile) -> Result<Renderer> {
 
     let pixels = width * height;
     let wavefront = pixels.min(MAX_WAVEFRONT);
-    let mut workload = Workload::new(pixels, 0, settings.spp, wavefront);
+    // Each final-gather ray comes with its own camera sample.
+    let spp = if settings.integrator == IntegratorKind::Pm {
+        settings.spp.saturating_mul(run.photons.final_gather.max(1))
+    } else {
+        settings.spp
+    };
+    let mut workload = Workload::new(pixels, 0, spp, wavefront);
     let mut world = World::new();
     world.insert_resource(RenderConfig {
         integrator: settings.integrator,
@@ -109,7 +115,12 @@ pub fn prepare(scene: Scene, run: &RunFile) -> Result<Renderer> {
 
     let mut schedule = Schedule::default();
     schedule.set_executor(SingleThreadedExecutor::new());
-    integrators::path::build(&mut schedule, features, settings.integrator);
+    if settings.integrator == IntegratorKind::Pm {
+        integrators::photon_map::prepare_maps(&mut world, &run.photons, features.motion);
+        integrators::photon_map::build(&mut schedule, features);
+    } else {
+        integrators::path::build(&mut schedule, features, settings.integrator);
+    }
     Ok(Renderer { world, schedule, features })
 }
 

@@ -155,3 +155,73 @@ impl SceneFeatures {
 pub fn wavefront_batching() -> bevy_ecs::batching::BatchingStrategy {
     bevy_ecs::batching::BatchingStrategy::new().batches_per_thread(16)
 }
+
+/// Which photons a pass keeps (Jensen 2001, §7.2, in path notation from the light).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PhotonMapKind {
+    /// Every photon at a non-specular surface, L(S|D)*D: looked up by final-gather rays.
+    Global,
+    /// Photons after at least one diffuse bounce, L(S|D)*D(S|D)*D minus caustics: looked up directly
+    /// at the first diffuse camera hit, where direct light and caustics come from elsewhere.
+    Indirect,
+    /// L S+ D: caustics, looked up directly at every diffuse camera hit.
+    Caustic,
+}
+
+/// The photons of the pass that is running and how they are handed out.
+#[derive(Resource, Clone, Copy, Debug)]
+pub struct PhotonWork {
+    /// Which photons are stored.
+    pub kind: PhotonMapKind,
+    /// Photons to emit.
+    pub total: u32,
+    /// Next photon to hand out.
+    pub next: u32,
+    /// Sampler seed.
+    pub seed: u64,
+    /// Whether anything moves (photons then draw a shutter time).
+    pub motion: bool,
+    /// Maximum bounces.
+    pub max_depth: u32,
+    /// Bounce from which Russian roulette is capped below one.
+    pub rr_depth: u32,
+}
+
+/// Photons deposited by the running pass, in a thread-independent order.
+#[derive(Resource, Clone, Debug, Default)]
+pub struct PhotonBuffer {
+    /// The deposits.
+    pub photons: Vec<crate::photon::Photon>,
+}
+
+/// Counters of the photon pass.
+#[derive(Resource, Clone, Copy, Debug, Default)]
+pub struct PhotonStats {
+    /// Photon rays traced.
+    pub traced: u64,
+    /// Photons ended by Russian roulette.
+    pub roulette_kills: u64,
+    /// Photons still in flight after the last step.
+    pub active: u32,
+    /// Steps run.
+    pub steps: u64,
+}
+
+/// The photon maps a `pm` render looks up, and how it looks them up.
+#[derive(Resource, Debug)]
+pub struct PhotonMaps {
+    /// Every photon at a non-specular hit (for final gathering), when final gathering is on.
+    pub global: Option<crate::photon::PhotonMap>,
+    /// Photons after a diffuse bounce (looked up directly), when final gathering is off.
+    pub indirect: Option<crate::photon::PhotonMap>,
+    /// L S+ D photons; absent when the scene has no specular surface.
+    pub caustic: Option<crate::photon::PhotonMap>,
+    /// Photons per estimate.
+    pub k: usize,
+    /// Largest squared gather radius.
+    pub max_radius2: f32,
+    /// Density-estimation kernel over the gather disc.
+    pub kernel: crate::density::kernels::Kernel,
+    /// Whether the first diffuse hit shoots a final-gather ray.
+    pub final_gather: bool,
+}

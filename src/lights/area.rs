@@ -1,7 +1,7 @@
 //! One emitter: a one-sided emissive triangle (uniform area sampling) or an emissive sphere (uniform
 //! sampling of the cone it subtends, pbrt-v4 `Sphere::Sample`).
 
-use crate::sampling::warp::{Frame, uniform_triangle};
+use crate::sampling::warp::{Frame, cosine_hemisphere, uniform_sphere, uniform_triangle};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
@@ -68,6 +68,19 @@ pub struct LightSample {
     pub pdf: f32,
 }
 
+/// A photon's start on a light: where it leaves, which way, and how much it carries.
+#[derive(Clone, Copy, Debug)]
+pub struct EmissionSample {
+    /// Point on the light.
+    pub p: Vec3,
+    /// Front normal there.
+    pub n: Vec3,
+    /// Unit direction of travel.
+    pub d: Vec3,
+    /// Le·cosθ / (pdf_area · pdf_direction), per channel: π · area · Le for cosine-weighted directions.
+    pub weight: Vec3,
+}
+
 fn luminance(c: Vec3) -> f32 {
     c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
 }
@@ -130,6 +143,29 @@ impl Light {
                 })
             }
         }
+    }
+
+    /// A uniformly chosen point and a cosine-weighted direction about the front normal: a Lambertian
+    /// emitter's exitant distribution, so every photon from this light carries the same power.
+    #[inline]
+    pub fn sample_emission(&self, time: f32, u_pos: Vec2, u_dir: Vec2) -> Option<EmissionSample> {
+        let shift = self.motion * time;
+        let (p, n) = match self.shape {
+            LightShape::Triangle { p, n, .. } => {
+                let b = uniform_triangle(u_pos);
+                ((1.0 - b.x - b.y) * p[0] + b.x * p[1] + b.y * p[2] + shift, n)
+            }
+            LightShape::Sphere { center, radius } => {
+                let n = uniform_sphere(u_pos);
+                (center + shift + radius * n, n)
+            }
+        };
+        let local = cosine_hemisphere(u_dir);
+        if local.z <= 0.0 {
+            return None;
+        }
+        let d = Frame::from_z(n).to_world(local);
+        Some(EmissionSample { p, n, d, weight: self.le * (PI * self.shape.area()) })
     }
 
     /// Density of [`Light::sample`] returning `p` (normal `n`) from `p_ref`, per unit solid angle.

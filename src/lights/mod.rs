@@ -3,7 +3,7 @@
 pub mod area;
 pub mod select;
 
-pub use area::{Light, LightSample, LightShape};
+pub use area::{EmissionSample, Light, LightSample, LightShape};
 pub use select::LightSelector;
 
 use crate::geometry::Geometry;
@@ -17,6 +17,8 @@ pub struct Lights {
     /// The lights; index = light id stored on the emitting primitive.
     pub lights: Vec<Light>,
     selector: LightSelector,
+    /// Selection in proportion to power, for photon emission (whatever `selector` does for NEE).
+    by_power: LightSelector,
 }
 
 impl Lights {
@@ -39,11 +41,13 @@ impl Lights {
         for (i, &prim) in ids.iter().enumerate() {
             geometry.set_light(prim, i as u32);
         }
-        let weights: Vec<f32> = match selection {
-            LightSelection::Uniform => vec![1.0; lights.len()],
-            LightSelection::Power => lights.iter().map(Light::power).collect(),
+        let power: Vec<f32> = lights.iter().map(Light::power).collect();
+        let by_power = LightSelector::new(&power);
+        let selector = match selection {
+            LightSelection::Uniform => LightSelector::new(&vec![1.0; lights.len()]),
+            LightSelection::Power => by_power.clone(),
         };
-        Self { selector: LightSelector::new(&weights), lights }
+        Self { selector, by_power, lights }
     }
 
     /// Whether the scene has no emitter.
@@ -71,6 +75,23 @@ impl Lights {
     #[inline]
     pub fn pdf(&self, index: u32, p_ref: Vec3, p: Vec3, n: Vec3, time: f32) -> f32 {
         self.selector.pmf(index) * self.lights[index as usize].pdf(p_ref, p, n, time)
+    }
+
+    /// Start a photon: pick a light in proportion to its power, a point on it and a cosine-weighted
+    /// direction. Returns the light index and the emission sample, whose `weight` is Le·cosθ / pdf
+    /// (the photon's power before division by the number of photons).
+    #[inline]
+    pub fn sample_emission(
+        &self,
+        time: f32,
+        u_select: f32,
+        u_pos: Vec2,
+        u_dir: Vec2,
+    ) -> Option<(u32, EmissionSample)> {
+        let (index, pmf) = self.by_power.sample(u_select)?;
+        let mut s = self.lights[index as usize].sample_emission(time, u_pos, u_dir)?;
+        s.weight /= pmf;
+        Some((index, s))
     }
 
     /// Probability of picking light `index`.

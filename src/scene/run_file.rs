@@ -16,6 +16,9 @@ pub enum IntegratorKind {
     Pt,
     /// Path tracing with BSDF sampling only; light is found only by hitting it.
     PtNaive,
+    /// Photon mapping (Jensen): NEE for direct light, a caustic map, and a global map read directly or
+    /// by final gathering.
+    Pm,
 }
 
 /// How next-event estimation picks a light.
@@ -189,6 +192,38 @@ pub struct MotionSpec {
     pub translate: [f32; 3],
 }
 
+/// The `[photons]` table: photon-mapping settings (`pm`).
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PhotonSettings {
+    /// Photons emitted for the global (or indirect) map.
+    pub photons: u32,
+    /// Photons emitted for the caustic map (no caustic pass without specular surfaces).
+    pub caustic_photons: u32,
+    /// Photons per radiance estimate.
+    pub k: u32,
+    /// Largest gather radius in scene units (default: 5% of the scene's bounding-box diagonal).
+    pub max_radius: Option<f32>,
+    /// Density kernel over the gather disc.
+    pub kernel: crate::density::kernels::Kernel,
+    /// Final-gather rays per pixel sample (each with its own camera ray); 0 reads the map directly.
+    pub final_gather: u32,
+}
+
+impl Default for PhotonSettings {
+    /// 200 000 photons per map, k = 100, Epanechnikov kernel, no final gathering.
+    fn default() -> Self {
+        Self {
+            photons: 200_000,
+            caustic_photons: 200_000,
+            k: 100,
+            max_radius: None,
+            kernel: crate::density::kernels::Kernel::Epanechnikov,
+            final_gather: 0,
+        }
+    }
+}
+
 /// A whole run file.
 #[derive(Clone, Debug, Default, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -201,6 +236,8 @@ pub struct RunFile {
     pub film: FilmSettings,
     /// Render settings.
     pub render: RenderSettings,
+    /// Photon-mapping settings.
+    pub photons: PhotonSettings,
     /// Output files.
     pub output: OutputSettings,
     /// Analytic spheres.
