@@ -79,6 +79,25 @@ fn render(args: &RenderArgs) -> Result<()> {
         100.0 * s.rays as f64 / (s.steps as f64 * wavefront as f64)
     );
     println!("NaN/Inf     {} samples dropped", s.nan_samples);
+    if let Some(report) =
+        renderer.world.get_resource::<caustica::systems::integrators::photon_map::PhotonReport>()
+    {
+        for pass in &report.passes {
+            println!(
+                "photons     {:?}: {} emitted, {} stored ({:.1} MB), {} traced, {} ended by roulette; \
+                 trace {:.3} s ({:.2} M photon rays/s), kd-tree {:.3} s",
+                pass.kind,
+                pass.emitted,
+                pass.stored,
+                pass.bytes as f64 / 1e6,
+                pass.traced,
+                pass.roulette_kills,
+                pass.trace_seconds,
+                pass.traced as f64 / pass.trace_seconds / 1e6,
+                pass.build_seconds
+            );
+        }
+    }
     if let Some(reference) = reference {
         let e = compare(&image, &reference).context("the reference's size differs from the image")?;
         println!("error       RMSE {:.5}  relMSE {:.5}  MAE {:.5}", e.rmse, e.relmse, e.mae);
