@@ -10,8 +10,8 @@
 //! | `Shadow` | `trace.rs` | `trace_shadow_rays` | `ShadowRay` | `PathState::l` |
 //! | `Gather` | `gather.rs` | `splat_paths_to_film` | finished `PathState`s | `Film`, `RenderStats` |
 //!
-//! Paths are entities of a wavefront spawned once; a path that ends is regenerated with its pixel's
-//! next sample (Laine, Karras & Aila 2013), and its state lives in component fields, so no entity
+//! Paths are entities of a wavefront spawned once; a path that ends takes the next work item (pixel, sample)
+//! (Laine, Karras & Aila 2013), and its state lives in component fields, so no entity
 //! changes archetype while rendering.
 
 pub mod components;
