@@ -25,6 +25,46 @@ pub enum Command {
         /// The reference.
         reference: PathBuf,
     },
+    /// Estimate a 1-D density from numbers in a text file and plot it over the data.
+    Density(DensityArgs),
+}
+
+/// Density estimators of `caustica density`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum DensityMethod {
+    /// Bins of width h from an origin.
+    Histogram,
+    /// Fixed-bandwidth kernel estimate.
+    Kernel,
+    /// k-nearest-neighbour estimate.
+    Knn,
+    /// Variable kernel: bandwidth h · (distance of each point to its k-th neighbour).
+    Variable,
+}
+
+/// Arguments of `caustica density`.
+#[derive(Args, Debug, Clone)]
+pub struct DensityArgs {
+    /// Whitespace-separated numbers.
+    pub data: PathBuf,
+    /// Estimator.
+    #[arg(long, value_enum, default_value = "kernel")]
+    pub method: DensityMethod,
+    /// Kernel (kernel and variable methods).
+    #[arg(long, value_enum, default_value = "epanechnikov")]
+    pub kernel: crate::density::Kernel,
+    /// Bandwidth or bin width: a number, `silverman` (the default) or `cv` (least-squares cross-validation).
+    #[arg(long)]
+    pub h: Option<String>,
+    /// Neighbours for the knn and variable methods.
+    #[arg(long, default_value_t = 10)]
+    pub k: usize,
+    /// Histogram origin (default: 0).
+    #[arg(long, default_value_t = 0.0)]
+    pub origin: f64,
+    /// Output PNG.
+    #[arg(short, long, default_value = "density.png")]
+    pub output: PathBuf,
 }
 
 /// Arguments of `caustica render`.

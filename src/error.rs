@@ -35,6 +35,14 @@ pub enum Error {
         /// What is wrong, with the key.
         message: String,
     },
+    /// A data file for `caustica density` cannot be read as numbers.
+    #[error("{path}: {message}")]
+    Data {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong, with the line and token.
+        message: String,
+    },
     /// Some value in a scene breaks a constraint (NaN transform, bad primitive mode, ...).
     #[error("{path}: {object}: {problem}")]
     InvalidScene {

@@ -22,6 +22,17 @@ fn main() -> Result<()> {
         None => render(&RenderArgs::default()),
         Some(Command::Render(args)) => render(&args),
         Some(Command::Compare { image, reference }) => compare_files(&image, &reference),
+        Some(Command::Density(args)) => {
+            let summary = caustica::density::plot::run(&args)?;
+            println!(
+                "{} points, h = {:.4} ({}); wrote {}",
+                summary.n,
+                summary.h,
+                summary.h_rule,
+                args.output.display()
+            );
+            Ok(())
+        }
     }
 }
 
