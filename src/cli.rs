@@ -24,6 +24,9 @@ pub enum Command {
         image: PathBuf,
         /// The reference.
         reference: PathBuf,
+        /// Compare only the window X0,Y0,X1,Y1 (pixels, end exclusive), e.g. around a caustic.
+        #[arg(long, value_delimiter = ',')]
+        window: Option<Vec<u32>>,
     },
     /// Estimate a 1-D density from numbers in a text file and plot it over the data.
     Density(DensityArgs),

@@ -21,7 +21,9 @@ fn main() -> Result<()> {
     match Cli::parse().command {
         None => render(&RenderArgs::default()),
         Some(Command::Render(args)) => render(&args),
-        Some(Command::Compare { image, reference }) => compare_files(&image, &reference),
+        Some(Command::Compare { image, reference, window }) => {
+            compare_files(&image, &reference, window.as_deref())
+        }
         Some(Command::Density(args)) => {
             let summary = caustica::density::plot::run(&args)?;
             println!(
@@ -90,6 +92,13 @@ fn render(args: &RenderArgs) -> Result<()> {
         100.0 * s.rays as f64 / (s.steps as f64 * wavefront as f64)
     );
     println!("NaN/Inf     {} samples dropped", s.nan_samples);
+    if s.lookups > 0 {
+        println!(
+            "lookups     {} k-nearest queries, {:.3} M/s",
+            s.lookups,
+            s.lookups as f64 / summary.seconds / 1e6
+        );
+    }
     if let Some(report) =
         renderer.world.get_resource::<caustica::systems::integrators::photon_map::PhotonReport>()
     {
@@ -132,9 +141,14 @@ fn output_paths(args: &RenderArgs, run: &scene::RunFile, scene_path: &Path) -> V
     vec![PathBuf::from(format!("out/{stem}.exr")), PathBuf::from(format!("out/{stem}.png"))]
 }
 
-fn compare_files(image: &Path, reference: &Path) -> Result<()> {
-    let a = output::read_exr(image)?;
-    let b = output::read_exr(reference)?;
+fn compare_files(image: &Path, reference: &Path, window: Option<&[u32]>) -> Result<()> {
+    let mut a = output::read_exr(image)?;
+    let mut b = output::read_exr(reference)?;
+    match window {
+        Some(&[x0, y0, x1, y1]) => (a, b) = (a.crop(x0, y0, x1, y1), b.crop(x0, y0, x1, y1)),
+        Some(w) => anyhow::bail!("--window takes X0,Y0,X1,Y1 (four numbers), got {} numbers", w.len()),
+        None => {}
+    }
     let e = compare(&a, &b).with_context(|| {
         format!(
             "{} is {}x{} but {} is {}x{}",

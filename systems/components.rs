@@ -75,6 +75,8 @@ pub struct PathState {
     pub rays: u32,
     /// Shadow rays traced since the last splat.
     pub shadow_rays: u32,
+    /// Photon-map lookups since the last splat.
+    pub lookups: u32,
 }
 
 impl PathState {
@@ -94,6 +96,7 @@ impl PathState {
             status: PathStatus::NeedsCamera,
             rays: 0,
             shadow_rays: 0,
+            lookups: 0,
         }
     }
 }

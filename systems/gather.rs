@@ -40,6 +40,8 @@ pub fn splat_paths_to_film(
         stats.samples += 1;
         stats.rays += state.rays as u64;
         stats.shadow_rays += state.shadow_rays as u64;
+        stats.lookups += state.lookups as u64;
+        state.lookups = 0;
         state.rays = 0;
         state.shadow_rays = 0;
         match workload.take() {

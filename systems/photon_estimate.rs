@@ -110,7 +110,8 @@ fn shade(
     let bsdf = Bsdf::new(&scene.shading_params(&si));
     let frame = Frame::from_z(si.ns);
     let wo = frame.to_local(wo_world);
-    let estimate = |map: &PhotonMap, neighbors: &mut Neighbors| {
+    let estimate = |map: &PhotonMap, neighbors: &mut Neighbors, lookups: &mut u32| {
+        *lookups += 1;
         radiance_estimate(map, &si, &frame, &bsdf, wo, maps.k, maps.max_radius2, maps.kernel, neighbors)
     };
 
@@ -118,7 +119,7 @@ fn shade(
         if state.gathering {
             // The end of a final-gather ray: everything the global map knows.
             if let Some(global) = &maps.global {
-                state.l += state.beta * estimate(global, neighbors);
+                state.l += state.beta * estimate(global, neighbors, &mut state.lookups);
             }
             state.status = PathStatus::Finished;
             return;
@@ -127,11 +128,11 @@ fn shade(
         let base = Sampler::bounce_dimension(state.depth);
         direct_light(scene, &sampler, base, &si, &frame, &bsdf, wo, ray.time, state, shadow);
         if let Some(caustic) = &maps.caustic {
-            state.l += state.beta * estimate(caustic, neighbors);
+            state.l += state.beta * estimate(caustic, neighbors, &mut state.lookups);
         }
         match (&maps.indirect, maps.final_gather) {
             (Some(indirect), false) => {
-                state.l += state.beta * estimate(indirect, neighbors);
+                state.l += state.beta * estimate(indirect, neighbors, &mut state.lookups);
                 state.status = PathStatus::Finished;
                 return;
             }

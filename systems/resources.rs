@@ -119,6 +119,8 @@ pub struct RenderStats {
     pub rays: u64,
     /// Shadow rays traced.
     pub shadow_rays: u64,
+    /// Photon-map k-nearest lookups (photon mapping).
+    pub lookups: u64,
     /// Samples whose radiance was NaN or infinite, dropped (counted as black).
     pub nan_samples: u64,
     /// Paths still working (not idle) after the last step.

@@ -60,6 +60,19 @@ pub struct Image {
 }
 
 impl Image {
+    /// The pixels of the rectangle [x0, x1) × [y0, y1), clamped to the image.
+    pub fn crop(&self, x0: u32, y0: u32, x1: u32, y1: u32) -> Image {
+        let (x1, y1) = (x1.min(self.width), y1.min(self.height));
+        let (x0, y0) = (x0.min(x1), y0.min(y1));
+        let pixels = (y0..y1)
+            .flat_map(|y| (x0..x1).map(move |x| (y * self.width + x) as usize))
+            .map(|i| self.pixels[i])
+            .collect();
+        Image { width: x1 - x0, height: y1 - y0, pixels }
+    }
+}
+
+impl Image {
     /// Mean of all pixels.
     pub fn mean(&self) -> Vec3 {
         self.pixels.iter().copied().sum::<Vec3>() / self.pixels.len().max(1) as f32
