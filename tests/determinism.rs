@@ -5,9 +5,10 @@ mod common;
 use caustica::film::output::read_exr;
 use std::process::Command;
 
-fn render_with_threads(threads: u32, out: &std::path::Path, scene: &str) {
+fn render_with_threads(threads: u32, out: &std::path::Path, scene: &str, integrator: &str) {
     let status = Command::new(env!("CARGO_BIN_EXE_caustica"))
         .args(["render", scene, "--spp", "4", "--width", "48", "--height", "48", "--quiet", "--seed", "7"])
+        .args(["--integrator", integrator, "--photons", "20000", "--caustic-photons", "20000"])
         .args(["--threads", &threads.to_string(), "-o"])
         .arg(out)
         .status()
@@ -18,12 +19,15 @@ fn render_with_threads(threads: u32, out: &std::path::Path, scene: &str) {
 #[test]
 fn one_and_two_threads_give_bit_identical_images() {
     let dir = std::env::temp_dir().join(format!("caustica-determinism-{}", std::process::id()));
-    for scene in ["cornell-spheres.gltf", "cornell-box.gltf"] {
+    // pm: photon passes, kd-tree builds and lookups must be thread-independent too.
+    for (scene, integrator) in
+        [("cornell-spheres.gltf", "pt"), ("cornell-box.gltf", "pt"), ("cornell-spheres.gltf", "pm")]
+    {
         let path = common::data(scene);
         let scene = path.to_str().unwrap();
         let (a, b) = (dir.join("t1.exr"), dir.join("t2.exr"));
-        render_with_threads(1, &a, scene);
-        render_with_threads(2, &b, scene);
+        render_with_threads(1, &a, scene, integrator);
+        render_with_threads(2, &b, scene, integrator);
         let (a, b) = (read_exr(&a).unwrap(), read_exr(&b).unwrap());
         assert!(a.mean().max_element() > 0.0, "{scene}: black image");
         let same = a
@@ -31,7 +35,7 @@ fn one_and_two_threads_give_bit_identical_images() {
             .iter()
             .zip(&b.pixels)
             .all(|(x, y)| x.to_array().map(f32::to_bits) == y.to_array().map(f32::to_bits));
-        assert!(same, "{scene}: images differ between 1 and 2 threads");
+        assert!(same, "{scene}, {integrator}: images differ between 1 and 2 threads");
     }
     std::fs::remove_dir_all(dir).ok();
 }
