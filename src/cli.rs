@@ -132,6 +132,28 @@ pub struct RenderArgs {
     /// Photon mapping: final-gather rays per pixel sample (0 = read the global map directly).
     #[arg(long)]
     pub final_gather: Option<u32>,
+    /// Progressive photon mapping: photon passes; overrides the run file.
+    #[arg(long)]
+    pub passes: Option<u32>,
+    /// Progressive photon mapping: photons emitted per pass; overrides the run file.
+    #[arg(long)]
+    pub photons_per_pass: Option<u32>,
+    /// Progressive photon mapping: fraction α of each pass's photons kept (0 < α ≤ 1); overrides the run file.
+    #[arg(long)]
+    pub alpha: Option<f32>,
+    /// Progressive photon mapping: first gather radius in scene units; overrides the run file.
+    #[arg(long)]
+    pub initial_radius: Option<f32>,
+    /// Progressive photon mapping: memory budget for hit points and photons, MiB; overrides the run file.
+    #[arg(long)]
+    pub memory_budget_mib: Option<u64>,
+    /// Stop after this many seconds of rendering (every integrator; the sample or pass count still
+    /// applies); overrides the run file.
+    #[arg(long)]
+    pub time_limit: Option<f64>,
+    /// Progressive photon mapping: also write the outputs every K passes; overrides the run file.
+    #[arg(long)]
+    pub write_every: Option<u32>,
     /// Reference EXR: print the error of the result against it.
     #[arg(long)]
     pub reference: Option<PathBuf>,
@@ -150,6 +172,14 @@ impl RenderArgs {
         r.seed = self.seed.unwrap_or(r.seed);
         r.max_depth = self.max_depth.or(r.max_depth);
         r.rr_depth = self.rr_depth.unwrap_or(r.rr_depth);
+        r.time_limit = self.time_limit.or(r.time_limit);
+        let g = &mut run.progressive;
+        g.passes = self.passes.unwrap_or(g.passes);
+        g.photons_per_pass = self.photons_per_pass.unwrap_or(g.photons_per_pass);
+        g.alpha = self.alpha.unwrap_or(g.alpha);
+        g.initial_radius = self.initial_radius.or(g.initial_radius);
+        g.memory_budget_mib = self.memory_budget_mib.or(g.memory_budget_mib);
+        run.output.write_every = self.write_every.or(run.output.write_every);
         let p = &mut run.photons;
         p.photons = self.photons.unwrap_or(p.photons);
         p.caustic_photons = self.caustic_photons.unwrap_or(p.caustic_photons);

@@ -11,6 +11,8 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 use tracing_subscriber::EnvFilter;
 
+mod progressive;
+
 const DEFAULT_SCENE: &str = "scenes/default.toml";
 
 fn main() -> Result<()> {
@@ -54,6 +56,9 @@ fn render(args: &RenderArgs) -> Result<()> {
         output::check_output_path(path)?;
     }
     let reference = args.reference.as_deref().map(output::read_exr).transpose()?;
+    if run.render.integrator.is_progressive() {
+        return progressive::render(&scene_path, scene, &run, &outputs, reference.as_ref(), args.quiet, start);
+    }
 
     let mut renderer = prepare(scene, &run).with_context(|| format!("preparing {}", scene_path.display()))?;
     let total = renderer.world.resource::<caustica::systems::resources::Workload>().total_samples();
@@ -62,7 +67,7 @@ fn render(args: &RenderArgs) -> Result<()> {
         ProgressStyle::with_template("{bar:40} {pos}/{len} samples  {per_sec}  ETA {eta}")
             .expect("valid template"),
     );
-    let summary = renderer.run(|stats| bar.set_position(stats.samples));
+    let summary = renderer.run_until(run.render.time_limit, |stats| bar.set_position(stats.samples));
     bar.finish_and_clear();
     let image = renderer.image();
     for path in &outputs {
@@ -118,11 +123,20 @@ fn render(args: &RenderArgs) -> Result<()> {
             );
         }
     }
+    report_error_and_outputs(&image, reference.as_ref(), &outputs)
+}
+
+/// The error against the reference, if one was given, and the files written.
+fn report_error_and_outputs(
+    image: &caustica::film::Image,
+    reference: Option<&caustica::film::Image>,
+    outputs: &[PathBuf],
+) -> Result<()> {
     if let Some(reference) = reference {
-        let e = compare(&image, &reference).context("the reference's size differs from the image")?;
+        let e = compare(image, reference).context("the reference's size differs from the image")?;
         println!("error       RMSE {:.5}  relMSE {:.5}  MAE {:.5}", e.rmse, e.relmse, e.mae);
     }
-    for path in &outputs {
+    for path in outputs {
         println!("wrote       {}", path.display());
     }
     Ok(())

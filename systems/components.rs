@@ -135,3 +135,90 @@ pub struct PhotonState {
     /// Russian-roulette terminations since the last store (statistics).
     pub roulette_kills: u32,
 }
+
+/// A measurement point of progressive photon mapping: where a camera path first met a non-specular
+/// surface, and the photon statistics gathered there (Hachisuka, Ogaki & Jensen 2008, §4).
+///
+/// Names follow the paper: `r2` is R², `n` is N (photons kept), `tau` is τ (reflected flux), and
+/// `m`, `phi` are M and Φ_M of the pass that is running, cleared by the update. The visible point
+/// (`p`, `wo`, `ns`, `beta`, material) is rewritten every pass by `sppm`'s camera pass and kept by
+/// `ppm`'s. `beta` = 0 marks a pass in which the camera path found no surface to gather on.
+/// 96 bytes: N and τ in f64, so 10⁵ passes of small increments neither stall nor drift.
+#[derive(Component, Clone, Copy, Debug)]
+pub struct HitPoint {
+    /// τ: accumulated flux (`ppm`, `sppm`), or Σ Φ_i / r_i² of each pass (`appm`, `cppm`).
+    pub tau: glam::DVec3,
+    /// N: photons accumulated (after the α reduction).
+    pub n: f64,
+    /// Visible point.
+    pub p: Vec3,
+    /// Camera-path throughput up to the visible point.
+    pub beta: Vec3,
+    /// Φ_M: flux gathered in this pass, already multiplied by β and the BSDF.
+    pub phi: Vec3,
+    /// R²: squared gather radius.
+    pub r2: f32,
+    /// M: photons gathered in this pass.
+    pub m: u32,
+    /// Outgoing direction (towards the camera), octahedral 2 × 16 bits.
+    pub wo: u32,
+    /// Shading normal, octahedral 2 × 16 bits.
+    pub ns: u32,
+    /// Base colour after textures and vertex colours, 16-bit unorm (the BSDF clamps it to [0, 1]).
+    pub base_color: [u16; 3],
+    /// Metallic and roughness after textures, 16-bit unorm.
+    pub metallic_roughness: [u16; 2],
+    /// Material index (the rest of the BSDF's parameters).
+    pub material: u16,
+}
+
+const _: () = assert!(size_of::<HitPoint>() <= 96);
+
+impl HitPoint {
+    /// A hit point with radius √`r2` and no statistics yet.
+    pub fn new(r2: f32) -> Self {
+        Self {
+            tau: glam::DVec3::ZERO,
+            n: 0.0,
+            p: Vec3::ZERO,
+            beta: Vec3::ZERO,
+            phi: Vec3::ZERO,
+            r2,
+            m: 0,
+            wo: 0,
+            ns: 0,
+            base_color: [0; 3],
+            metallic_roughness: [0; 2],
+            material: 0,
+        }
+    }
+
+    /// Whether this pass's camera path found a surface to gather on.
+    #[inline]
+    pub fn is_valid(&self) -> bool {
+        self.beta != Vec3::ZERO
+    }
+}
+
+/// Per-hit-point photon counts over the rings × sectors of the gather disc, for `cppm`'s χ² test
+/// (Lin et al. 2020), accumulated over passes since the radius last changed.
+#[derive(Component, Clone, Copy, Debug)]
+pub struct Chi2Cells {
+    /// Photons per cell, ring-major.
+    pub counts: [u32; crate::photon::progressive::CHI2_CELLS],
+    /// Photons the cells must hold before the test may shrink the radius.
+    pub min_photons: f32,
+}
+
+/// Per-hit-point estimates behind `appm`'s radius (Kaplanyan & Dachsbacher 2013).
+#[derive(Component, Clone, Copy, Debug, Default)]
+pub struct AdaptiveStats {
+    /// Σ over passes of the luminance Laplacian estimate ΔL_i.
+    pub laplacian_sum: f64,
+    /// Σ over passes of (L_i − L̄)² r_i²: the per-pass variance times r², which is radius-free.
+    pub variance_sum: f64,
+    /// Passes that contributed to the sums.
+    pub passes: u32,
+    /// This pass's Laplacian estimate (luminance), cleared by the update.
+    pub laplacian: f32,
+}

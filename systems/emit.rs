@@ -26,7 +26,7 @@ pub fn emit_camera_paths<const LENS: bool, const MOTION: bool>(
             let x = state.pixel % camera.width;
             let y = state.pixel / camera.width;
             let u_lens = if LENS { sampler.get2d(2) } else { Vec2::splat(0.5) };
-            let time = if MOTION { sampler.get1d(4) } else { 0.0 };
+            let time = if MOTION { config.pass_time.unwrap_or_else(|| sampler.get1d(4)) } else { 0.0 };
             ray.0 = camera.generate_ray(x, y, sampler.get2d(0), u_lens, time);
             let s = &mut *state;
             s.depth = 0;

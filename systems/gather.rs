@@ -1,13 +1,23 @@
-//! Gather: splat finished paths onto the film and hand their entity the next work item.
+//! Gather: splat finished paths onto the film and hand their entity the next work item; for
+//! progressive photon mapping, gather each pass's photons into the hit points.
 //!
-//! Reads: finished `PathState`s. Writes: `Film`, `RenderStats`, `Workload`, `PathState` (next pixel
-//! and sample). Runs on one thread on purpose: visiting finished paths in entity order to splat them
-//! and hand out work makes the image bit-identical whatever the thread count. The loop does
-//! no more than an add per finished path, a small share of a bounce.
+//! `splat_paths_to_film` reads finished `PathState`s; writes `Film`, `RenderStats`, `Workload`,
+//! `PathState` (next pixel and sample). `build_pass_photon_map` turns `PhotonBuffer` into
+//! `PassPhotons`; `gather_photons_into_*` read `PassPhotons` and write `HitPoint::m`/`phi` (and the
+//! χ² cells or Laplacian of `cppm`/`appm`).
+//!
+//! `splat_paths_to_film` runs on one thread on purpose: visiting finished paths in entity order to
+//! splat them and hand out work makes the image bit-identical whatever the thread count. The loop
+//! does no more than an add per finished path, a small share of a bounce.
 
-use super::components::{PathState, PathStatus};
-use super::resources::{RenderStats, Workload};
+use super::components::{AdaptiveStats, Chi2Cells, HitPoint, PathState, PathStatus};
+use super::photon_estimate::NORMAL_COSINE;
+use super::resources::{PhotonBuffer, RenderStats, SceneGeometry, Workload};
+use super::visible_points::hit_point_bsdf;
 use crate::film::Film;
+use crate::lights::area::luminance;
+use crate::materials::TransportMode;
+use crate::photon::progressive::{biweight_laplacian, chi2_cell};
 use bevy_ecs::prelude::*;
 use glam::Vec3;
 
@@ -56,4 +66,109 @@ pub fn splat_paths_to_film(
     }
     stats.active_paths = active;
     stats.steps += 1;
+}
+
+/// The photons of the running progressive pass, as a kd-tree for the hit points' radius queries.
+#[derive(Resource, Debug, Default)]
+pub struct PassPhotons(pub crate::photon::PhotonMap);
+
+/// Arrange the pass's photon deposits into a kd-tree (parallel, deterministic) for gathering.
+pub fn build_pass_photon_map(mut buffer: ResMut<PhotonBuffer>, mut pass: ResMut<PassPhotons>) {
+    pass.0 = crate::photon::PhotonMap::build(std::mem::take(&mut buffer.photons));
+}
+
+/// Visit every photon of `map` that counts for hit point `hp`: within its radius, on the side it is
+/// seen from (a photon's normal faces where it came from, so one that arrived from behind the surface
+/// is left out, unless the material transmits), and on a surface of about the same orientation.
+/// `visit(tangent-plane offset, squared distance, β · f · ΔΦ)`.
+#[inline]
+fn for_each_gathered_photon(
+    scene: &SceneGeometry,
+    map: &crate::photon::PhotonMap,
+    hp: &HitPoint,
+    mut visit: impl FnMut(glam::Vec2, f32, Vec3),
+) {
+    let (bsdf, frame, wo) = hit_point_bsdf(scene, hp);
+    let transmits = scene.materials[hp.material as usize].transmission > 0.0;
+    let side = if wo.z >= 0.0 { frame.z } else { -frame.z };
+    map.within(hp.p, hp.r2, |photon, d2| {
+        let cos = photon.normal().dot(side);
+        if cos < NORMAL_COSINE && !(transmits && -cos >= NORMAL_COSINE) {
+            return;
+        }
+        let local = frame.to_local(photon.position() - hp.p);
+        let f = bsdf.eval(wo, frame.to_local(photon.direction()), TransportMode::Radiance);
+        visit(local.truncate(), d2, hp.beta * f * photon.power());
+    });
+}
+
+/// Gather: add every photon of the pass within a hit point's radius to its M and Φ_M
+/// (Hachisuka, Ogaki & Jensen 2008, §4.1). One hit point per task, photons in kd-tree order, so the
+/// sums do not depend on the thread count.
+pub fn gather_photons_into_hit_points(
+    scene: Res<SceneGeometry>,
+    pass: Res<PassPhotons>,
+    mut hit_points: Query<&mut HitPoint>,
+) {
+    hit_points.par_iter_mut().batching_strategy(super::resources::wavefront_batching()).for_each(|mut hp| {
+        if !hp.is_valid() || pass.0.is_empty() {
+            return;
+        }
+        let (mut m, mut phi) = (0u32, Vec3::ZERO);
+        for_each_gathered_photon(&scene, &pass.0, &hp, |_, _, contribution| {
+            m += 1;
+            phi += contribution;
+        });
+        hp.m += m;
+        hp.phi += phi;
+    });
+}
+
+/// Gather for `cppm`: as [`gather_photons_into_hit_points`], and count the photons per ring × sector
+/// of the disc for the χ² test (Lin et al. 2020).
+pub fn gather_photons_into_chi2_cells(
+    scene: Res<SceneGeometry>,
+    pass: Res<PassPhotons>,
+    mut hit_points: Query<(&mut HitPoint, &mut Chi2Cells)>,
+) {
+    hit_points.par_iter_mut().batching_strategy(super::resources::wavefront_batching()).for_each(
+        |(mut hp, mut cells)| {
+            if !hp.is_valid() || pass.0.is_empty() {
+                return;
+            }
+            let (mut m, mut phi, r2) = (0u32, Vec3::ZERO, hp.r2);
+            for_each_gathered_photon(&scene, &pass.0, &hp, |offset, d2, contribution| {
+                m += 1;
+                phi += contribution;
+                cells.counts[chi2_cell(offset, d2, r2)] += 1;
+            });
+            hp.m += m;
+            hp.phi += phi;
+        },
+    );
+}
+
+/// Gather for `appm`: as [`gather_photons_into_hit_points`], and estimate the Laplacian of the
+/// reflected radiance's luminance with the biweight kernel's Laplacian (Kaplanyan & Dachsbacher 2013).
+pub fn gather_photons_with_laplacian(
+    scene: Res<SceneGeometry>,
+    pass: Res<PassPhotons>,
+    mut hit_points: Query<(&mut HitPoint, &mut AdaptiveStats)>,
+) {
+    hit_points.par_iter_mut().batching_strategy(super::resources::wavefront_batching()).for_each(
+        |(mut hp, mut stats)| {
+            if !hp.is_valid() || pass.0.is_empty() {
+                return;
+            }
+            let (mut m, mut phi, mut laplacian, r2) = (0u32, Vec3::ZERO, 0.0f32, hp.r2);
+            for_each_gathered_photon(&scene, &pass.0, &hp, |_, d2, contribution| {
+                m += 1;
+                phi += contribution;
+                laplacian += luminance(contribution) * biweight_laplacian(d2, r2);
+            });
+            hp.m += m;
+            hp.phi += phi;
+            stats.laplacian += laplacian;
+        },
+    );
 }

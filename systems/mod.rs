@@ -9,6 +9,12 @@
 //! | `Scatter` | `scatter.rs` | `scatter_paths` | `PathHit`, `SceneGeometry` | `PathRay`, `PathState`, `ShadowRay` |
 //! | `Shadow` | `trace.rs` | `trace_shadow_rays` | `ShadowRay` | `PathState::l` |
 //! | `Gather` | `gather.rs` | `splat_paths_to_film` | finished `PathState`s | `Film`, `RenderStats` |
+//! | `Gather` | `gather.rs` | `build_pass_photon_map`, `gather_photons_into_hit_points` | `PhotonBuffer`, `HitPoint` | `PassPhotons`, `HitPoint::m`, `phi` |
+//! | `Update` | `radius.rs` | `update_hit_point_radii` (and the `appm`/`cppm` rules) | `HitPoint` | `HitPoint::n`, `r2`, `tau` |
+//!
+//! Photon passes (`photons.rs`) and the camera pass of progressive photon mapping
+//! (`visible_points.rs`) use the same stages over their own entities; `progressive.rs` drives the
+//! passes of `ppm`, `sppm`, `appm` and `cppm`.
 //!
 //! Paths are entities of a wavefront spawned once; a path that ends takes the next work item (pixel, sample)
 //! (Laine, Karras & Aila 2013), and its state lives in component fields, so no entity
@@ -20,10 +26,13 @@ pub mod gather;
 pub mod integrators;
 pub mod photon_estimate;
 pub mod photons;
+pub mod progressive;
+pub mod radius;
 pub mod render;
 pub mod resources;
 pub mod scatter;
 pub mod trace;
+pub mod visible_points;
 
 use bevy_ecs::schedule::SystemSet;
 
@@ -38,6 +47,9 @@ pub enum PassSystems {
     Scatter,
     /// Any-hit queries for the shadow rays of this bounce.
     Shadow,
-    /// Splat finished paths onto the film.
+    /// Splat finished paths onto the film; store photons; gather photons into hit points.
     Gather,
+    /// Fold a pass's photons into the hit points' statistics: radius and flux (progressive photon
+    /// mapping).
+    Update,
 }

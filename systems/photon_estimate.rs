@@ -21,7 +21,7 @@ use glam::Vec3;
 
 /// Photons whose surface normal is further than this cosine from the query's are from another surface
 /// (the other side of a thin wall, a nearby face at a corner) and are left out of the estimate.
-const NORMAL_COSINE: f32 = 0.9;
+pub(super) const NORMAL_COSINE: f32 = 0.9;
 
 /// Sampler dimensions within one bounce (same layout as `scatter`).
 mod dim {
@@ -144,9 +144,24 @@ fn shade(
         }
     }
 
-    if state.depth >= config.max_depth {
+    if !continue_path(config, &bsdf, &frame, &si, wo, ray, state) {
         state.status = PathStatus::Finished;
-        return;
+    }
+}
+
+/// Continue a camera path by sampling its BSDF, with Russian roulette from `rr_depth`. Returns false
+/// when the path ends (maximum depth, no sample, roulette, or a throughput that is no longer finite).
+pub(super) fn continue_path(
+    config: &RenderConfig,
+    bsdf: &Bsdf,
+    frame: &Frame,
+    si: &SurfaceHit,
+    wo: Vec3,
+    ray: &mut Ray,
+    state: &mut PathState,
+) -> bool {
+    if state.depth >= config.max_depth {
+        return false;
     }
     let sampler = Sampler::new(config.seed, state.pixel, state.sample);
     let base = Sampler::bounce_dimension(state.depth);
@@ -156,8 +171,7 @@ fn shade(
         sampler.get2d(base + dim::BSDF_DIRECTION),
         TransportMode::Radiance,
     ) else {
-        state.status = PathStatus::Finished;
-        return;
+        return false;
     };
     state.beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
     state.specular_bounce = bs.is_specular;
@@ -165,14 +179,12 @@ fn shade(
     if state.depth >= config.rr_depth {
         let survive = state.beta.max_element().min(0.95);
         if sampler.get1d(base + dim::ROULETTE) >= survive {
-            state.status = PathStatus::Finished;
-            return;
+            return false;
         }
         state.beta /= survive;
     }
     if !state.beta.is_finite() || state.beta.max_element() <= 0.0 {
-        state.status = PathStatus::Finished;
-        return;
+        return false;
     }
     let wi_world = frame.to_world(bs.wi);
     *ray = Ray {
@@ -181,12 +193,13 @@ fn shade(
         t_max: f32::INFINITY,
         time: ray.time,
     };
+    true
 }
 
 /// One light sample, unweighted: at the first diffuse vertex light sampling is the only way direct
 /// light is counted (emission reached by BSDF sampling is not added there).
 #[allow(clippy::too_many_arguments)]
-fn direct_light(
+pub(super) fn direct_light(
     scene: &SceneGeometry,
     sampler: &Sampler,
     base: u32,

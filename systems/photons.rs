@@ -40,8 +40,9 @@ mod dim {
 const MAX_SURVIVAL: f32 = 0.95;
 
 fn photon_sampler(work: &PhotonWork, index: u32) -> Sampler {
-    // The pass id keeps the caustic and global passes' photons independent of each other.
-    Sampler::new(work.seed, index, (work.kind as u32 + 1) << 16)
+    // The map kind keeps the caustic and global passes' photons independent of each other, and the
+    // pass number those of successive progressive passes.
+    Sampler::new(work.seed ^ ((work.pass as u64) << 32), index, (work.kind as u32 + 1) << 16)
 }
 
 /// Start photons on lights wherever an entity needs one.
@@ -56,7 +57,11 @@ pub fn emit_photons(
                 return;
             }
             let s = photon_sampler(&work, state.index);
-            let time = if work.motion { s.get1d(dim::TIME) } else { 0.0 };
+            let time = match (work.time, work.motion) {
+                (Some(time), _) => time,
+                (None, true) => s.get1d(dim::TIME),
+                (None, false) => 0.0,
+            };
             let emitted = scene.lights.sample_emission(
                 time,
                 s.get1d(dim::LIGHT),
@@ -137,6 +142,7 @@ fn scatter_one(
             PhotonMapKind::Caustic => state.depth > 0 && state.specular_only,
             PhotonMapKind::Indirect => state.depth > 0 && !state.specular_only,
             PhotonMapKind::Global => true,
+            PhotonMapKind::Bounced => state.depth > 0,
         };
         if store {
             // The normal of the side the photon arrived on, so the estimate can tell the two sides apart.

@@ -65,12 +65,10 @@ pub fn resolution(scene: &Scene, run: &RunFile) -> Result<(u32, u32)> {
     Ok((w, h))
 }
 
-/// Build the World (resources + one wavefront of path entities) and the Schedule for a scene.
-pub fn prepare(scene: Scene, run: &RunFile) -> Result<Renderer> {
+/// A World holding the scene's resources (`SceneGeometry`, `Camera`, `Film`, `RenderConfig`) and no
+/// entities yet, and what the scene uses. Shared by every integrator's `prepare`.
+pub fn scene_world(scene: Scene, run: &RunFile) -> Result<(World, SceneFeatures)> {
     let settings = &run.render;
-    if settings.spp == 0 {
-        return Err(Error::Setting { name: "spp".into(), problem: "must be at least 1".into() });
-    }
     let (width, height) = resolution(&scene, run)?;
     let mut geometry = Geometry::build(&scene);
     let camera_desc = match &scene.camera {
@@ -89,8 +87,41 @@ pub fn prepare(scene: Scene, run: &RunFile) -> Result<Renderer> {
     let scene_geometry =
         SceneGeometry { geometry, lights, materials: scene.materials, textures: scene.textures };
     let features = SceneFeatures::of(&camera, &scene_geometry);
+    let mut world = World::new();
+    world.insert_resource(RenderConfig {
+        integrator: settings.integrator,
+        seed: settings.seed,
+        max_depth: settings.max_depth.unwrap_or(u32::MAX),
+        rr_depth: settings.rr_depth,
+        pass_time: None,
+    });
+    world.insert_resource(Film::new(width, height));
+    world.insert_resource(camera);
+    world.insert_resource(scene_geometry);
+    world.insert_resource(RenderStats::default());
+    Ok((world, features))
+}
 
-    let pixels = width * height;
+/// Build the World (resources + one wavefront of path entities) and the Schedule for a scene.
+pub fn prepare(scene: Scene, run: &RunFile) -> Result<Renderer> {
+    let settings = &run.render;
+    if settings.spp == 0 {
+        return Err(Error::Setting { name: "spp".into(), problem: "must be at least 1".into() });
+    }
+    if settings.integrator.is_progressive() {
+        return Err(Error::Setting {
+            name: "integrator".into(),
+            problem: format!(
+                "{:?} is progressive: prepare it with systems::progressive::prepare_progressive",
+                settings.integrator
+            ),
+        });
+    }
+    let (mut world, features) = scene_world(scene, run)?;
+    let pixels = {
+        let film = world.resource::<Film>();
+        film.width * film.height
+    };
     let wavefront = pixels.min(MAX_WAVEFRONT);
     // Each final-gather ray comes with its own camera sample.
     let spp = if settings.integrator == IntegratorKind::Pm {
@@ -99,19 +130,8 @@ pub fn prepare(scene: Scene, run: &RunFile) -> Result<Renderer> {
         settings.spp
     };
     let mut workload = Workload::new(pixels, 0, spp, wavefront);
-    let mut world = World::new();
-    world.insert_resource(RenderConfig {
-        integrator: settings.integrator,
-        seed: settings.seed,
-        max_depth: settings.max_depth.unwrap_or(u32::MAX),
-        rr_depth: settings.rr_depth,
-    });
-    world.insert_resource(Film::new(width, height));
-    world.insert_resource(camera);
-    world.insert_resource(scene_geometry);
     spawn_wavefront(&mut world, &mut workload);
     world.insert_resource(workload);
-    world.insert_resource(RenderStats::default());
 
     let mut schedule = Schedule::default();
     schedule.set_executor(SingleThreadedExecutor::new());
@@ -148,7 +168,14 @@ pub struct RenderSummary {
 
 impl Renderer {
     /// Run bounce steps until every path is idle, calling `progress` after each step.
-    pub fn run(&mut self, mut progress: impl FnMut(&RenderStats)) -> RenderSummary {
+    pub fn run(&mut self, progress: impl FnMut(&RenderStats)) -> RenderSummary {
+        self.run_until(None, progress)
+    }
+
+    /// As [`Renderer::run`], but once `time_limit` seconds have passed no new sample starts: the paths
+    /// in flight finish, and each pixel keeps the samples it got (the work is handed out sample-major,
+    /// so pixels differ by at most one sample).
+    pub fn run_until(&mut self, time_limit: Option<f64>, mut progress: impl FnMut(&RenderStats)) -> RenderSummary {
         let start = Instant::now();
         loop {
             let _span = tracing::trace_span!("step").entered();
@@ -157,6 +184,10 @@ impl Renderer {
             progress(&stats);
             if stats.active_paths == 0 {
                 break;
+            }
+            if time_limit.is_some_and(|limit| start.elapsed().as_secs_f64() >= limit) {
+                let mut workload = self.world.resource_mut::<Workload>();
+                workload.next = workload.total_samples();
             }
         }
         RenderSummary { stats: *self.world.resource::<RenderStats>(), seconds: start.elapsed().as_secs_f64() }

@@ -65,6 +65,8 @@ pub struct RenderConfig {
     pub max_depth: u32,
     /// Depth from which Russian roulette may end paths.
     pub rr_depth: u32,
+    /// One shutter time for every camera ray of this pass (stochastic PPM), instead of one per sample.
+    pub pass_time: Option<f32>,
 }
 
 /// Which pixels and samples this render covers, and how the wavefront is laid over them.
@@ -168,6 +170,9 @@ pub enum PhotonMapKind {
     Indirect,
     /// L S+ D: caustics, looked up directly at every diffuse camera hit.
     Caustic,
+    /// Every photon after its first bounce, L(S|D)+D: progressive photon mapping with next-event
+    /// estimation, where direct light comes from light sampling instead.
+    Bounced,
 }
 
 /// The photons of the pass that is running and how they are handed out.
@@ -183,6 +188,10 @@ pub struct PhotonWork {
     pub seed: u64,
     /// Whether anything moves (photons then draw a shutter time).
     pub motion: bool,
+    /// One shutter time for the whole pass (stochastic PPM: the camera pass uses the same one).
+    pub time: Option<f32>,
+    /// Photon pass number (progressive photon mapping): selects the pass's random numbers.
+    pub pass: u32,
     /// Maximum bounces.
     pub max_depth: u32,
     /// Bounce from which Russian roulette is capped below one.
@@ -226,4 +235,32 @@ pub struct PhotonMaps {
     pub kernel: crate::density::kernels::Kernel,
     /// Whether the first diffuse hit shoots a final-gather ray.
     pub final_gather: bool,
+}
+
+/// How a progressive integrator turns a hit point's statistics into radiance and a new radius.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RadiusRule {
+    /// Hachisuka, Ogaki & Jensen 2008: flux-corrected shrinking with α; L = τ / (π r² passes).
+    Shrinking,
+    /// Kaplanyan & Dachsbacher 2013: per-pass estimates averaged, radius from estimated bias and
+    /// variance; L = τ / (π passes) with τ = Σ Φ_i / r_i².
+    Adaptive,
+    /// Lin et al. 2020: per-pass estimates averaged, radius kept while the χ² test finds the photons
+    /// uniform in the disc; L as for `Adaptive`.
+    ChiSquare,
+}
+
+/// Settings and progress of a progressive photon-mapping render, read by the gather and update stages.
+#[derive(Resource, Clone, Copy, Debug)]
+pub struct ProgressiveConfig {
+    /// Radius and accumulation rule.
+    pub rule: RadiusRule,
+    /// Fraction of new photons kept (Hachisuka, Ogaki & Jensen 2008).
+    pub alpha: f32,
+    /// Starting radius.
+    pub r0: f32,
+    /// Photons emitted per pass.
+    pub photons_per_pass: u32,
+    /// The running pass (0-based); after the update, the number of passes done minus one.
+    pub pass: u32,
 }

@@ -81,7 +81,8 @@ pub struct EmissionSample {
     pub weight: Vec3,
 }
 
-fn luminance(c: Vec3) -> f32 {
+/// Rec. 709 luminance of a linear RGB colour.
+pub fn luminance(c: Vec3) -> f32 {
     c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
 }
 

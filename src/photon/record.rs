@@ -73,7 +73,8 @@ impl Photon {
     }
 }
 
-fn encode_octahedral(v: Vec3, bits: u32) -> u32 {
+/// A unit vector in the octahedral map (Cigolle et al. 2014), `bits` per coordinate.
+pub fn encode_octahedral(v: Vec3, bits: u32) -> u32 {
     let l1 = v.x.abs() + v.y.abs() + v.z.abs();
     let v = if l1 > 0.0 && l1.is_finite() { v / l1 } else { Vec3::Z };
     let e = if v.z >= 0.0 {
@@ -86,7 +87,8 @@ fn encode_octahedral(v: Vec3, bits: u32) -> u32 {
     q(e.x) | (q(e.y) << bits)
 }
 
-fn decode_octahedral(code: u32, bits: u32) -> Vec3 {
+/// The unit vector of an octahedral code made by [`encode_octahedral`].
+pub fn decode_octahedral(code: u32, bits: u32) -> Vec3 {
     let mask = (1u32 << bits) - 1;
     let max = mask as f32;
     let f = |q: u32| (q & mask) as f32 / max * 2.0 - 1.0;

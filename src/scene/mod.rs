@@ -11,7 +11,9 @@ use crate::error::{Error, Result};
 use glam::{Mat4, Vec2, Vec3, Vec4};
 use std::path::{Path, PathBuf};
 
-pub use run_file::{FilterKind, IntegratorKind, LightSelection, PhotonSettings, RenderSettings, RunFile};
+pub use run_file::{
+    FilterKind, IntegratorKind, LightSelection, PhotonSettings, ProgressiveSettings, RenderSettings, RunFile,
+};
 pub use validate::{ValidationSummary, validate};
 
 /// Loads and validates a scene: a run file (.toml) with the glTF it names and its additions, or a bare .gltf/.glb

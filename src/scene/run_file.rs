@@ -19,6 +19,23 @@ pub enum IntegratorKind {
     /// Photon mapping (Jensen): NEE for direct light, a caustic map, and a global map read directly or
     /// by final gathering.
     Pm,
+    /// Progressive photon mapping (Hachisuka, Ogaki & Jensen 2008): hit points traced once, photon
+    /// passes shrink their radii; all light but directly seen emission comes from photons.
+    Ppm,
+    /// Stochastic progressive photon mapping (Hachisuka & Jensen 2009): hit points re-traced every pass
+    /// (depth of field, motion blur, antialiasing, glossy surfaces), direct light by NEE.
+    Sppm,
+    /// Adaptive PPM (Kaplanyan & Dachsbacher 2013): per-pixel radius from estimated variance and bias.
+    Appm,
+    /// Chi-squared PPM (Lin et al. 2020): keep the radius while photons look uniform in the disc.
+    Cppm,
+}
+
+impl IntegratorKind {
+    /// Whether this integrator runs passes of photons into persistent hit points.
+    pub fn is_progressive(self) -> bool {
+        matches!(self, Self::Ppm | Self::Sppm | Self::Appm | Self::Cppm)
+    }
 }
 
 /// How next-event estimation picks a light.
@@ -61,6 +78,8 @@ pub struct RenderSettings {
     pub rr_depth: u32,
     /// Light selection for next-event estimation.
     pub light_selection: LightSelection,
+    /// Wall-clock budget in seconds: rendering stops at the first of this and the sample/pass count.
+    pub time_limit: Option<f64>,
 }
 
 impl Default for RenderSettings {
@@ -73,6 +92,7 @@ impl Default for RenderSettings {
             max_depth: None,
             rr_depth: 5,
             light_selection: LightSelection::Power,
+            time_limit: None,
         }
     }
 }
@@ -127,6 +147,8 @@ pub struct OutputSettings {
     pub exr: Option<PathBuf>,
     /// sRGB PNG path.
     pub png: Option<PathBuf>,
+    /// Progressive integrators: also write the outputs every this many passes.
+    pub write_every: Option<u32>,
 }
 
 /// A material given inline in a run file (the same parameters as glTF's).
@@ -224,6 +246,29 @@ impl Default for PhotonSettings {
     }
 }
 
+/// The `[progressive]` table: passes of the progressive photon mappers (`ppm`, `sppm`, `appm`, `cppm`).
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ProgressiveSettings {
+    /// Photon passes (the render also stops at `render.time_limit`).
+    pub passes: u32,
+    /// Photons emitted per pass.
+    pub photons_per_pass: u32,
+    /// Fraction of a pass's photons kept in the hit point statistics (Hachisuka, Ogaki & Jensen 2008).
+    pub alpha: f32,
+    /// First gather radius in scene units; `None` picks it from the scene's area and the photon count.
+    pub initial_radius: Option<f32>,
+    /// Memory the hit points and photons may take, in MiB; `None` is half the machine's memory.
+    pub memory_budget_mib: Option<u64>,
+}
+
+impl Default for ProgressiveSettings {
+    /// 64 passes of 65 536 photons, α = 2/3, radius from the heuristic, half the memory.
+    fn default() -> Self {
+        Self { passes: 64, photons_per_pass: 65_536, alpha: 2.0 / 3.0, initial_radius: None, memory_budget_mib: None }
+    }
+}
+
 /// A whole run file.
 #[derive(Clone, Debug, Default, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -238,6 +283,8 @@ pub struct RunFile {
     pub render: RenderSettings,
     /// Photon-mapping settings.
     pub photons: PhotonSettings,
+    /// Progressive photon mapping.
+    pub progressive: ProgressiveSettings,
     /// Output files.
     pub output: OutputSettings,
     /// Analytic spheres.
@@ -390,6 +437,35 @@ impl RunFile {
         }
         for (i, motion) in self.motion.iter().enumerate() {
             finite(&format!("motion[{i}].translate"), &motion.translate)?;
+        }
+        self.progressive.check().map_err(|e| format!("progressive.{e}"))?;
+        if let Some(t) = self.render.time_limit
+            && !(t.is_finite() && t > 0.0)
+        {
+            return Err(format!("render.time_limit is {t}, must be finite and > 0"));
+        }
+        Ok(())
+    }
+}
+
+impl ProgressiveSettings {
+    /// Which setting is out of range, if any (named as in the run file, without the table).
+    pub fn check(&self) -> Result<(), String> {
+        if self.passes == 0 {
+            return Err("passes is 0, must be at least 1".into());
+        }
+        if self.photons_per_pass == 0 {
+            return Err("photons_per_pass is 0, must be at least 1".into());
+        }
+        // α = 0 keeps no photon statistics (the radius collapses at once); α > 1 would grow N faster
+        // than photons arrive and the radius would never shrink.
+        if !(self.alpha > 0.0 && self.alpha <= 1.0) {
+            return Err(format!("alpha is {}, must be in (0, 1]", self.alpha));
+        }
+        if let Some(r) = self.initial_radius
+            && !(r.is_finite() && r > 0.0)
+        {
+            return Err(format!("initial_radius is {r}, must be finite and > 0"));
         }
         Ok(())
     }

@@ -116,6 +116,8 @@ pub fn run_photon_pass(
         next: wavefront,
         seed: config.seed,
         motion,
+        time: None,
+        pass: 0,
         max_depth: config.max_depth,
         rr_depth: config.rr_depth,
     });

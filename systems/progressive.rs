@@ -1,0 +1,315 @@
+//! The driver of the progressive photon mappers (`ppm`, `sppm`, `appm`, `cppm`): one World with a
+//! hit-point entity per pixel and a wavefront of photon entities, both spawned once, and the three
+//! schedules of `integrators::ppm` run once per pass, like pbrt-v4's SPPM loop.
+
+use super::components::{
+    AdaptiveStats, Chi2Cells, HitPoint, PathHit, PathRay, PathState, PathStatus, PhotonHit, PhotonRay,
+    PhotonState, ShadowRay,
+};
+use super::gather::PassPhotons;
+use super::integrators::ppm::ProgressiveSchedules;
+use super::integrators::{appm, cppm, ppm, sppm};
+use super::radius::CHI2_FIRST_TEST;
+use super::render::{MAX_WAVEFRONT, scene_world};
+use super::resources::{
+    PhotonBuffer, PhotonMapKind, PhotonStats, PhotonWork, ProgressiveConfig, RadiusRule, RenderConfig,
+    RenderStats, SceneFeatures, SceneGeometry, Workload,
+};
+use crate::error::{Error, Result};
+use crate::film::{Film, Image};
+use crate::photon::progressive::initial_radius;
+use crate::scene::{IntegratorKind, ProgressiveSettings, RunFile, Scene};
+use bevy_ecs::prelude::*;
+use glam::Vec3;
+use std::time::Instant;
+
+/// Bytes a pixel costs: its hit point and the camera-path state that re-traces it.
+pub const BYTES_PER_PIXEL: usize = size_of::<HitPoint>()
+    + size_of::<PathRay>()
+    + size_of::<PathHit>()
+    + size_of::<PathState>()
+    + size_of::<ShadowRay>()
+    + size_of::<Chi2Cells>();
+/// Bytes a photon of one pass costs: its deposit in the buffer and in the pass's kd-tree.
+pub const BYTES_PER_PHOTON: usize = 2 * size_of::<crate::photon::Photon>();
+
+/// A progressive render in progress.
+pub struct ProgressiveRenderer {
+    /// Scene, settings, film, hit points and photons.
+    pub world: World,
+    /// Camera, photon and statistics schedules.
+    pub schedules: ProgressiveSchedules,
+    /// What the scene uses.
+    pub features: SceneFeatures,
+    /// Which integrator.
+    pub kind: IntegratorKind,
+    /// Passes and photons.
+    pub settings: ProgressiveSettings,
+    /// Passes done.
+    pub passes: u32,
+    photon_entities: u32,
+}
+
+/// What one pass did.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PassReport {
+    /// Passes done, this one included.
+    pub passes: u32,
+    /// Photons stored by this pass.
+    pub stored: usize,
+    /// Seconds of this pass: camera, photons, gather and update.
+    pub camera_seconds: f64,
+    /// Seconds tracing photons.
+    pub photon_seconds: f64,
+    /// Seconds building the pass's kd-tree, gathering and updating.
+    pub gather_seconds: f64,
+}
+
+impl PassReport {
+    /// Whole pass, seconds.
+    pub fn seconds(&self) -> f64 {
+        self.camera_seconds + self.photon_seconds + self.gather_seconds
+    }
+}
+
+/// The memory the machine has, from /proc/meminfo (Linux); 8 GiB where it cannot be read.
+fn physical_memory_bytes() -> u64 {
+    std::fs::read_to_string("/proc/meminfo")
+        .ok()
+        .and_then(|text| {
+            let line = text.lines().find(|l| l.starts_with("MemTotal:"))?;
+            line.split_whitespace().nth(1)?.parse::<u64>().ok().map(|kib| kib * 1024)
+        })
+        .unwrap_or(8 << 30)
+}
+
+/// Total surface area of the scene's primitives (for the initial-radius heuristic).
+fn surface_area(scene: &SceneGeometry) -> f32 {
+    use crate::geometry::bvh::PrimitiveShape;
+    scene
+        .geometry
+        .primitives()
+        .map(|(_, shape, _, _)| match shape {
+            PrimitiveShape::Triangle(t) => 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length(),
+            PrimitiveShape::Sphere(_, radius) => 4.0 * std::f32::consts::PI * radius * radius,
+        })
+        .filter(|a| a.is_finite())
+        .sum()
+}
+
+/// Build the World and schedules of a progressive integrator for `scene`.
+pub fn prepare_progressive(scene: Scene, run: &RunFile) -> Result<ProgressiveRenderer> {
+    let settings = run.progressive;
+    let kind = run.render.integrator;
+    settings.check().map_err(|problem| Error::Setting { name: "progressive".into(), problem })?;
+    if !kind.is_progressive() {
+        return Err(Error::Setting {
+            name: "integrator".into(),
+            problem: format!("{kind:?} is not progressive: prepare it with systems::render::prepare"),
+        });
+    }
+    if scene.materials.len() > u16::MAX as usize + 1 {
+        return Err(Error::Setting {
+            name: "integrator".into(),
+            problem: format!(
+                "progressive photon mapping holds material indices in 16 bits; the scene has {} materials",
+                scene.materials.len()
+            ),
+        });
+    }
+    let source = scene.source.clone();
+    let pixels = {
+        let (w, h) = super::render::resolution(&scene, run)?;
+        w as u64 * h as u64
+    };
+    // Refuse before allocating anything big: hit points for every pixel plus one pass of photons.
+    let photon_wavefront = settings.photons_per_pass.min(MAX_WAVEFRONT);
+    let needed = pixels * BYTES_PER_PIXEL as u64
+        + settings.photons_per_pass as u64 * BYTES_PER_PHOTON as u64
+        + photon_wavefront as u64 * (size_of::<PhotonState>() + size_of::<PhotonRay>() + size_of::<PhotonHit>()) as u64;
+    let budget = settings.memory_budget_mib.map_or(physical_memory_bytes() / 2, |mib| mib << 20);
+    if needed > budget {
+        return Err(Error::Setting {
+            name: "progressive.memory_budget_mib".into(),
+            problem: format!(
+                "{pixels} hit points ({BYTES_PER_PIXEL} bytes each) and {} photons per pass need {} MiB, over the \
+                 budget of {} MiB: lower the resolution or photons_per_pass, or raise the budget",
+                settings.photons_per_pass,
+                needed >> 20,
+                budget >> 20
+            ),
+        });
+    }
+
+    let (mut world, features) = scene_world(scene, run)?;
+    let (area, diagonal, lights) = {
+        let scene = world.resource::<SceneGeometry>();
+        let (min, max) = scene.geometry.bounds();
+        (surface_area(scene), (max - min).length(), !scene.lights.is_empty())
+    };
+    if !lights {
+        tracing::warn!("{}: no emitters: progressive photon mapping will render only black", source.display());
+    }
+    let r0 = settings.initial_radius.unwrap_or_else(|| initial_radius(area, diagonal, settings.photons_per_pass));
+    let rule = match kind {
+        IntegratorKind::Appm => RadiusRule::Adaptive,
+        IntegratorKind::Cppm => RadiusRule::ChiSquare,
+        _ => RadiusRule::Shrinking,
+    };
+    world.insert_resource(ProgressiveConfig {
+        rule,
+        alpha: settings.alpha,
+        r0,
+        photons_per_pass: settings.photons_per_pass,
+        pass: 0,
+    });
+
+    // One entity per pixel: its camera path and its hit point, in pixel order.
+    let pixels = pixels as u32;
+    let path = |pixel| (PathRay::default(), PathHit::default(), PathState::new(pixel, 0), ShadowRay::default());
+    let hit_point = HitPoint::new(r0 * r0);
+    match rule {
+        RadiusRule::Shrinking => {
+            world.spawn_batch((0..pixels).map(|p| (path(p), hit_point)));
+        }
+        RadiusRule::Adaptive => {
+            world.spawn_batch((0..pixels).map(|p| (path(p), hit_point, AdaptiveStats::default())));
+        }
+        RadiusRule::ChiSquare => {
+            let cells = Chi2Cells { counts: [0; crate::photon::progressive::CHI2_CELLS], min_photons: CHI2_FIRST_TEST };
+            world.spawn_batch((0..pixels).map(|p| (path(p), hit_point, cells)));
+        }
+    }
+    let mut workload = Workload::new(pixels, 0, 1, pixels);
+    workload.next = workload.total_samples();
+    world.insert_resource(workload);
+
+    let config = world.resource::<RenderConfig>().clone();
+    world.insert_resource(PhotonWork {
+        kind: if kind == IntegratorKind::Ppm { PhotonMapKind::Global } else { PhotonMapKind::Bounced },
+        total: settings.photons_per_pass,
+        next: 0,
+        seed: config.seed,
+        motion: features.motion,
+        time: None,
+        pass: 0,
+        max_depth: config.max_depth,
+        rr_depth: config.rr_depth,
+    });
+    world.insert_resource(PhotonBuffer::default());
+    world.insert_resource(PhotonStats::default());
+    world.insert_resource(PassPhotons::default());
+    world.spawn_batch((0..photon_wavefront).map(|index| {
+        let state = PhotonState { index, status: PathStatus::Idle, ..Default::default() };
+        (PhotonRay::default(), PhotonHit::default(), state)
+    }));
+
+    let mut schedules = ProgressiveSchedules::new();
+    match kind {
+        IntegratorKind::Ppm => ppm::build(&mut schedules, features),
+        IntegratorKind::Appm => appm::build(&mut schedules, features),
+        IntegratorKind::Cppm => cppm::build(&mut schedules, features),
+        _ => sppm::build(&mut schedules, features),
+    }
+    Ok(ProgressiveRenderer { world, schedules, features, kind, settings, passes: 0, photon_entities: photon_wavefront })
+}
+
+impl ProgressiveRenderer {
+    /// Run one pass: camera paths to hit points (every pass but `ppm`'s later ones), a photon pass,
+    /// then gather and update.
+    pub fn run_pass(&mut self) -> PassReport {
+        let pass = self.passes;
+        let _span = tracing::info_span!("pass", index = pass).entered();
+        let seed = self.world.resource::<RenderConfig>().seed;
+        // One shutter time per pass, shared by the camera and the photons (Hachisuka & Jensen 2009, §5).
+        let time = self.features.motion.then(|| crate::sampling::Sampler::new(seed, u32::MAX, pass).get1d(0));
+
+        let start = Instant::now();
+        if self.kind != IntegratorKind::Ppm || pass == 0 {
+            self.world.resource_mut::<RenderConfig>().pass_time = time;
+            let mut paths = self.world.query::<&mut PathState>();
+            for mut state in paths.iter_mut(&mut self.world) {
+                state.sample = pass;
+                state.status = PathStatus::NeedsCamera;
+            }
+            loop {
+                self.schedules.camera.run(&mut self.world);
+                if self.world.resource::<RenderStats>().active_paths == 0 {
+                    break;
+                }
+            }
+        }
+        let camera_seconds = start.elapsed().as_secs_f64();
+
+        let start = Instant::now();
+        {
+            let mut work = self.world.resource_mut::<PhotonWork>();
+            work.pass = pass;
+            work.time = time;
+            work.next = self.photon_entities;
+        }
+        let mut photons = self.world.query::<&mut PhotonState>();
+        for (index, mut state) in photons.iter_mut(&mut self.world).enumerate() {
+            state.index = index as u32;
+            state.status = PathStatus::NeedsCamera;
+        }
+        loop {
+            self.schedules.photons.run(&mut self.world);
+            if self.world.resource::<PhotonStats>().active == 0 {
+                break;
+            }
+        }
+        let photon_seconds = start.elapsed().as_secs_f64();
+
+        let start = Instant::now();
+        self.world.resource_mut::<ProgressiveConfig>().pass = pass;
+        self.schedules.statistics.run(&mut self.world);
+        let stored = self.world.resource::<PassPhotons>().0.len();
+        self.passes += 1;
+        PassReport { passes: self.passes, stored, camera_seconds, photon_seconds, gather_seconds: start.elapsed().as_secs_f64() }
+    }
+
+    /// Run passes until `self.settings.passes` are done or `time_limit` seconds have passed (the pass
+    /// running then finishes), calling `on_pass` after each.
+    pub fn run(&mut self, time_limit: Option<f64>, mut on_pass: impl FnMut(&mut Self, &PassReport)) -> f64 {
+        let start = Instant::now();
+        while self.passes < self.settings.passes {
+            let report = self.run_pass();
+            on_pass(self, &report);
+            if time_limit.is_some_and(|limit| start.elapsed().as_secs_f64() >= limit) {
+                break;
+            }
+        }
+        start.elapsed().as_secs_f64()
+    }
+
+    /// The image so far: emission and direct light from the film, plus each pixel's photon estimate.
+    pub fn image(&mut self) -> Image {
+        let mut image = self.world.resource::<Film>().image();
+        let passes = self.passes.max(1) as f64;
+        let rule = self.world.resource::<ProgressiveConfig>().rule;
+        let mut hit_points = self.world.query::<(&PathState, &HitPoint)>();
+        for (state, hp) in hit_points.iter(&self.world) {
+            let area = match rule {
+                RadiusRule::Shrinking => std::f64::consts::PI * hp.r2 as f64,
+                RadiusRule::Adaptive | RadiusRule::ChiSquare => std::f64::consts::PI,
+            };
+            let l = (hp.tau / (area * passes)).as_vec3();
+            image.pixels[state.pixel as usize] += if l.is_finite() { l } else { Vec3::ZERO };
+        }
+        image
+    }
+
+    /// Mean gather radius over the hit points.
+    pub fn mean_radius(&mut self) -> f32 {
+        let mut hit_points = self.world.query::<&HitPoint>();
+        let (sum, count) =
+            hit_points.iter(&self.world).fold((0.0f64, 0u32), |(s, c), hp| (s + (hp.r2 as f64).sqrt(), c + 1));
+        (sum / count.max(1) as f64) as f32
+    }
+
+    /// Photons emitted so far.
+    pub fn photons_emitted(&self) -> u64 {
+        self.passes as u64 * self.settings.photons_per_pass as u64
+    }
+}
