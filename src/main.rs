@@ -57,7 +57,15 @@ fn render(args: &RenderArgs) -> Result<()> {
     }
     let reference = args.reference.as_deref().map(output::read_exr).transpose()?;
     if run.render.integrator.is_progressive() {
-        return progressive::render(&scene_path, scene, &run, &outputs, reference.as_ref(), args.quiet, start);
+        return progressive::render(
+            &scene_path,
+            scene,
+            &run,
+            &outputs,
+            reference.as_ref(),
+            args.quiet,
+            start,
+        );
     }
 
     let mut renderer = prepare(scene, &run).with_context(|| format!("preparing {}", scene_path.display()))?;

@@ -25,7 +25,8 @@ pub fn render(
     let settings = run.progressive;
     let bar = if quiet { ProgressBar::hidden() } else { ProgressBar::new(settings.passes as u64) };
     bar.set_style(
-        ProgressStyle::with_template("{bar:40} {pos}/{len} passes  {msg}  ETA {eta}").expect("valid template"),
+        ProgressStyle::with_template("{bar:40} {pos}/{len} passes  {msg}  ETA {eta}")
+            .expect("valid template"),
     );
     let (mut photon_seconds, mut gather_seconds, mut camera_seconds, mut stored) = (0.0, 0.0, 0.0, 0u64);
     let mut write_error = None;
@@ -43,7 +44,10 @@ pub fn render(
             && write_error.is_none()
         {
             let image = renderer.image();
-            write_error = outputs.iter().map(|p| output::write_image(&image, p, run.film.exposure)).find_map(|r| r.err());
+            write_error = outputs
+                .iter()
+                .map(|p| output::write_image(&image, p, run.film.exposure))
+                .find_map(|r| r.err());
         }
     });
     bar.finish_and_clear();
@@ -78,6 +82,9 @@ pub fn render(
         image.pixels.len(),
         renderer.mean_radius()
     );
-    println!("NaN/Inf     {} samples dropped", renderer.world.resource::<caustica::systems::resources::RenderStats>().nan_samples);
+    println!(
+        "NaN/Inf     {} samples dropped",
+        renderer.world.resource::<caustica::systems::resources::RenderStats>().nan_samples
+    );
     super::report_error_and_outputs(&image, reference, outputs)
 }

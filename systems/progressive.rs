@@ -126,7 +126,8 @@ pub fn prepare_progressive(scene: Scene, run: &RunFile) -> Result<ProgressiveRen
     let photon_wavefront = settings.photons_per_pass.min(MAX_WAVEFRONT);
     let needed = pixels * BYTES_PER_PIXEL as u64
         + settings.photons_per_pass as u64 * BYTES_PER_PHOTON as u64
-        + photon_wavefront as u64 * (size_of::<PhotonState>() + size_of::<PhotonRay>() + size_of::<PhotonHit>()) as u64;
+        + photon_wavefront as u64
+            * (size_of::<PhotonState>() + size_of::<PhotonRay>() + size_of::<PhotonHit>()) as u64;
     let budget = settings.memory_budget_mib.map_or(physical_memory_bytes() / 2, |mib| mib << 20);
     if needed > budget {
         return Err(Error::Setting {
@@ -148,9 +149,13 @@ pub fn prepare_progressive(scene: Scene, run: &RunFile) -> Result<ProgressiveRen
         (surface_area(scene), (max - min).length(), !scene.lights.is_empty())
     };
     if !lights {
-        tracing::warn!("{}: no emitters: progressive photon mapping will render only black", source.display());
+        tracing::warn!(
+            "{}: no emitters: progressive photon mapping will render only black",
+            source.display()
+        );
     }
-    let r0 = settings.initial_radius.unwrap_or_else(|| initial_radius(area, diagonal, settings.photons_per_pass));
+    let r0 =
+        settings.initial_radius.unwrap_or_else(|| initial_radius(area, diagonal, settings.photons_per_pass));
     let rule = match kind {
         IntegratorKind::Appm => RadiusRule::Adaptive,
         IntegratorKind::Cppm => RadiusRule::ChiSquare,
@@ -166,7 +171,8 @@ pub fn prepare_progressive(scene: Scene, run: &RunFile) -> Result<ProgressiveRen
 
     // One entity per pixel: its camera path and its hit point, in pixel order.
     let pixels = pixels as u32;
-    let path = |pixel| (PathRay::default(), PathHit::default(), PathState::new(pixel, 0), ShadowRay::default());
+    let path =
+        |pixel| (PathRay::default(), PathHit::default(), PathState::new(pixel, 0), ShadowRay::default());
     let hit_point = HitPoint::new(r0 * r0);
     match rule {
         RadiusRule::Shrinking => {
@@ -176,7 +182,10 @@ pub fn prepare_progressive(scene: Scene, run: &RunFile) -> Result<ProgressiveRen
             world.spawn_batch((0..pixels).map(|p| (path(p), hit_point, AdaptiveStats::default())));
         }
         RadiusRule::ChiSquare => {
-            let cells = Chi2Cells { counts: [0; crate::photon::progressive::CHI2_CELLS], min_photons: CHI2_FIRST_TEST };
+            let cells = Chi2Cells {
+                counts: [0; crate::photon::progressive::CHI2_CELLS],
+                min_photons: CHI2_FIRST_TEST,
+            };
             world.spawn_batch((0..pixels).map(|p| (path(p), hit_point, cells)));
         }
     }
@@ -211,7 +220,15 @@ pub fn prepare_progressive(scene: Scene, run: &RunFile) -> Result<ProgressiveRen
         IntegratorKind::Cppm => cppm::build(&mut schedules, features),
         _ => sppm::build(&mut schedules, features),
     }
-    Ok(ProgressiveRenderer { world, schedules, features, kind, settings, passes: 0, photon_entities: photon_wavefront })
+    Ok(ProgressiveRenderer {
+        world,
+        schedules,
+        features,
+        kind,
+        settings,
+        passes: 0,
+        photon_entities: photon_wavefront,
+    })
 }
 
 impl ProgressiveRenderer {
@@ -266,7 +283,13 @@ impl ProgressiveRenderer {
         self.schedules.statistics.run(&mut self.world);
         let stored = self.world.resource::<PassPhotons>().0.len();
         self.passes += 1;
-        PassReport { passes: self.passes, stored, camera_seconds, photon_seconds, gather_seconds: start.elapsed().as_secs_f64() }
+        PassReport {
+            passes: self.passes,
+            stored,
+            camera_seconds,
+            photon_seconds,
+            gather_seconds: start.elapsed().as_secs_f64(),
+        }
     }
 
     /// Run passes until `self.settings.passes` are done or `time_limit` seconds have passed (the pass
@@ -303,8 +326,9 @@ impl ProgressiveRenderer {
     /// Mean gather radius over the hit points.
     pub fn mean_radius(&mut self) -> f32 {
         let mut hit_points = self.world.query::<&HitPoint>();
-        let (sum, count) =
-            hit_points.iter(&self.world).fold((0.0f64, 0u32), |(s, c), hp| (s + (hp.r2 as f64).sqrt(), c + 1));
+        let (sum, count) = hit_points
+            .iter(&self.world)
+            .fold((0.0f64, 0u32), |(s, c), hp| (s + (hp.r2 as f64).sqrt(), c + 1));
         (sum / count.max(1) as f64) as f32
     }
 

@@ -175,7 +175,11 @@ impl Renderer {
     /// As [`Renderer::run`], but once `time_limit` seconds have passed no new sample starts: the paths
     /// in flight finish, and each pixel keeps the samples it got (the work is handed out sample-major,
     /// so pixels differ by at most one sample).
-    pub fn run_until(&mut self, time_limit: Option<f64>, mut progress: impl FnMut(&RenderStats)) -> RenderSummary {
+    pub fn run_until(
+        &mut self,
+        time_limit: Option<f64>,
+        mut progress: impl FnMut(&RenderStats),
+    ) -> RenderSummary {
         let start = Instant::now();
         loop {
             let _span = tracing::trace_span!("step").entered();

@@ -9,6 +9,7 @@ fn render_with_threads(threads: u32, out: &std::path::Path, scene: &str, integra
     let status = Command::new(env!("CARGO_BIN_EXE_caustica"))
         .args(["render", scene, "--spp", "4", "--width", "48", "--height", "48", "--quiet", "--seed", "7"])
         .args(["--integrator", integrator, "--photons", "20000", "--caustic-photons", "20000"])
+        .args(["--passes", "3", "--photons-per-pass", "20000"])
         .args(["--threads", &threads.to_string(), "-o"])
         .arg(out)
         .status()
@@ -19,10 +20,15 @@ fn render_with_threads(threads: u32, out: &std::path::Path, scene: &str, integra
 #[test]
 fn one_and_two_threads_give_bit_identical_images() {
     let dir = std::env::temp_dir().join(format!("caustica-determinism-{}", std::process::id()));
-    // pm: photon passes, kd-tree builds and lookups must be thread-independent too.
-    for (scene, integrator) in
-        [("cornell-spheres.gltf", "pt"), ("cornell-box.gltf", "pt"), ("cornell-spheres.gltf", "pm")]
-    {
+    // pm: photon passes, kd-tree builds and lookups must be thread-independent too; sppm and cppm:
+    // photon deposits into hit points, the radius updates and the χ² cells as well.
+    for (scene, integrator) in [
+        ("cornell-spheres.gltf", "pt"),
+        ("cornell-box.gltf", "pt"),
+        ("cornell-spheres.gltf", "pm"),
+        ("cornell-spheres.gltf", "sppm"),
+        ("cornell-box.gltf", "cppm"),
+    ] {
         let path = common::data(scene);
         let scene = path.to_str().unwrap();
         let (a, b) = (dir.join("t1.exr"), dir.join("t2.exr"));

@@ -265,7 +265,13 @@ pub struct ProgressiveSettings {
 impl Default for ProgressiveSettings {
     /// 64 passes of 65 536 photons, α = 2/3, radius from the heuristic, half the memory.
     fn default() -> Self {
-        Self { passes: 64, photons_per_pass: 65_536, alpha: 2.0 / 3.0, initial_radius: None, memory_budget_mib: None }
+        Self {
+            passes: 64,
+            photons_per_pass: 65_536,
+            alpha: 2.0 / 3.0,
+            initial_radius: None,
+            memory_budget_mib: None,
+        }
     }
 }
 
