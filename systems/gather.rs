@@ -70,11 +70,17 @@ pub fn splat_paths_to_film(
 
 /// The photons of the running progressive pass, as a kd-tree for the hit points' radius queries.
 #[derive(Resource, Debug, Default)]
-pub struct PassPhotons(pub crate::photon::PhotonMap);
+pub struct PassPhotons {
+    /// This pass's photons.
+    pub map: crate::photon::PhotonMap,
+    /// Photon contributions that were NaN or infinite, dropped before they reached a hit point (all
+    /// passes). Incremented only on that rare event, so the atomic costs nothing in the gather loop.
+    pub dropped: std::sync::atomic::AtomicU64,
+}
 
 /// Arrange the pass's photon deposits into a kd-tree (parallel, deterministic) for gathering.
 pub fn build_pass_photon_map(mut buffer: ResMut<PhotonBuffer>, mut pass: ResMut<PassPhotons>) {
-    pass.0 = crate::photon::PhotonMap::build(std::mem::take(&mut buffer.photons));
+    pass.map = crate::photon::PhotonMap::build(std::mem::take(&mut buffer.photons));
 }
 
 /// Visit every photon of `map` that counts for hit point `hp`: within its radius, on the side it is
@@ -84,22 +90,31 @@ pub fn build_pass_photon_map(mut buffer: ResMut<PhotonBuffer>, mut pass: ResMut<
 #[inline]
 fn for_each_gathered_photon(
     scene: &SceneGeometry,
-    map: &crate::photon::PhotonMap,
+    pass: &PassPhotons,
     hp: &HitPoint,
     mut visit: impl FnMut(glam::Vec2, f32, Vec3),
 ) {
+    let mut dropped = 0u64;
     let (bsdf, frame, wo) = hit_point_bsdf(scene, hp);
     let transmits = scene.materials[hp.material as usize].transmission > 0.0;
     let side = if wo.z >= 0.0 { frame.z } else { -frame.z };
-    map.within(hp.p, hp.r2, |photon, d2| {
+    pass.map.within(hp.p, hp.r2, |photon, d2| {
         let cos = photon.normal().dot(side);
         if cos < NORMAL_COSINE && !(transmits && -cos >= NORMAL_COSINE) {
             return;
         }
         let local = frame.to_local(photon.position() - hp.p);
         let f = bsdf.eval(wo, frame.to_local(photon.direction()), TransportMode::Radiance);
-        visit(local.truncate(), d2, hp.beta * f * photon.power());
+        let contribution = hp.beta * f * photon.power();
+        if contribution.is_finite() {
+            visit(local.truncate(), d2, contribution);
+        } else {
+            dropped += 1;
+        }
     });
+    if dropped > 0 {
+        pass.dropped.fetch_add(dropped, std::sync::atomic::Ordering::Relaxed);
+    }
 }
 
 /// Gather: add every photon of the pass within a hit point's radius to its M and Φ_M
@@ -111,11 +126,11 @@ pub fn gather_photons_into_hit_points(
     mut hit_points: Query<&mut HitPoint>,
 ) {
     hit_points.par_iter_mut().batching_strategy(super::resources::wavefront_batching()).for_each(|mut hp| {
-        if !hp.is_valid() || pass.0.is_empty() {
+        if !hp.is_valid() || pass.map.is_empty() {
             return;
         }
         let (mut m, mut phi) = (0u32, Vec3::ZERO);
-        for_each_gathered_photon(&scene, &pass.0, &hp, |_, _, contribution| {
+        for_each_gathered_photon(&scene, &pass, &hp, |_, _, contribution| {
             m += 1;
             phi += contribution;
         });
@@ -133,11 +148,11 @@ pub fn gather_photons_into_chi2_cells(
 ) {
     hit_points.par_iter_mut().batching_strategy(super::resources::wavefront_batching()).for_each(
         |(mut hp, mut cells)| {
-            if !hp.is_valid() || pass.0.is_empty() {
+            if !hp.is_valid() || pass.map.is_empty() {
                 return;
             }
             let (mut m, mut phi, r2) = (0u32, Vec3::ZERO, hp.r2);
-            for_each_gathered_photon(&scene, &pass.0, &hp, |offset, d2, contribution| {
+            for_each_gathered_photon(&scene, &pass, &hp, |offset, d2, contribution| {
                 m += 1;
                 phi += contribution;
                 cells.counts[chi2_cell(offset, d2, r2)] += 1;
@@ -157,11 +172,11 @@ pub fn gather_photons_with_laplacian(
 ) {
     hit_points.par_iter_mut().batching_strategy(super::resources::wavefront_batching()).for_each(
         |(mut hp, mut stats)| {
-            if !hp.is_valid() || pass.0.is_empty() {
+            if !hp.is_valid() || pass.map.is_empty() {
                 return;
             }
             let (mut m, mut phi, mut laplacian, r2) = (0u32, Vec3::ZERO, 0.0f32, hp.r2);
-            for_each_gathered_photon(&scene, &pass.0, &hp, |_, d2, contribution| {
+            for_each_gathered_photon(&scene, &pass, &hp, |_, d2, contribution| {
                 m += 1;
                 phi += contribution;
                 laplacian += luminance(contribution) * biweight_laplacian(d2, r2);

@@ -281,7 +281,7 @@ impl ProgressiveRenderer {
         let start = Instant::now();
         self.world.resource_mut::<ProgressiveConfig>().pass = pass;
         self.schedules.statistics.run(&mut self.world);
-        let stored = self.world.resource::<PassPhotons>().0.len();
+        let stored = self.world.resource::<PassPhotons>().map.len();
         self.passes += 1;
         PassReport {
             passes: self.passes,
@@ -330,6 +330,11 @@ impl ProgressiveRenderer {
             .iter(&self.world)
             .fold((0.0f64, 0u32), |(s, c), hp| (s + (hp.r2 as f64).sqrt(), c + 1));
         (sum / count.max(1) as f64) as f32
+    }
+
+    /// Photon contributions dropped for being NaN or infinite.
+    pub fn dropped_photons(&self) -> u64 {
+        self.world.resource::<PassPhotons>().dropped.load(std::sync::atomic::Ordering::Relaxed)
     }
 
     /// Photons emitted so far.
