@@ -83,8 +83,9 @@ pub fn render(
         renderer.mean_radius()
     );
     println!(
-        "NaN/Inf     {} samples dropped",
-        renderer.world.resource::<caustica::systems::resources::RenderStats>().nan_samples
+        "NaN/Inf     {} samples, {} photon contributions dropped",
+        renderer.world.resource::<caustica::systems::resources::RenderStats>().nan_samples,
+        renderer.dropped_photons()
     );
     super::report_error_and_outputs(&image, reference, outputs)
 }
