@@ -256,6 +256,9 @@ impl ProgressiveRenderer {
                 }
             }
         }
+        if pass == 0 && self.settings.initial_radius.is_none() {
+            self.cap_initial_radius_by_footprint();
+        }
         let camera_seconds = start.elapsed().as_secs_f64();
 
         let start = Instant::now();
@@ -289,6 +292,41 @@ impl ProgressiveRenderer {
             camera_seconds,
             photon_seconds,
             gather_seconds: start.elapsed().as_secs_f64(),
+        }
+    }
+
+    /// Bound the heuristic initial radius by `FOOTPRINT_PIXELS` pixel footprints at the median
+    /// distance of the first pass's hit points: the area heuristic alone fails where a huge ground
+    /// plane or backdrop dominates the area, and a radius of metres would make every hit point
+    /// gather every photon.
+    fn cap_initial_radius_by_footprint(&mut self) {
+        /// A first estimate blurred over up to ten pixels is smooth enough and sharpens within passes.
+        const FOOTPRINT_PIXELS: f32 = 10.0;
+        let camera = self.world.resource::<crate::camera::Camera>();
+        let (cx, cy) = (camera.width / 2, camera.height / 2);
+        let ray = |x| camera.generate_ray(x, cy, glam::Vec2::splat(0.5), glam::Vec2::splat(0.5), 0.0);
+        let pixel_angle = ray(cx).d.normalize().angle_between(ray(cx + 1).d.normalize());
+        let origin = camera.origin;
+        let mut distances: Vec<f32> = self
+            .world
+            .query::<&HitPoint>()
+            .iter(&self.world)
+            .filter(|hp| hp.is_valid())
+            .map(|hp| (hp.p - origin).length())
+            .collect();
+        if distances.is_empty() || !(pixel_angle > 0.0) {
+            return;
+        }
+        let mid = distances.len() / 2;
+        let median = *distances.select_nth_unstable_by(mid, f32::total_cmp).1;
+        let cap = FOOTPRINT_PIXELS * pixel_angle * median;
+        let mut config = self.world.resource_mut::<ProgressiveConfig>();
+        if !(cap > 0.0 && cap < config.r0) {
+            return;
+        }
+        config.r0 = cap;
+        for mut hp in self.world.query::<&mut HitPoint>().iter_mut(&mut self.world) {
+            hp.r2 = cap * cap;
         }
     }
 
