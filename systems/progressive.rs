@@ -314,7 +314,7 @@ impl ProgressiveRenderer {
             .filter(|hp| hp.is_valid())
             .map(|hp| (hp.p - origin).length())
             .collect();
-        if distances.is_empty() || !(pixel_angle > 0.0) {
+        if distances.is_empty() || pixel_angle.is_nan() || pixel_angle <= 0.0 {
             return;
         }
         let mid = distances.len() / 2;
