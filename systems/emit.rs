@@ -40,3 +40,16 @@ pub fn emit_camera_paths<const LENS: bool, const MOTION: bool>(
         },
     );
 }
+
+/// The `emit_camera_paths` instance for a scene: lens and time sampling only when the scene has an
+/// aperture or motion.
+pub fn emit_camera_paths_for(
+    features: super::resources::SceneFeatures,
+) -> bevy_ecs::schedule::ScheduleConfigs<bevy_ecs::system::ScheduleSystem> {
+    match (features.lens, features.motion) {
+        (false, false) => emit_camera_paths::<false, false>.into_configs(),
+        (true, false) => emit_camera_paths::<true, false>.into_configs(),
+        (false, true) => emit_camera_paths::<false, true>.into_configs(),
+        (true, true) => emit_camera_paths::<true, true>.into_configs(),
+    }
+}

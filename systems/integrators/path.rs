@@ -14,7 +14,7 @@
 
 use crate::scene::IntegratorKind;
 use crate::systems::PassSystems;
-use crate::systems::emit::emit_camera_paths;
+use crate::systems::emit::emit_camera_paths_for;
 use crate::systems::gather::splat_paths_to_film;
 use crate::systems::resources::SceneFeatures;
 use crate::systems::scatter::scatter_paths;
@@ -33,13 +33,7 @@ pub fn build(schedule: &mut Schedule, features: SceneFeatures, kind: IntegratorK
         )
             .chain(),
     );
-    let emit = match (features.lens, features.motion) {
-        (false, false) => emit_camera_paths::<false, false>.into_configs(),
-        (true, false) => emit_camera_paths::<true, false>.into_configs(),
-        (false, true) => emit_camera_paths::<false, true>.into_configs(),
-        (true, true) => emit_camera_paths::<true, true>.into_configs(),
-    };
-    schedule.add_systems(emit.in_set(PassSystems::Emit));
+    schedule.add_systems(emit_camera_paths_for(features).in_set(PassSystems::Emit));
     schedule.add_systems(trace_paths.in_set(PassSystems::Trace));
     let nee = kind == IntegratorKind::Pt && features.lights;
     if nee {

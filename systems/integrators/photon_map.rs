@@ -18,7 +18,7 @@ use crate::photon::PhotonMap;
 use crate::scene::PhotonSettings;
 use crate::systems::PassSystems;
 use crate::systems::components::{PathStatus, PhotonHit, PhotonRay, PhotonState};
-use crate::systems::emit::emit_camera_paths;
+use crate::systems::emit::emit_camera_paths_for;
 use crate::systems::gather::splat_paths_to_film;
 use crate::systems::photon_estimate::scatter_photon_mapped;
 use crate::systems::photons::{emit_photons, scatter_photons, store_photons, trace_photons};
@@ -72,13 +72,7 @@ pub fn build(schedule: &mut Schedule, features: SceneFeatures) {
         )
             .chain(),
     );
-    let emit = match (features.lens, features.motion) {
-        (false, false) => emit_camera_paths::<false, false>.into_configs(),
-        (true, false) => emit_camera_paths::<true, false>.into_configs(),
-        (false, true) => emit_camera_paths::<false, true>.into_configs(),
-        (true, true) => emit_camera_paths::<true, true>.into_configs(),
-    };
-    schedule.add_systems(emit.in_set(PassSystems::Emit));
+    schedule.add_systems(emit_camera_paths_for(features).in_set(PassSystems::Emit));
     schedule.add_systems(trace_paths.in_set(PassSystems::Trace));
     schedule.add_systems(scatter_photon_mapped.in_set(PassSystems::Scatter));
     schedule.add_systems(trace_shadow_rays.in_set(PassSystems::Shadow));

@@ -19,7 +19,7 @@
 //! photons are stored from their first hit on and the camera pass draws no light sample.
 
 use crate::systems::PassSystems;
-use crate::systems::emit::emit_camera_paths;
+use crate::systems::emit::emit_camera_paths_for;
 use crate::systems::gather::{build_pass_photon_map, gather_photons_into_hit_points, splat_paths_to_film};
 use crate::systems::radius::update_hit_point_radii;
 use crate::systems::resources::SceneFeatures;
@@ -74,13 +74,7 @@ pub struct Named(pub &'static str);
 
 /// The camera pass: paths to their first non-specular hit; `nee` adds a light sample there.
 pub fn add_camera_pass(schedule: &mut Schedule, features: SceneFeatures, nee: bool) {
-    let emit = match (features.lens, features.motion) {
-        (false, false) => emit_camera_paths::<false, false>.into_configs(),
-        (true, false) => emit_camera_paths::<true, false>.into_configs(),
-        (false, true) => emit_camera_paths::<false, true>.into_configs(),
-        (true, true) => emit_camera_paths::<true, true>.into_configs(),
-    };
-    schedule.add_systems(emit.in_set(PassSystems::Emit));
+    schedule.add_systems(emit_camera_paths_for(features).in_set(PassSystems::Emit));
     schedule.add_systems(trace_paths.in_set(PassSystems::Trace));
     if nee && features.lights {
         schedule.add_systems(scatter_to_visible_points::<true>.in_set(PassSystems::Scatter));
