@@ -154,6 +154,12 @@ pub struct RenderArgs {
     /// Progressive photon mapping: also write the outputs every K passes; overrides the run file.
     #[arg(long)]
     pub write_every: Option<u32>,
+    /// Print a per-system profile (calls, total, %, mean, min, max) at exit.
+    #[arg(long)]
+    pub profile: bool,
+    /// Write a Chrome trace (open in ui.perfetto.dev or chrome://tracing) with one event per system run.
+    #[arg(long, value_name = "FILE.json")]
+    pub trace_chrome: Option<PathBuf>,
     /// Reference EXR: print the error of the result against it.
     #[arg(long)]
     pub reference: Option<PathBuf>,

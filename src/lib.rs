@@ -40,6 +40,7 @@ pub mod geometry;
 pub mod lights;
 pub mod materials;
 pub mod photon;
+pub mod profile;
 pub mod sampling;
 pub mod scene;
 #[path = "../systems/mod.rs"]

@@ -3,6 +3,7 @@
 use anyhow::{Context, Result};
 use caustica::cli::{Cli, Command, RenderArgs};
 use caustica::film::{compare::compare, output};
+use caustica::profile::SystemProfile;
 use caustica::scene;
 use caustica::systems::render::{init_thread_pools, prepare};
 use clap::Parser;
@@ -16,13 +17,21 @@ mod progressive;
 const DEFAULT_SCENE: &str = "scenes/default.toml";
 
 fn main() -> Result<()> {
-    tracing_subscriber::fmt()
-        .with_env_filter(EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new("warn")))
-        .with_writer(std::io::stderr)
-        .init();
-    match Cli::parse().command {
-        None => render(&RenderArgs::default()),
-        Some(Command::Render(args)) => render(&args),
+    let cli = Cli::parse();
+    let render_args = match &cli.command {
+        Some(Command::Render(args)) => args.clone(),
+        _ => RenderArgs::default(),
+    };
+    let profile = render_args.profile.then(SystemProfile::default);
+    let _chrome_guard = install_subscriber(profile.as_ref(), render_args.trace_chrome.as_deref())?;
+    match cli.command {
+        None | Some(Command::Render(_)) => {
+            render(&render_args)?;
+            if let Some(profile) = profile {
+                println!("\nper-system profile (tracing spans)\n{}", profile.table());
+            }
+            Ok(())
+        }
         Some(Command::Compare { image, reference, window }) => {
             compare_files(&image, &reference, window.as_deref())
         }
@@ -38,6 +47,41 @@ fn main() -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// Log to stderr (RUST_LOG, default warn), plus the profile and Chrome-trace layers when asked for.
+/// The log filter applies to the log layer only, so the others see every system span.
+fn install_subscriber(
+    profile: Option<&SystemProfile>,
+    chrome: Option<&Path>,
+) -> Result<Option<tracing_chrome::FlushGuard>> {
+    use tracing_subscriber::prelude::*;
+    let log_filter = EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new("warn"));
+    if profile.is_none() && chrome.is_none() {
+        // A global filter disables the per-system spans at their call sites: no cost at all.
+        tracing_subscriber::fmt().with_env_filter(log_filter).with_writer(std::io::stderr).init();
+        return Ok(None);
+    }
+    let log = tracing_subscriber::fmt::layer().with_writer(std::io::stderr).with_filter(log_filter);
+    let (chrome_layer, guard) = match chrome {
+        Some(path) => {
+            let file = std::fs::File::create(path)
+                .with_context(|| format!("{}: cannot create the Chrome trace", path.display()))?;
+            let (layer, guard) = tracing_chrome::ChromeLayerBuilder::new()
+                .writer(std::io::BufWriter::new(file))
+                .name_fn(Box::new(|event_or_span| match event_or_span {
+                    tracing_chrome::EventOrSpan::Span(span) => caustica::profile::span_label(span),
+                    tracing_chrome::EventOrSpan::Event(event) => event.metadata().name().to_owned(),
+                }))
+                .build();
+            (Some(layer), Some(guard))
+        }
+        None => (None, None),
+    };
+    // The profile layer records span names that the Chrome layer's labels read, so it goes first.
+    let names = profile.cloned().unwrap_or_default().layer();
+    tracing_subscriber::registry().with(names).with(chrome_layer).with(log).init();
+    Ok(guard)
 }
 
 fn default_scene() -> PathBuf {

@@ -1,0 +1,76 @@
+//! `--profile` and `--trace-chrome`: every system of the schedule shows up, once per run.
+
+use std::process::Command;
+
+fn render(dir: &std::path::Path, extra: &[&str]) -> String {
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/cornell-box.gltf");
+    let out = Command::new(env!("CARGO_BIN_EXE_caustica"))
+        .args(["render", scene, "--spp", "1", "--width", "16", "--height", "16", "-q", "--profile"])
+        .arg("--trace-chrome")
+        .arg(dir.join("trace.json"))
+        .arg("-o")
+        .arg(dir.join("x.exr"))
+        .args(extra)
+        .output()
+        .expect("caustica runs");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    String::from_utf8(out.stdout).unwrap()
+}
+
+/// "B" events (span entered) per label in the Chrome trace.
+fn begin_events(path: &std::path::Path, label: &str) -> usize {
+    let events: Vec<serde_json::Value> =
+        serde_json::from_str(&std::fs::read_to_string(path).unwrap()).expect("the trace is valid JSON");
+    events.iter().filter(|e| e["ph"] == "B" && e["name"] == label).count()
+}
+
+#[test]
+fn path_tracing_profile_lists_every_system_and_the_trace_has_one_event_per_run() {
+    let dir = std::env::temp_dir().join(format!("caustica-profile-pt-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let stdout = render(&dir, &[]);
+    let steps: usize = stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("wavefront").and_then(|r| r.split(',').nth(1)))
+        .and_then(|s| s.split_whitespace().next())
+        .and_then(|s| s.parse().ok())
+        .expect("the summary reports the steps");
+    let systems = [
+        "emit_camera_paths<false, false>",
+        "trace_paths",
+        "scatter_paths<true>",
+        "trace_shadow_rays",
+        "splat_paths_to_film",
+    ];
+    for system in systems {
+        let row =
+            stdout.lines().find(|l| l.starts_with(system)).unwrap_or_else(|| panic!("no row for {system}"));
+        let calls: usize = row[system.len()..].split_whitespace().next().unwrap().parse().unwrap();
+        assert_eq!(calls, steps, "{system}: {calls} calls in {steps} steps");
+        let label = format!("system: {system}");
+        assert_eq!(begin_events(&dir.join("trace.json"), &label), steps, "{label} events");
+    }
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn progressive_profile_lists_the_camera_photon_and_statistics_systems() {
+    let dir = std::env::temp_dir().join(format!("caustica-profile-sppm-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let stdout = render(&dir, &["--integrator", "sppm", "--passes", "3", "--photons-per-pass", "2000"]);
+    for system in [
+        "scatter_to_visible_points<true>",
+        "emit_photons",
+        "trace_photons",
+        "scatter_photons",
+        "store_photons",
+        "build_pass_photon_map",
+        "gather_photons_into_hit_points",
+        "update_hit_point_radii",
+    ] {
+        assert!(stdout.lines().any(|l| l.starts_with(system)), "no row for {system} in\n{stdout}");
+    }
+    // The statistics schedule runs once per pass.
+    assert_eq!(begin_events(&dir.join("trace.json"), "system: update_hit_point_radii"), 3);
+    std::fs::remove_dir_all(dir).ok();
+}
