@@ -30,6 +30,45 @@ pub enum Command {
     },
     /// Estimate a 1-D density from numbers in a text file and plot it over the data.
     Density(DensityArgs),
+    /// Run integrators under the same time budget and record their error against a reference over time.
+    Bench(BenchArgs),
+}
+
+/// Arguments of `caustica bench`.
+#[derive(Args, Debug, Clone)]
+pub struct BenchArgs {
+    /// Run file or glTF to render.
+    pub scene: PathBuf,
+    /// Reference EXR; without one, a reference is rendered first (see --reference-integrator).
+    #[arg(long)]
+    pub reference: Option<PathBuf>,
+    /// Integrators to compare, comma-separated.
+    #[arg(long, value_enum, value_delimiter = ',', default_value = "pt,pm,ppm,sppm")]
+    pub integrators: Vec<IntegratorKind>,
+    /// Wall-clock budget per integrator, seconds.
+    #[arg(long, default_value_t = 60.0)]
+    pub time: f64,
+    /// Where errors.csv, the plots and the images go.
+    #[arg(long, default_value = "out/bench")]
+    pub out_dir: PathBuf,
+    /// Plot error against samples per pixel (or passes) instead of time.
+    #[arg(long)]
+    pub spp_sweep: bool,
+    /// Integrator of the reference rendered when none is given.
+    #[arg(long, value_enum, default_value = "sppm")]
+    pub reference_integrator: IntegratorKind,
+    /// Budget of that reference, seconds (default: 4 × --time).
+    #[arg(long)]
+    pub reference_time: Option<f64>,
+    /// Image width when no reference fixes it; overrides the run file.
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Image height when no reference fixes it; overrides the run file.
+    #[arg(long)]
+    pub height: Option<u32>,
+    /// Sampler seed; overrides the run file (the rendered reference uses seed + 1).
+    #[arg(long)]
+    pub seed: Option<u64>,
 }
 
 /// Density estimators of `caustica density`.

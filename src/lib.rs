@@ -31,6 +31,7 @@
 //! assert!(renderer.image().mean().is_finite());
 //! ```
 
+pub mod bench;
 pub mod camera;
 pub mod cli;
 pub mod density;

@@ -35,6 +35,32 @@ fn main() -> Result<()> {
         Some(Command::Compare { image, reference, window }) => {
             compare_files(&image, &reference, window.as_deref())
         }
+        Some(Command::Bench(args)) => {
+            init_thread_pools(None);
+            let report = caustica::bench::run(&args)?;
+            if let Some(reference) = &report.rendered_reference {
+                println!(
+                    "reference   none given: rendered one with {} for {:.0} s (seed + 1) -> {}",
+                    caustica::bench::integrator_name(args.reference_integrator),
+                    args.reference_time.unwrap_or(4.0 * args.time),
+                    reference.display()
+                );
+            }
+            for c in &report.checkpoints {
+                println!(
+                    "{:<6} {:>9.3} s {:>10.1} spp|passes  relMSE {:.6}  RMSE {:.6}",
+                    caustica::bench::integrator_name(c.integrator),
+                    c.seconds,
+                    c.samples_or_passes,
+                    c.relmse,
+                    c.rmse
+                );
+            }
+            for path in &report.files {
+                println!("wrote       {}", path.display());
+            }
+            Ok(())
+        }
         Some(Command::Density(args)) => {
             let summary = caustica::density::plot::run(&args)?;
             println!(

@@ -63,7 +63,7 @@ impl SystemProfile {
         let timings = self.timings();
         let all: f64 = timings.values().map(|t| t.total.as_secs_f64()).sum();
         let mut rows: Vec<_> = timings.into_iter().collect();
-        rows.sort_by(|a, b| b.1.total.cmp(&a.1.total));
+        rows.sort_by_key(|row| std::cmp::Reverse(row.1.total));
         let ms = |d: Duration| d.as_secs_f64() * 1e3;
         let mut out = format!(
             "{:<44} {:>8} {:>11} {:>6} {:>9} {:>9} {:>9}\n",

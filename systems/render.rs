@@ -197,6 +197,26 @@ impl Renderer {
         RenderSummary { stats: *self.world.resource::<RenderStats>(), seconds: start.elapsed().as_secs_f64() }
     }
 
+    /// Hand out more work: samples up to `spp_end` per pixel, to idle paths first and to the rest as
+    /// they finish. The film keeps what it has, so a render can be refined in steps (benchmarks
+    /// measure the error after each).
+    pub fn extend_samples(&mut self, spp_end: u32) {
+        let old = *self.world.resource::<Workload>();
+        if spp_end <= old.spp_end {
+            return;
+        }
+        let mut workload = Workload::new(old.pixels, old.spp_end, spp_end, old.wavefront);
+        let mut paths = self.world.query::<&mut PathState>();
+        for mut state in paths.iter_mut(&mut self.world) {
+            if state.status != PathStatus::Idle {
+                continue;
+            }
+            let Some((pixel, sample)) = workload.take() else { break };
+            (state.pixel, state.sample, state.status) = (pixel, sample, PathStatus::NeedsCamera);
+        }
+        self.world.insert_resource(workload);
+    }
+
     /// The mean radiance per pixel so far.
     pub fn image(&self) -> Image {
         self.world.resource::<Film>().image()

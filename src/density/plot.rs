@@ -13,7 +13,7 @@ const SIZE: (u32, u32) = (800, 500);
 /// Points at which the estimate is drawn.
 const CURVE_POINTS: usize = 600;
 
-static FONT: &[u8] = include_bytes!("fonts/DejaVuSansMono.ttf");
+pub(crate) static FONT: &[u8] = include_bytes!("fonts/DejaVuSansMono.ttf");
 
 /// What `caustica density` did.
 #[derive(Clone, Debug)]

@@ -1,0 +1,188 @@
+//! `caustica bench`: every integrator under the same wall-clock budget, its error against a reference
+//! recorded at geometric checkpoints (1, 2, 4, … samples per pixel or passes), written as
+//! `errors.csv`, a log-log plot of relMSE against time (PNG and SVG), and a false-colour error image
+//! and the final render per integrator.
+
+mod false_colour;
+mod plot;
+
+use crate::cli::BenchArgs;
+use crate::error::{Error, Result};
+use crate::film::Image;
+use crate::film::compare::compare;
+use crate::film::output::{read_exr, write_image};
+use crate::scene::{IntegratorKind, RunFile, Scene, load};
+use crate::systems::progressive::prepare_progressive;
+use crate::systems::render::prepare;
+use std::io::Write as _;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// One measurement.
+#[derive(Clone, Copy, Debug)]
+pub struct Checkpoint {
+    /// Which integrator.
+    pub integrator: IntegratorKind,
+    /// Wall time spent rendering so far (measuring the error is not counted).
+    pub seconds: f64,
+    /// Samples per pixel (path tracing, photon mapping) or passes (progressive photon mapping).
+    pub samples_or_passes: f64,
+    /// Root-mean-square error.
+    pub rmse: f64,
+    /// Relative MSE, mean((a − b)² / (b² + 0.01)).
+    pub relmse: f64,
+    /// Mean absolute error.
+    pub mae: f64,
+}
+
+/// What a bench run produced.
+#[derive(Clone, Debug)]
+pub struct BenchReport {
+    /// Every checkpoint, integrator by integrator, in time order.
+    pub checkpoints: Vec<Checkpoint>,
+    /// The files written.
+    pub files: Vec<PathBuf>,
+    /// Whether the reference was rendered here (no `--reference`).
+    pub rendered_reference: Option<PathBuf>,
+}
+
+/// Run the benchmark that `args` describes.
+pub fn run(args: &BenchArgs) -> Result<BenchReport> {
+    if !(args.time.is_finite() && args.time > 0.0) {
+        return Err(Error::Setting { name: "time".into(), problem: format!("{} must be > 0", args.time) });
+    }
+    std::fs::create_dir_all(&args.out_dir)
+        .map_err(|source| Error::Io { path: args.out_dir.clone(), source })?;
+    let (scene, mut run) = load(&args.scene)?;
+    run.render.seed = args.seed.unwrap_or(run.render.seed);
+    run.film.width = args.width.or(run.film.width);
+    run.film.height = args.height.or(run.film.height);
+    run.render.time_limit = None;
+    let mut files = Vec::new();
+    let mut rendered_reference = None;
+    let reference = match &args.reference {
+        Some(path) => read_exr(path)?,
+        None => {
+            let budget = args.reference_time.unwrap_or(4.0 * args.time);
+            let mut reference_run = run.clone();
+            reference_run.render.seed = run.render.seed.wrapping_add(1);
+            let image = render_for(&scene, &reference_run, args.reference_integrator, budget, |_, _, _| {})?;
+            let path = args.out_dir.join("reference.exr");
+            write_image(&image, &path, 0.0)?;
+            rendered_reference = Some(path);
+            image
+        }
+    };
+    run.film.width = Some(reference.width);
+    run.film.height = Some(reference.height);
+
+    let mut checkpoints = Vec::new();
+    for &integrator in &args.integrators {
+        let mut measure = |seconds: f64, samples_or_passes: f64, image: &Image| {
+            if let Some(e) = compare(image, &reference) {
+                let c = Checkpoint {
+                    integrator,
+                    seconds,
+                    samples_or_passes,
+                    rmse: e.rmse,
+                    relmse: e.relmse,
+                    mae: e.mae,
+                };
+                checkpoints.push(c);
+            }
+        };
+        let image = render_for(&scene, &run, integrator, args.time, &mut measure)?;
+        let name = integrator_name(integrator);
+        let exr = args.out_dir.join(format!("{name}.exr"));
+        write_image(&image, &exr, run.film.exposure)?;
+        let error_png = args.out_dir.join(format!("{name}-error.png"));
+        false_colour::write_error_image(&image, &reference, &error_png)?;
+        files.extend([exr, error_png]);
+    }
+
+    let csv = args.out_dir.join("errors.csv");
+    write_csv(&csv, &checkpoints)?;
+    files.push(csv);
+    let stem = if args.spp_sweep { "relmse-vs-samples" } else { "relmse-vs-time" };
+    for ext in ["png", "svg"] {
+        let path = args.out_dir.join(format!("{stem}.{ext}"));
+        plot::write_plot(&path, &checkpoints, &args.integrators, args.spp_sweep)?;
+        files.push(path);
+    }
+    Ok(BenchReport { checkpoints, files, rendered_reference })
+}
+
+/// The name of an integrator as on the command line.
+pub fn integrator_name(kind: IntegratorKind) -> String {
+    clap::ValueEnum::to_possible_value(&kind).map_or_else(|| format!("{kind:?}"), |v| v.get_name().to_owned())
+}
+
+/// Render `scene` with `integrator` for `budget` seconds, calling `measure(seconds, samples or
+/// passes, image)` after 1, 2, 4, … samples per pixel or passes and at the end.
+fn render_for(
+    scene: &Scene,
+    run: &RunFile,
+    integrator: IntegratorKind,
+    budget: f64,
+    mut measure: impl FnMut(f64, f64, &Image),
+) -> Result<Image> {
+    let mut run = run.clone();
+    run.render.integrator = integrator;
+    let start = Instant::now();
+    if integrator.is_progressive() {
+        run.progressive.passes = u32::MAX;
+        let mut renderer = prepare_progressive(scene.clone(), &run)?;
+        let (mut rendering, mut next) = (start.elapsed().as_secs_f64(), 1);
+        loop {
+            let pass_start = Instant::now();
+            renderer.run_pass();
+            rendering += pass_start.elapsed().as_secs_f64();
+            let done = rendering >= budget;
+            if renderer.passes >= next || done {
+                measure(rendering, renderer.passes as f64, &renderer.image());
+                next = renderer.passes * 2;
+            }
+            if done {
+                return Ok(renderer.image());
+            }
+        }
+    }
+    run.render.spp = 1;
+    let mut renderer = prepare(scene.clone(), &run)?;
+    let mut rendering = start.elapsed().as_secs_f64();
+    let pixels = (renderer.image().pixels.len() as f64).max(1.0);
+    let mut spp = 1;
+    loop {
+        let step = Instant::now();
+        let summary = renderer.run_until(Some((budget - rendering).max(0.0)), |_| {});
+        rendering += step.elapsed().as_secs_f64();
+        let _ = summary;
+        let samples = renderer.world.resource::<crate::systems::resources::RenderStats>().samples as f64;
+        measure(rendering, samples / pixels, &renderer.image());
+        if rendering >= budget {
+            return Ok(renderer.image());
+        }
+        spp *= 2;
+        renderer.extend_samples(spp);
+    }
+}
+
+fn write_csv(path: &std::path::Path, checkpoints: &[Checkpoint]) -> Result<()> {
+    let io = |source| Error::Io { path: path.to_path_buf(), source };
+    let mut file = std::io::BufWriter::new(std::fs::File::create(path).map_err(io)?);
+    writeln!(file, "integrator,seconds,samples_or_passes,rmse,relmse,mae").map_err(io)?;
+    for c in checkpoints {
+        writeln!(
+            file,
+            "{},{:.6},{:.4},{:.8},{:.8},{:.8}",
+            integrator_name(c.integrator),
+            c.seconds,
+            c.samples_or_passes,
+            c.rmse,
+            c.relmse,
+            c.mae
+        )
+        .map_err(io)?;
+    }
+    file.flush().map_err(io)
+}

@@ -1,0 +1,71 @@
+//! `caustica bench` on a tiny scene: the CSV is well formed, the plots and error images decode.
+
+use std::process::Command;
+
+fn bench(dir: &std::path::Path, extra: &[&str]) -> String {
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/cornell-box.gltf");
+    let out = Command::new(env!("CARGO_BIN_EXE_caustica"))
+        .args(["bench", scene, "--integrators", "pt,sppm", "--time", "0.3", "--reference-time", "0.6"])
+        .args(["--width", "24", "--height", "24", "--out-dir"])
+        .arg(dir)
+        .args(extra)
+        .output()
+        .expect("caustica runs");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    String::from_utf8(out.stdout).unwrap()
+}
+
+#[test]
+fn bench_writes_a_monotone_csv_with_finite_errors_and_decodable_plots() {
+    let dir = std::env::temp_dir().join(format!("caustica-bench-{}", std::process::id()));
+    let stdout = bench(&dir, &[]);
+    assert!(
+        stdout.contains("none given: rendered one with sppm"),
+        "says the reference was rendered:\n{stdout}"
+    );
+    let csv = std::fs::read_to_string(dir.join("errors.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(lines.next(), Some("integrator,seconds,samples_or_passes,rmse,relmse,mae"));
+    let rows: Vec<Vec<String>> = lines.map(|l| l.split(',').map(str::to_owned).collect()).collect();
+    for integrator in ["pt", "sppm"] {
+        let mine: Vec<&Vec<String>> = rows.iter().filter(|r| r[0] == integrator).collect();
+        assert!(mine.len() >= 2, "{integrator}: {} checkpoints", mine.len());
+        let number = |r: &Vec<String>, i: usize| r[i].parse::<f64>().unwrap();
+        for pair in mine.windows(2) {
+            assert!(number(pair[1], 1) > number(pair[0], 1), "{integrator}: time not increasing");
+            assert!(number(pair[1], 2) >= number(pair[0], 2), "{integrator}: samples not increasing");
+        }
+        for r in &mine {
+            assert!((3..6).all(|i| number(r, i).is_finite() && number(r, i) >= 0.0), "{integrator}: {r:?}");
+        }
+        let error = image::open(dir.join(format!("{integrator}-error.png"))).expect("error image decodes");
+        assert_eq!((error.width(), error.height()), (24, 24));
+    }
+    let plot = image::open(dir.join("relmse-vs-time.png")).expect("the PNG plot decodes");
+    assert!(plot.width() > 100 && plot.height() > 100);
+    let svg = std::fs::read_to_string(dir.join("relmse-vs-time.svg")).unwrap();
+    assert!(
+        svg.trim_start().starts_with("<svg") && svg.trim_end().ends_with("</svg>"),
+        "SVG is not a document"
+    );
+    assert!(svg.contains("polyline") || svg.contains("<path"), "SVG has no lines");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn spp_sweep_plots_against_samples() {
+    let dir = std::env::temp_dir().join(format!("caustica-bench-sweep-{}", std::process::id()));
+    bench(
+        &dir,
+        &[
+            "--spp-sweep",
+            "--reference",
+            concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/cornell-box.ref.exr"),
+        ],
+    );
+    assert!(image::open(dir.join("relmse-vs-samples.png")).is_ok());
+    // The reference fixes the size: 256×256, whatever --width says.
+    let error = image::open(dir.join("pt-error.png")).unwrap();
+    assert_eq!((error.width(), error.height()), (256, 256));
+    std::fs::remove_dir_all(&dir).ok();
+}
