@@ -18,6 +18,7 @@ use super::resources::{
 use crate::error::{Error, Result};
 use crate::film::{Film, Image};
 use crate::photon::progressive::initial_radius;
+use crate::scene::schedule::Pass;
 use crate::scene::{IntegratorKind, ProgressiveSettings, RunFile, Scene};
 use bevy_ecs::prelude::*;
 use glam::Vec3;
@@ -47,6 +48,8 @@ pub struct ProgressiveRenderer {
     pub settings: ProgressiveSettings,
     /// Passes done.
     pub passes: u32,
+    /// The order of the camera, photon and statistics schedules within a pass.
+    pub pass_order: [Pass; 3],
     photon_entities: u32,
 }
 
@@ -102,6 +105,12 @@ pub fn prepare_progressive(scene: Scene, run: &RunFile) -> Result<ProgressiveRen
     let settings = run.progressive;
     let kind = run.render.integrator;
     settings.check().map_err(|problem| Error::Setting { name: "progressive".into(), problem })?;
+    run.schedule.check(kind).map_err(|problem| Error::Setting { name: "schedule".into(), problem })?;
+    let (stage_order, pass_order, nee) = (
+        run.schedule.stage_order().unwrap_or(crate::scene::schedule::CYCLE),
+        run.schedule.pass_order().unwrap_or([Pass::Camera, Pass::Photons, Pass::Statistics]),
+        run.schedule.nee_for(kind),
+    );
     if !kind.is_progressive() {
         return Err(Error::Setting {
             name: "integrator".into(),
@@ -195,7 +204,8 @@ pub fn prepare_progressive(scene: Scene, run: &RunFile) -> Result<ProgressiveRen
 
     let config = world.resource::<RenderConfig>().clone();
     world.insert_resource(PhotonWork {
-        kind: if kind == IntegratorKind::Ppm { PhotonMapKind::Global } else { PhotonMapKind::Bounced },
+        // Without light sampling at the hit points, photons carry direct light too.
+        kind: if nee { PhotonMapKind::Bounced } else { PhotonMapKind::Global },
         total: settings.photons_per_pass,
         next: 0,
         seed: config.seed,
@@ -213,12 +223,12 @@ pub fn prepare_progressive(scene: Scene, run: &RunFile) -> Result<ProgressiveRen
         (PhotonRay::default(), PhotonHit::default(), state)
     }));
 
-    let mut schedules = ProgressiveSchedules::new();
+    let mut schedules = ProgressiveSchedules::with_order(stage_order);
     match kind {
         IntegratorKind::Ppm => ppm::build(&mut schedules, features),
-        IntegratorKind::Appm => appm::build(&mut schedules, features),
-        IntegratorKind::Cppm => cppm::build(&mut schedules, features),
-        _ => sppm::build(&mut schedules, features),
+        IntegratorKind::Appm => appm::build(&mut schedules, features, nee),
+        IntegratorKind::Cppm => cppm::build(&mut schedules, features, nee),
+        _ => sppm::build(&mut schedules, features, nee),
     }
     Ok(ProgressiveRenderer {
         world,
@@ -227,6 +237,7 @@ pub fn prepare_progressive(scene: Scene, run: &RunFile) -> Result<ProgressiveRen
         kind,
         settings,
         passes: 0,
+        pass_order,
         photon_entities: photon_wavefront,
     })
 }
@@ -241,27 +252,55 @@ impl ProgressiveRenderer {
         // One shutter time per pass, shared by the camera and the photons (Hachisuka & Jensen 2009, §5).
         let time = self.features.motion.then(|| crate::sampling::Sampler::new(seed, u32::MAX, pass).get1d(0));
 
-        let start = Instant::now();
-        if self.kind != IntegratorKind::Ppm || pass == 0 {
-            self.world.resource_mut::<RenderConfig>().pass_time = time;
-            let mut paths = self.world.query::<&mut PathState>();
-            for mut state in paths.iter_mut(&mut self.world) {
-                state.sample = pass;
-                state.status = PathStatus::NeedsCamera;
-            }
-            loop {
-                self.schedules.camera.run(&mut self.world);
-                if self.world.resource::<RenderStats>().active_paths == 0 {
-                    break;
+        let mut report = PassReport::default();
+        for stage in self.pass_order {
+            let start = Instant::now();
+            match stage {
+                Pass::Camera => {
+                    self.camera_pass(pass, time);
+                    report.camera_seconds = start.elapsed().as_secs_f64();
                 }
+                Pass::Photons => {
+                    self.photon_pass(pass, time);
+                    report.photon_seconds = start.elapsed().as_secs_f64();
+                }
+                Pass::Statistics => {
+                    self.world.resource_mut::<ProgressiveConfig>().pass = pass;
+                    self.schedules.statistics.run(&mut self.world);
+                    report.stored = self.world.resource::<PassPhotons>().map.len();
+                    report.gather_seconds = start.elapsed().as_secs_f64();
+                }
+            }
+        }
+        self.passes += 1;
+        report.passes = self.passes;
+        report
+    }
+
+    /// Trace every pixel's camera path to its hit point (`ppm`: the first pass only).
+    fn camera_pass(&mut self, pass: u32, time: Option<f32>) {
+        if self.kind == IntegratorKind::Ppm && pass > 0 {
+            return;
+        }
+        self.world.resource_mut::<RenderConfig>().pass_time = time;
+        let mut paths = self.world.query::<&mut PathState>();
+        for mut state in paths.iter_mut(&mut self.world) {
+            state.sample = pass;
+            state.status = PathStatus::NeedsCamera;
+        }
+        loop {
+            self.schedules.camera.run(&mut self.world);
+            if self.world.resource::<RenderStats>().active_paths == 0 {
+                break;
             }
         }
         if pass == 0 && self.settings.initial_radius.is_none() {
             self.cap_initial_radius_by_footprint();
         }
-        let camera_seconds = start.elapsed().as_secs_f64();
+    }
 
-        let start = Instant::now();
+    /// Trace this pass's photons into `PhotonBuffer`.
+    fn photon_pass(&mut self, pass: u32, time: Option<f32>) {
         {
             let mut work = self.world.resource_mut::<PhotonWork>();
             work.pass = pass;
@@ -278,20 +317,6 @@ impl ProgressiveRenderer {
             if self.world.resource::<PhotonStats>().active == 0 {
                 break;
             }
-        }
-        let photon_seconds = start.elapsed().as_secs_f64();
-
-        let start = Instant::now();
-        self.world.resource_mut::<ProgressiveConfig>().pass = pass;
-        self.schedules.statistics.run(&mut self.world);
-        let stored = self.world.resource::<PassPhotons>().map.len();
-        self.passes += 1;
-        PassReport {
-            passes: self.passes,
-            stored,
-            camera_seconds,
-            photon_seconds,
-            gather_seconds: start.elapsed().as_secs_f64(),
         }
     }
 

@@ -117,6 +117,10 @@ pub fn prepare(scene: Scene, run: &RunFile) -> Result<Renderer> {
             ),
         });
     }
+    run.schedule
+        .check(settings.integrator)
+        .map_err(|problem| Error::Setting { name: "schedule".into(), problem })?;
+    let order = run.schedule.stage_order().unwrap_or(crate::scene::schedule::CYCLE);
     let (mut world, features) = scene_world(scene, run)?;
     let pixels = {
         let film = world.resource::<Film>();
@@ -137,9 +141,10 @@ pub fn prepare(scene: Scene, run: &RunFile) -> Result<Renderer> {
     schedule.set_executor(SingleThreadedExecutor::new());
     if settings.integrator == IntegratorKind::Pm {
         integrators::photon_map::prepare_maps(&mut world, &run.photons, features.motion);
-        integrators::photon_map::build(&mut schedule, features);
+        integrators::photon_map::build_ordered(&mut schedule, features, order);
     } else {
-        integrators::path::build(&mut schedule, features, settings.integrator);
+        let nee = run.schedule.nee_for(settings.integrator);
+        integrators::path::build_ordered(&mut schedule, features, order, nee);
     }
     Ok(Renderer { world, schedule, features })
 }

@@ -5,6 +5,7 @@
 
 pub mod gltf;
 pub mod run_file;
+pub mod schedule;
 pub mod validate;
 
 use crate::error::{Error, Result};

@@ -291,6 +291,8 @@ pub struct RunFile {
     pub photons: PhotonSettings,
     /// Progressive photon mapping.
     pub progressive: ProgressiveSettings,
+    /// Stage and pass order, optional systems.
+    pub schedule: super::schedule::ScheduleSettings,
     /// Output files.
     pub output: OutputSettings,
     /// Analytic spheres.
@@ -445,6 +447,7 @@ impl RunFile {
             finite(&format!("motion[{i}].translate"), &motion.translate)?;
         }
         self.progressive.check().map_err(|e| format!("progressive.{e}"))?;
+        self.schedule.check(self.render.integrator)?;
         if let Some(t) = self.render.time_limit
             && !(t.is_finite() && t > 0.0)
         {

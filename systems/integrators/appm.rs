@@ -21,8 +21,9 @@ use crate::systems::resources::SceneFeatures;
 use bevy_ecs::prelude::*;
 
 /// Wire `appm`: `sppm`'s passes with the Laplacian-estimating gather and the MSE-optimal radius.
-pub fn build(schedules: &mut ProgressiveSchedules, features: SceneFeatures) {
-    add_camera_pass(&mut schedules.camera, features, true);
+/// `nee`: light sampling at the hit points (default); without it photons carry direct light too.
+pub fn build(schedules: &mut ProgressiveSchedules, features: SceneFeatures, nee: bool) {
+    add_camera_pass(&mut schedules.camera, features, nee);
     add_photon_pass(&mut schedules.photons);
     schedules.statistics.add_systems(
         (build_pass_photon_map, gather_photons_with_laplacian).chain().in_set(PassSystems::Gather),

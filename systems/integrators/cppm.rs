@@ -20,8 +20,9 @@ use crate::systems::resources::SceneFeatures;
 use bevy_ecs::prelude::*;
 
 /// Wire `cppm`: `sppm`'s passes with the cell-counting gather and the χ² radius rule.
-pub fn build(schedules: &mut ProgressiveSchedules, features: SceneFeatures) {
-    add_camera_pass(&mut schedules.camera, features, true);
+/// `nee`: light sampling at the hit points (default); without it photons carry direct light too.
+pub fn build(schedules: &mut ProgressiveSchedules, features: SceneFeatures, nee: bool) {
+    add_camera_pass(&mut schedules.camera, features, nee);
     add_photon_pass(&mut schedules.photons);
     schedules.statistics.add_systems(
         (build_pass_photon_map, gather_photons_into_chi2_cells).chain().in_set(PassSystems::Gather),

@@ -21,22 +21,22 @@ use crate::systems::scatter::scatter_paths;
 use crate::systems::trace::{trace_paths, trace_shadow_rays};
 use bevy_ecs::prelude::*;
 
-/// Add the path tracer's systems to `schedule` (the host's or our own).
+/// Add the path tracer's systems to `schedule` (the host's or our own), in the default stage order.
 pub fn build(schedule: &mut Schedule, features: SceneFeatures, kind: IntegratorKind) {
-    schedule.configure_sets(
-        (
-            PassSystems::Emit,
-            PassSystems::Trace,
-            PassSystems::Scatter,
-            PassSystems::Shadow,
-            PassSystems::Gather,
-        )
-            .chain(),
-    );
+    build_ordered(schedule, features, crate::scene::schedule::CYCLE, kind == IntegratorKind::Pt);
+}
+
+/// As [`build`], with the stages in `order` (a rotation of the cycle) and light sampling on or off.
+pub fn build_ordered(
+    schedule: &mut Schedule,
+    features: SceneFeatures,
+    order: [crate::scene::schedule::Stage; 5],
+    nee: bool,
+) {
+    super::configure_stages(schedule, order);
     schedule.add_systems(emit_camera_paths_for(features).in_set(PassSystems::Emit));
     schedule.add_systems(trace_paths.in_set(PassSystems::Trace));
-    let nee = kind == IntegratorKind::Pt && features.lights;
-    if nee {
+    if nee && features.lights {
         schedule.add_systems(scatter_paths::<true>.in_set(PassSystems::Scatter));
         schedule.add_systems(trace_shadow_rays.in_set(PassSystems::Shadow));
     } else {

@@ -60,18 +60,18 @@ pub struct PhotonReport {
     pub passes: Vec<PhotonPassReport>,
 }
 
-/// Add the camera pass of `pm` to `schedule`.
+/// Add the camera pass of `pm` to `schedule`, in the default stage order.
 pub fn build(schedule: &mut Schedule, features: SceneFeatures) {
-    schedule.configure_sets(
-        (
-            PassSystems::Emit,
-            PassSystems::Trace,
-            PassSystems::Scatter,
-            PassSystems::Shadow,
-            PassSystems::Gather,
-        )
-            .chain(),
-    );
+    build_ordered(schedule, features, crate::scene::schedule::CYCLE);
+}
+
+/// As [`build`], with the stages in `order` (a rotation of the cycle).
+pub fn build_ordered(
+    schedule: &mut Schedule,
+    features: SceneFeatures,
+    order: [crate::scene::schedule::Stage; 5],
+) {
+    super::configure_stages(schedule, order);
     schedule.add_systems(emit_camera_paths_for(features).in_set(PassSystems::Emit));
     schedule.add_systems(trace_paths.in_set(PassSystems::Trace));
     schedule.add_systems(scatter_photon_mapped.in_set(PassSystems::Scatter));

@@ -39,26 +39,26 @@ pub struct ProgressiveSchedules {
 }
 
 impl ProgressiveSchedules {
-    /// Empty schedules with their stages in order, on one thread each (systems parallelise their own
-    /// queries; a parallel executor would only add hand-off cost between these few, fat systems).
+    /// Empty schedules with their stages in the default order, on one thread each (systems
+    /// parallelise their own queries; a parallel executor would only add hand-off cost between these
+    /// few, fat systems).
     pub fn new() -> Self {
-        let stages = |label: &'static str| {
+        Self::with_order(crate::scene::schedule::CYCLE)
+    }
+
+    /// As [`ProgressiveSchedules::new`], with the camera and photon stages in `order` (a rotation).
+    pub fn with_order(order: [crate::scene::schedule::Stage; 5]) -> Self {
+        let empty = |label: &'static str| {
             let mut schedule = Schedule::new(Named(label));
             schedule.set_executor(SingleThreadedExecutor::new());
-            schedule.configure_sets(
-                (
-                    PassSystems::Emit,
-                    PassSystems::Trace,
-                    PassSystems::Scatter,
-                    PassSystems::Shadow,
-                    PassSystems::Gather,
-                    PassSystems::Update,
-                )
-                    .chain(),
-            );
             schedule
         };
-        Self { camera: stages("camera"), photons: stages("photons"), statistics: stages("statistics") }
+        let (mut camera, mut photons, mut statistics) =
+            (empty("camera"), empty("photons"), empty("statistics"));
+        super::configure_stages(&mut camera, order);
+        super::configure_stages(&mut photons, order);
+        statistics.configure_sets((PassSystems::Gather, PassSystems::Update).chain());
+        Self { camera, photons, statistics }
     }
 }
 

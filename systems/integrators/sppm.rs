@@ -14,8 +14,9 @@ use crate::systems::resources::SceneFeatures;
 use bevy_ecs::prelude::*;
 
 /// Wire `sppm`: camera pass with light sampling, photon pass, gather, shrinking-radius update.
-pub fn build(schedules: &mut ProgressiveSchedules, features: SceneFeatures) {
-    add_camera_pass(&mut schedules.camera, features, true);
+/// `nee`: light sampling at the hit points (default); without it photons carry direct light too.
+pub fn build(schedules: &mut ProgressiveSchedules, features: SceneFeatures, nee: bool) {
+    add_camera_pass(&mut schedules.camera, features, nee);
     add_photon_pass(&mut schedules.photons);
     schedules.statistics.add_systems(
         (build_pass_photon_map, gather_photons_into_hit_points).chain().in_set(PassSystems::Gather),
