@@ -65,6 +65,8 @@ pub struct PathState {
     pub prev_pdf: f32,
     /// Position of the last scattering vertex.
     pub prev_p: Vec3,
+    /// Shading normal there (the light tree's selection depends on it, and MIS must see the same).
+    pub prev_n: Vec3,
     /// Whether the last bounce was a delta lobe (no MIS, emission counted fully).
     pub specular_bounce: bool,
     /// Photon mapping: the path is a final-gather ray that ends at the next diffuse hit.
@@ -91,6 +93,7 @@ impl PathState {
             eta_scale: 1.0,
             prev_pdf: 0.0,
             prev_p: Vec3::ZERO,
+            prev_n: Vec3::ZERO,
             specular_bounce: false,
             gathering: false,
             status: PathStatus::NeedsCamera,

@@ -81,7 +81,7 @@ fn scatter_one<const NEE: bool>(
         let weight = if !NEE || state.depth == 0 || state.specular_bounce {
             1.0
         } else {
-            let light_pdf = scene.lights.pdf(si.light, state.prev_p, si.p, si.ng, ray.time);
+            let light_pdf = scene.lights.pdf(si.light, state.prev_p, state.prev_n, si.p, si.ng, ray.time);
             power_heuristic(state.prev_pdf, light_pdf)
         };
         state.l += state.beta * le * weight;
@@ -103,7 +103,7 @@ fn scatter_one<const NEE: bool>(
     if NEE && !bsdf.is_delta() {
         let u_select = sampler.get1d(base + dim::LIGHT_SELECT);
         let u_light = sampler.get2d(base + dim::LIGHT_POINT);
-        if let Some((_, ls)) = scene.lights.sample(si.p, ray.time, u_select, u_light) {
+        if let Some((_, ls)) = scene.lights.sample(si.p, si.ns, ray.time, u_select, u_light) {
             let to_light = ls.p - si.p;
             let wi_world = to_light.normalize();
             let wi = frame.to_local(wi_world);
@@ -135,6 +135,7 @@ fn scatter_one<const NEE: bool>(
     state.prev_pdf = bs.pdf;
     state.specular_bounce = bs.is_specular;
     state.prev_p = si.p;
+    state.prev_n = si.ns;
     if bs.is_transmission {
         state.eta_scale *= bs.eta * bs.eta;
     }

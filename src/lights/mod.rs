@@ -2,9 +2,11 @@
 
 pub mod area;
 pub mod select;
+pub mod tree;
 
 pub use area::{EmissionSample, Light, LightSample, LightShape};
 pub use select::LightSelector;
+pub use tree::LightTree;
 
 use crate::geometry::Geometry;
 use crate::geometry::bvh::PrimitiveShape;
@@ -17,6 +19,8 @@ pub struct Lights {
     /// The lights; index = light id stored on the emitting primitive.
     pub lights: Vec<Light>,
     selector: LightSelector,
+    /// The light tree, when selection is by tree (then `selector` is unused for NEE).
+    tree: Option<LightTree>,
     /// Selection in proportion to power, for photon emission (whatever `selector` does for NEE).
     by_power: LightSelector,
 }
@@ -45,9 +49,10 @@ impl Lights {
         let by_power = LightSelector::new(&power);
         let selector = match selection {
             LightSelection::Uniform => LightSelector::new(&vec![1.0; lights.len()]),
-            LightSelection::Power => by_power.clone(),
+            LightSelection::Power | LightSelection::Tree => by_power.clone(),
         };
-        Self { selector, by_power, lights }
+        let tree = (selection == LightSelection::Tree).then(|| LightTree::build(&lights));
+        Self { selector, by_power, lights, tree }
     }
 
     /// Whether the scene has no emitter.
@@ -60,21 +65,33 @@ impl Lights {
         self.lights.iter().map(Light::power).sum()
     }
 
-    /// Pick a light with `u_select` and a point on it as seen from `p_ref` at `time`.
-    /// The returned pdf is per unit solid angle at `p_ref` and includes the selection probability.
+    /// Pick a light with `u_select` for a shading point `p_ref` with normal `n_ref` (zero: none) and a
+    /// point on it at `time`. The returned pdf is per unit solid angle at `p_ref` and includes the
+    /// selection probability.
     #[inline]
-    pub fn sample(&self, p_ref: Vec3, time: f32, u_select: f32, u: Vec2) -> Option<(u32, LightSample)> {
-        let (index, pmf) = self.selector.sample(u_select)?;
+    pub fn sample(
+        &self,
+        p_ref: Vec3,
+        n_ref: Vec3,
+        time: f32,
+        u_select: f32,
+        u: Vec2,
+    ) -> Option<(u32, LightSample)> {
+        let (index, pmf) = match &self.tree {
+            Some(tree) => tree.sample(p_ref, n_ref, u_select)?,
+            None => self.selector.sample(u_select)?,
+        };
         let mut s = self.lights[index as usize].sample(p_ref, time, u)?;
         s.pdf *= pmf;
         Some((index, s))
     }
 
     /// Solid-angle pdf (selection included) with which [`Lights::sample`] picks the point `p` with normal
-    /// `n` on light `index` from `p_ref`: what MIS needs when a BSDF-sampled ray hits that light.
+    /// `n` on light `index` from `p_ref` (normal `n_ref`): what MIS needs when a BSDF-sampled ray hits
+    /// that light.
     #[inline]
-    pub fn pdf(&self, index: u32, p_ref: Vec3, p: Vec3, n: Vec3, time: f32) -> f32 {
-        self.selector.pmf(index) * self.lights[index as usize].pdf(p_ref, p, n, time)
+    pub fn pdf(&self, index: u32, p_ref: Vec3, n_ref: Vec3, p: Vec3, n: Vec3, time: f32) -> f32 {
+        self.pmf(index, p_ref, n_ref) * self.lights[index as usize].pdf(p_ref, p, n, time)
     }
 
     /// Start a photon: pick a light in proportion to its power, a point on it and a cosine-weighted
@@ -94,8 +111,11 @@ impl Lights {
         Some((index, s))
     }
 
-    /// Probability of picking light `index`.
-    pub fn pmf(&self, index: u32) -> f32 {
-        self.selector.pmf(index)
+    /// Probability of picking light `index` for a shading point `p_ref` with normal `n_ref`.
+    pub fn pmf(&self, index: u32, p_ref: Vec3, n_ref: Vec3) -> f32 {
+        match &self.tree {
+            Some(tree) => tree.pmf(index, p_ref, n_ref),
+            None => self.selector.pmf(index),
+        }
     }
 }

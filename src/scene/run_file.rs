@@ -47,6 +47,9 @@ pub enum LightSelection {
     /// In proportion to emitted power.
     #[default]
     Power,
+    /// By a light tree: power, distance and orientation towards the shading point (Conty Estevez &
+    /// Kulla 2018).
+    Tree,
 }
 
 /// Pixel reconstruction filter, sampled by importance (each sample lands in one pixel with weight 1).

@@ -1,0 +1,372 @@
+//! A light tree: a bounding-volume hierarchy over the emitters whose nodes carry power, spatial bounds
+//! and an orientation cone, descended by an importance that accounts for power, distance and
+//! orientation towards the shading point (Conty Estevez & Kulla 2018, as pbrt-v4's BVHLightSampler).
+//!
+//! Nodes are stored flat in depth-first order (a node's first child follows it, the second is at
+//! `second`), and every light keeps the bit trail of its path from the root, so its probability at a
+//! shading point is recomputed exactly by walking that path: MIS with BSDF sampling stays unbiased.
+
+use super::{Light, LightShape};
+use glam::{Quat, Vec3};
+use std::f32::consts::PI;
+
+/// What a node knows about the lights below it.
+#[derive(Clone, Copy, Debug)]
+pub struct LightBounds {
+    /// Spatial bounds over the shutter (moving lights included).
+    pub min: Vec3,
+    /// Spatial bounds, upper corner.
+    pub max: Vec3,
+    /// Emitted power (luminance).
+    pub phi: f32,
+    /// Axis of the cone of surface normals.
+    pub w: Vec3,
+    /// Cosine of the half-angle of that cone (−1: any direction).
+    pub cos_theta_o: f32,
+    /// Cosine of the spread of emission around each normal (0: a hemisphere, Lambertian emitters).
+    pub cos_theta_e: f32,
+}
+
+impl LightBounds {
+    /// The bounds of one light.
+    pub fn of(light: &Light) -> Self {
+        let (min, max, w, cos_theta_o) = match light.shape {
+            LightShape::Triangle { p, n, .. } => {
+                let min = p[0].min(p[1]).min(p[2]);
+                let max = p[0].max(p[1]).max(p[2]);
+                (min, max, n, 1.0)
+            }
+            LightShape::Sphere { center, radius } => (center - radius, center + radius, Vec3::Z, -1.0),
+        };
+        let (min, max) = (min.min(min + light.motion), max.max(max + light.motion));
+        Self { min, max, phi: light.power(), w, cos_theta_o, cos_theta_e: 0.0 }
+    }
+
+    /// The bounds of two groups of lights (pbrt-v4 `Union(LightBounds, LightBounds)`).
+    pub fn union(&self, other: &Self) -> Self {
+        if self.phi == 0.0 {
+            return *other;
+        }
+        if other.phi == 0.0 {
+            return *self;
+        }
+        let (w, cos_theta_o) = cone_union(self.w, self.cos_theta_o, other.w, other.cos_theta_o);
+        Self {
+            min: self.min.min(other.min),
+            max: self.max.max(other.max),
+            phi: self.phi + other.phi,
+            w,
+            cos_theta_o,
+            cos_theta_e: self.cos_theta_e.min(other.cos_theta_e),
+        }
+    }
+
+    /// How much light these lights may send to a point `p` with normal `n` (zero `n`: no surface),
+    /// an upper bound up to a constant: power × the best-case cosine at the lights / the squared
+    /// distance × the best-case cosine at `p` (pbrt-v4 `LightBounds::Importance`).
+    pub fn importance(&self, p: Vec3, n: Vec3) -> f32 {
+        let pc = 0.5 * (self.min + self.max);
+        let d2 = p.distance_squared(pc).max(0.5 * (self.max - self.min).length());
+        let cos_sub = |sin_a: f32, cos_a: f32, sin_b: f32, cos_b: f32| {
+            if cos_a > cos_b { 1.0 } else { cos_a * cos_b + sin_a * sin_b }
+        };
+        let sin_sub = |sin_a: f32, cos_a: f32, sin_b: f32, cos_b: f32| {
+            if cos_a > cos_b { 0.0 } else { sin_a * cos_b - cos_a * sin_b }
+        };
+        let safe_sqrt = |x: f32| x.max(0.0).sqrt();
+        let wi = (p - pc).normalize_or_zero();
+        let cos_w = self.w.dot(wi);
+        let sin_w = safe_sqrt(1.0 - cos_w * cos_w);
+        // The cone of directions from p that the bounds subtend.
+        let radius2 = 0.25 * (self.max - self.min).length_squared();
+        let dist2 = p.distance_squared(pc);
+        let cos_b = if dist2 < radius2 { -1.0 } else { safe_sqrt(1.0 - radius2 / dist2) };
+        let sin_b = safe_sqrt(1.0 - cos_b * cos_b);
+        let sin_o = safe_sqrt(1.0 - self.cos_theta_o * self.cos_theta_o);
+        let cos_x = cos_sub(sin_w, cos_w, sin_o, self.cos_theta_o);
+        let sin_x = sin_sub(sin_w, cos_w, sin_o, self.cos_theta_o);
+        let cos_p = cos_sub(sin_x, cos_x, sin_b, cos_b);
+        if cos_p <= self.cos_theta_e {
+            return 0.0;
+        }
+        let mut importance = self.phi * cos_p / d2;
+        if n != Vec3::ZERO {
+            let cos_i = wi.dot(n).abs();
+            let sin_i = safe_sqrt(1.0 - cos_i * cos_i);
+            importance *= cos_sub(sin_i, cos_i, sin_b, cos_b);
+        }
+        importance.max(0.0)
+    }
+}
+
+/// The smallest cone holding two cones (pbrt-v4 `Union(DirectionCone, DirectionCone)`).
+fn cone_union(wa: Vec3, cos_a: f32, wb: Vec3, cos_b: f32) -> (Vec3, f32) {
+    let (theta_a, theta_b) = (cos_a.clamp(-1.0, 1.0).acos(), cos_b.clamp(-1.0, 1.0).acos());
+    let theta_d = wa.angle_between(wb);
+    if (theta_d + theta_b).min(PI) <= theta_a {
+        return (wa, cos_a);
+    }
+    if (theta_d + theta_a).min(PI) <= theta_b {
+        return (wb, cos_b);
+    }
+    let theta_o = 0.5 * (theta_a + theta_d + theta_b);
+    if theta_o >= PI {
+        return (Vec3::Z, -1.0);
+    }
+    let axis = wa.cross(wb);
+    if axis.length_squared() == 0.0 {
+        return (Vec3::Z, -1.0);
+    }
+    let w = Quat::from_axis_angle(axis.normalize(), theta_o - theta_a) * wa;
+    (w.normalize(), theta_o.cos())
+}
+
+/// A node: its bounds and either its second child (interior; the first child is the next node) or
+/// its light (leaf).
+#[derive(Clone, Copy, Debug)]
+struct Node {
+    bounds: LightBounds,
+    /// Second child's index for an interior node, the light's index for a leaf.
+    index: u32,
+    leaf: bool,
+}
+
+/// The light tree.
+#[derive(Clone, Debug, Default)]
+pub struct LightTree {
+    nodes: Vec<Node>,
+    /// Per light: its path from the root, one bit per level (1 = second child), lowest bit first.
+    trails: Vec<u64>,
+}
+
+impl LightTree {
+    /// Build the tree over `lights` (lights with no power are left out: they are never chosen).
+    pub fn build(lights: &[Light]) -> Self {
+        let mut items: Vec<(u32, LightBounds)> = lights
+            .iter()
+            .enumerate()
+            .map(|(i, l)| (i as u32, LightBounds::of(l)))
+            .filter(|(_, b)| b.phi > 0.0 && b.min.is_finite() && b.max.is_finite())
+            .collect();
+        let mut tree = Self { nodes: Vec::with_capacity(2 * items.len()), trails: vec![0; lights.len()] };
+        if !items.is_empty() {
+            tree.build_range(&mut items, 0, 0);
+        }
+        tree
+    }
+
+    fn build_range(&mut self, items: &mut [(u32, LightBounds)], trail: u64, depth: u32) -> LightBounds {
+        if items.len() == 1 || depth >= 63 {
+            // Depth 63 can only be reached by 2^63 lights; the guard keeps the trail within 64 bits.
+            let (light, bounds) = items[0];
+            self.trails[light as usize] = trail;
+            self.nodes.push(Node { bounds, index: light, leaf: true });
+            return bounds;
+        }
+        // Split at the median of the centroids along the widest axis of the centroids' bounds.
+        let centroid = |b: &LightBounds| 0.5 * (b.min + b.max);
+        let (lo, hi) = items.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), (_, b)| {
+            (lo.min(centroid(b)), hi.max(centroid(b)))
+        });
+        let extent = hi - lo;
+        let axis = if extent.x >= extent.y && extent.x >= extent.z {
+            0
+        } else if extent.y >= extent.z {
+            1
+        } else {
+            2
+        };
+        let mid = items.len() / 2;
+        items.select_nth_unstable_by(mid, |a, b| {
+            centroid(&a.1)[axis].total_cmp(&centroid(&b.1)[axis]).then(a.0.cmp(&b.0))
+        });
+        let node = self.nodes.len();
+        self.nodes.push(Node { bounds: items[0].1, index: 0, leaf: false });
+        let (left, right) = items.split_at_mut(mid);
+        let a = self.build_range(left, trail, depth + 1);
+        self.nodes[node].index = self.nodes.len() as u32;
+        let b = self.build_range(right, trail | (1 << depth), depth + 1);
+        self.nodes[node].bounds = a.union(&b);
+        self.nodes[node].bounds
+    }
+
+    /// Whether the tree holds no light.
+    pub fn is_empty(&self) -> bool {
+        self.nodes.is_empty()
+    }
+
+    /// Bytes of the flat node array and trails.
+    pub fn memory_bytes(&self) -> usize {
+        self.nodes.len() * size_of::<Node>() + self.trails.len() * size_of::<u64>()
+    }
+
+    /// The probability of a node's first child at (p, n). When the children's bounds both rule p out
+    /// although their parent's looser bounds did not, the split falls back to power: a sample there
+    /// is wasted, but the probabilities over all lights still sum to one.
+    #[inline]
+    fn split(&self, node: usize, p: Vec3, n: Vec3) -> Option<f32> {
+        let (a, b) = (&self.nodes[node + 1].bounds, &self.nodes[self.nodes[node].index as usize].bounds);
+        let (first, second) = (a.importance(p, n), b.importance(p, n));
+        let total = first + second;
+        if total > 0.0 && total.is_finite() {
+            Some(first / total)
+        } else {
+            let phi = a.phi + b.phi;
+            (phi > 0.0).then(|| a.phi / phi)
+        }
+    }
+
+    /// Pick a light for a point `p` with normal `n` (zero for none), and its probability.
+    #[inline]
+    pub fn sample(&self, p: Vec3, n: Vec3, mut u: f32) -> Option<(u32, f32)> {
+        if self.nodes.is_empty() || self.nodes[0].bounds.importance(p, n) <= 0.0 {
+            return None;
+        }
+        let (mut node, mut pmf) = (0usize, 1.0f32);
+        while !self.nodes[node].leaf {
+            let p_first = self.split(node, p, n)?;
+            if u < p_first {
+                u = (u / p_first).min(ONE_MINUS_EPSILON);
+                pmf *= p_first;
+                node += 1;
+            } else {
+                u = ((u - p_first) / (1.0 - p_first)).min(ONE_MINUS_EPSILON);
+                pmf *= 1.0 - p_first;
+                node = self.nodes[node].index as usize;
+            }
+        }
+        (pmf > 0.0).then_some((self.nodes[node].index, pmf))
+    }
+
+    /// The probability that [`LightTree::sample`] picks light `light` at (p, n).
+    #[inline]
+    pub fn pmf(&self, light: u32, p: Vec3, n: Vec3) -> f32 {
+        let Some(&trail) = self.trails.get(light as usize) else { return 0.0 };
+        if self.nodes.is_empty() || self.nodes[0].bounds.importance(p, n) <= 0.0 {
+            return 0.0;
+        }
+        let (mut node, mut pmf, mut depth) = (0usize, 1.0f32, 0);
+        while !self.nodes[node].leaf {
+            let Some(p_first) = self.split(node, p, n) else { return 0.0 };
+            if trail & (1 << depth) == 0 {
+                pmf *= p_first;
+                node += 1;
+            } else {
+                pmf *= 1.0 - p_first;
+                node = self.nodes[node].index as usize;
+            }
+            depth += 1;
+        }
+        if self.nodes[node].index == light { pmf } else { 0.0 }
+    }
+}
+
+/// Largest f32 below one.
+const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::Sampler;
+
+    /// Lights of varied power, size and orientation in a 10 m cube (and two spheres).
+    fn lights(n: u32) -> Vec<Light> {
+        (0..n)
+            .map(|i| {
+                let s = Sampler::new(5, i, 0);
+                let c = Vec3::new(s.get1d(0), s.get1d(1), s.get1d(2)) * 10.0;
+                let le = Vec3::new(s.get1d(3), s.get1d(4), s.get1d(5)) * (1.0 + 50.0 * s.get1d(6));
+                let shape = if i % 17 == 0 {
+                    LightShape::Sphere { center: c, radius: 0.05 + 0.1 * s.get1d(7) }
+                } else {
+                    let d = crate::sampling::warp::uniform_sphere(s.get2d(8));
+                    let f = crate::sampling::warp::Frame::from_z(d);
+                    let r = 0.05 + 0.2 * s.get1d(10);
+                    LightShape::triangle([c, c + f.x * r, c + f.y * r])
+                };
+                Light { shape, le, motion: Vec3::ZERO, prim: i }
+            })
+            .collect()
+    }
+
+    fn shading_points() -> impl Iterator<Item = (Vec3, Vec3)> {
+        (0..20u32).map(|i| {
+            let s = Sampler::new(11, i, 0);
+            let p = Vec3::new(s.get1d(0), s.get1d(1), s.get1d(2)) * 12.0 - 1.0;
+            (p, crate::sampling::warp::uniform_sphere(s.get2d(3)))
+        })
+    }
+
+    #[test]
+    fn probabilities_sum_to_one_at_random_shading_points() {
+        let lights = lights(300);
+        let tree = LightTree::build(&lights);
+        for (p, n) in shading_points() {
+            let total: f64 = (0..lights.len() as u32).map(|i| tree.pmf(i, p, n) as f64).sum();
+            // Zero only where no light's bounds can reach p at all.
+            let reachable = tree.nodes[0].bounds.importance(p, n) > 0.0;
+            let expected = if reachable { 1.0 } else { 0.0 };
+            assert!((total - expected).abs() < 1e-4, "Σ pmf = {total} at {p}");
+        }
+    }
+
+    #[test]
+    fn sampled_frequencies_match_the_stated_pmf_and_the_pmf_of_the_chosen_light() {
+        let lights = lights(40);
+        let tree = LightTree::build(&lights);
+        for (p, n) in shading_points().take(4) {
+            let draws = 200_000u32;
+            let mut counts = vec![0u32; lights.len()];
+            for i in 0..draws {
+                let (light, pmf) = tree.sample(p, n, Sampler::new(2, i, 0).get1d(0)).unwrap();
+                assert!((pmf / tree.pmf(light, p, n) - 1.0).abs() < 1e-5, "pmf at sampling ≠ pmf()");
+                counts[light as usize] += 1;
+            }
+            // Pearson's χ² over lights with an expected count ≥ 5 (the rest pooled).
+            let (mut chi2, mut cells, mut pooled_obs, mut pooled_exp) = (0.0, 0, 0.0, 0.0);
+            for (i, &c) in counts.iter().enumerate() {
+                let expected = draws as f64 * tree.pmf(i as u32, p, n) as f64;
+                if expected >= 5.0 {
+                    chi2 += (c as f64 - expected).powi(2) / expected;
+                    cells += 1;
+                } else {
+                    pooled_obs += c as f64;
+                    pooled_exp += expected;
+                }
+            }
+            if pooled_exp >= 5.0 {
+                chi2 += (pooled_obs - pooled_exp).powi(2) / pooled_exp;
+                cells += 1;
+            }
+            // Wilson–Hilferty 0.999 quantile of χ² with k = cells − 1 degrees of freedom.
+            let k = (cells - 1) as f64;
+            let quantile = k * (1.0 - 2.0 / (9.0 * k) + 3.09 * (2.0 / (9.0 * k)).sqrt()).powi(3);
+            assert!(chi2 < quantile, "χ² {chi2} ≥ {quantile} over {cells} cells at {p}");
+        }
+    }
+
+    #[test]
+    fn a_light_facing_away_gets_no_probability_and_a_near_one_most() {
+        // Two downward-facing triangles above the origin, one near and one far, and one facing up.
+        let tri = |c: Vec3, up: bool| {
+            let (a, b) = (Vec3::X * 0.1, Vec3::Z * 0.1);
+            let p = if up { [c, c + b, c + a] } else { [c, c + a, c + b] };
+            Light { shape: LightShape::triangle(p), le: Vec3::ONE, motion: Vec3::ZERO, prim: 0 }
+        };
+        let lights = [tri(Vec3::Y, false), tri(Vec3::Y * 8.0, false), tri(Vec3::Y * 2.0, true)];
+        let normal_y = |l: &Light| match l.shape {
+            LightShape::Triangle { n, .. } => n.y,
+            LightShape::Sphere { .. } => 0.0,
+        };
+        assert!(normal_y(&lights[0]) < 0.0 && normal_y(&lights[2]) > 0.0);
+        let tree = LightTree::build(&lights);
+        let (p, n) = (Vec3::ZERO, Vec3::Y);
+        assert_eq!(tree.pmf(2, p, n), 0.0, "the upward light cannot reach a point below it");
+        assert!(
+            tree.pmf(0, p, n) > 10.0 * tree.pmf(1, p, n),
+            "near {} far {}",
+            tree.pmf(0, p, n),
+            tree.pmf(1, p, n)
+        );
+    }
+}
