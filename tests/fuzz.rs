@@ -194,7 +194,7 @@ const GLTFS: &[&str] =
 
 /// A value of `kind` from the choice numbers `c`.
 fn value(kind: Kind, c: &[u16; 4]) -> String {
-    let list = if c[3] % 3 == 0 { NUMBERS } else { SANE_NUMBERS };
+    let list = if c[3].is_multiple_of(3) { NUMBERS } else { SANE_NUMBERS };
     let n = |i: usize| list[c[i] as usize % list.len()].to_owned();
     match (c[3] % 16, kind) {
         // Now and then a value of the wrong type.
@@ -393,8 +393,11 @@ const GLTF_STRINGS: &[&str] = &[
     "x",
 ];
 
+/// Byte ranges in a text.
+type Spans = Vec<(usize, usize)>;
+
 /// Where the numbers and strings (content spans) of JSON text are.
-fn tokens(text: &[u8]) -> (Vec<(usize, usize)>, Vec<(usize, usize)>) {
+fn tokens(text: &[u8]) -> (Spans, Spans) {
     let (mut numbers, mut strings) = (Vec::new(), Vec::new());
     let mut i = 0;
     while i < text.len() {

@@ -125,11 +125,11 @@ fn refracted_rays_enter_a_sphere_and_leave_from_the_far_side() {
 
 mod common;
 
+use caustica::camera::look_at;
 use caustica::film::Image;
 use caustica::scene::{CameraDesc, IntegratorKind, MaterialDesc, RunFile, load, validate};
 use caustica::systems::progressive::prepare_progressive;
 use caustica::systems::render::{init_thread_pools, prepare};
-use caustica::camera::look_at;
 use caustica::test_scenes::furnace;
 use glam::Mat4;
 use std::path::Path;
@@ -206,7 +206,9 @@ fn mean_and_standard_error(image: &Image) -> (f64, f64) {
 /// sphere it is r²/(2R²) < 1% for the radii the heuristic picks at these photon counts (furnace.rs).
 fn tolerance(kind: IntegratorKind, image: &Image, expected: f64) -> f64 {
     match kind {
-        IntegratorKind::Pt | IntegratorKind::PtNaive => 4.0 * mean_and_standard_error(image).1 + 1e-4 * expected,
+        IntegratorKind::Pt | IntegratorKind::PtNaive => {
+            4.0 * mean_and_standard_error(image).1 + 1e-4 * expected
+        }
         IntegratorKind::Pm => (4.0 / PM_PHOTONS.sqrt() + 0.01) * expected,
         _ => (4.0 / PROGRESSIVE_PHOTONS.sqrt() + 0.01) * expected,
     }
@@ -267,7 +269,8 @@ fn assert_unit_furnace(kind: IntegratorKind, image: &Image, what: &str) -> f64 {
 fn a_furnace_has_the_same_radiance_from_a_millimetre_to_a_hundred_kilometres() {
     for kind in EVERY_INTEGRATOR {
         let run = tiny_run(kind, 16);
-        let at_one = assert_unit_furnace(kind, &render_with(scaled_furnace(1.0), &run), &format!("{kind:?}, 1 m"));
+        let at_one =
+            assert_unit_furnace(kind, &render_with(scaled_furnace(1.0), &run), &format!("{kind:?}, 1 m"));
         for scale in [1e-3f32, 1e-1, 1e2, 1e5] {
             let what = format!("{kind:?}, scale {scale} m");
             let mean = assert_unit_furnace(kind, &render_with(scaled_furnace(scale), &run), &what);
@@ -368,7 +371,10 @@ fn grazing_views_of_a_large_plane_see_exactly_its_emission() {
         assert!(v.iter().all(|&x| x <= le as f64 + eps), "{what}: a pixel above Le: {v:?}");
         // The horizon is 2° above the centre row: rows 16.. and more are below it (0.625° per row).
         let bottom = &v[(size * size / 2) as usize..];
-        assert!(bottom.iter().all(|&x| (x - le as f64).abs() <= eps), "{what}: bottom half not Le: {bottom:?}");
+        assert!(
+            bottom.iter().all(|&x| (x - le as f64).abs() <= eps),
+            "{what}: bottom half not Le: {bottom:?}"
+        );
         let between = v.iter().filter(|&&x| x > eps && x < le as f64 - eps).count();
         assert!(between <= size as usize, "{what}: {between} pixels neither 0 nor Le");
         assert!(v[0] == 0.0, "{what}: the sky is not black");
@@ -505,7 +511,8 @@ fn big_mesh_scene(n: u32) -> Scene {
         }
     }
     let ground = Mesh { name: "height field".into(), positions, indices, material: 0, ..Mesh::default() };
-    let light = quad("light", Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 0.0, 0.3), Vec3::new(0.3, 0.0, 0.0), 1);
+    let light =
+        quad("light", Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 0.0, 0.3), Vec3::new(0.3, 0.0, 0.0), 1);
     Scene {
         meshes: vec![ground, light],
         materials: vec![diffuse("ground", Vec3::splat(0.5), Vec3::ZERO), black_emitter("light", 5.0)],
