@@ -136,6 +136,12 @@ fn scatter_one(
     let bsdf = Bsdf::new(&scene.shading_params(&si));
     let wo_world = -ray.d;
     let diffuse = !bsdf.is_delta();
+    // A photon on a black surface lights nothing there, and stored it would only leak into the
+    // estimates of surfaces within a gather radius (the front of a thin wall with a light behind it).
+    if diffuse && bsdf.reflects_nothing() {
+        state.status = PathStatus::Finished;
+        return;
+    }
     if diffuse {
         // Photons are stored only where the BSDF is not a pure delta (Jensen 2001, §7.2).
         let store = match work.kind {

@@ -21,6 +21,14 @@ pub struct SceneGeometry {
 }
 
 impl SceneGeometry {
+    /// BVHs, lights and materials of `scene`, as `render::scene_world` builds them: what a host
+    /// that moves objects between frames re-inserts after editing its `Scene`.
+    pub fn build(scene: &crate::scene::Scene, light_selection: crate::scene::LightSelection) -> Self {
+        let mut geometry = Geometry::build(scene);
+        let lights = Lights::build(&mut geometry, &scene.materials, light_selection);
+        Self { geometry, lights, materials: scene.materials.clone(), textures: scene.textures.clone() }
+    }
+
     /// Resolve the material at a hit: textures looked up, vertex colour applied.
     #[inline]
     pub fn shading_params(&self, hit: &SurfaceHit) -> ShadingParams {

@@ -118,3 +118,432 @@ fn refracted_rays_enter_a_sphere_and_leave_from_the_far_side() {
         }
     }
 }
+
+// ---------------------------------------------------------------------------------------------
+// Whole renders of hard scenes, for every integrator.
+// ---------------------------------------------------------------------------------------------
+
+mod common;
+
+use caustica::camera::look_at;
+use caustica::film::Image;
+use caustica::scene::{CameraDesc, IntegratorKind, MaterialDesc, RunFile, load, validate};
+use caustica::systems::progressive::prepare_progressive;
+use caustica::systems::render::{init_thread_pools, prepare};
+use caustica::test_scenes::furnace;
+use glam::Mat4;
+use std::path::Path;
+use std::time::Instant;
+
+const EVERY_INTEGRATOR: [IntegratorKind; 7] = [
+    IntegratorKind::Pt,
+    IntegratorKind::PtNaive,
+    IntegratorKind::Pm,
+    IntegratorKind::Ppm,
+    IntegratorKind::Sppm,
+    IntegratorKind::Appm,
+    IntegratorKind::Cppm,
+];
+
+/// Photons emitted by one render of [`tiny_run`]: per pass × passes for the progressive mappers, the
+/// global map for `pm`.
+const PROGRESSIVE_PHOTONS: f64 = 4.0 * 5000.0;
+const PM_PHOTONS: f64 = 5000.0;
+
+/// Few samples, passes and photons, fixed seed, `size`² pixels.
+fn tiny_run(kind: IntegratorKind, size: u32) -> RunFile {
+    let mut run = RunFile::default();
+    run.render.integrator = kind;
+    run.render.spp = 4;
+    run.render.seed = 7;
+    run.photons.photons = PM_PHOTONS as u32;
+    run.photons.caustic_photons = PM_PHOTONS as u32;
+    run.progressive.passes = 4;
+    run.progressive.photons_per_pass = (PROGRESSIVE_PHOTONS / 4.0) as u32;
+    run.film.width = Some(size);
+    run.film.height = Some(size);
+    run
+}
+
+/// Render with whichever driver the integrator needs.
+fn render_with(scene: Scene, run: &RunFile) -> Image {
+    init_thread_pools(None);
+    if run.render.integrator.is_progressive() {
+        let mut renderer = prepare_progressive(scene, run).expect("scene prepares");
+        renderer.run(None, |_, _| {});
+        renderer.image()
+    } else {
+        let mut renderer = prepare(scene, run).expect("scene prepares");
+        renderer.run(|_| {});
+        renderer.image()
+    }
+}
+
+fn assert_finite(image: &Image, what: &str) {
+    for (i, p) in image.pixels.iter().enumerate() {
+        assert!(p.is_finite() && p.min_element() >= 0.0, "{what}: pixel {i} is {p}");
+    }
+}
+
+fn grey(image: &Image) -> Vec<f64> {
+    image.pixels.iter().map(|p| (p.x + p.y + p.z) as f64 / 3.0).collect()
+}
+
+/// Mean and standard error of the grey pixel values (pixels of the path tracers are independent).
+fn mean_and_standard_error(image: &Image) -> (f64, f64) {
+    let v = grey(image);
+    let n = v.len() as f64;
+    let mean = v.iter().sum::<f64>() / n;
+    let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    (mean, (var / n).sqrt())
+}
+
+/// How far the image mean of an unbiased-in-the-limit estimate may be from its expectation.
+/// Path tracers: 4 standard errors of independent pixels, plus f32 accumulation rounding.
+/// Photon mappers: pixels share photons, so the noise of the mean is that of the deposited power,
+/// relative 1/√(photons) per pass set (binomial counts, Russian roulette on albedo ≤ 1); 4 of those.
+/// Density estimation adds a blur bias that is zero on flat, uniformly lit surfaces; on the furnace
+/// sphere it is r²/(2R²) < 1% for the radii the heuristic picks at these photon counts (furnace.rs).
+fn tolerance(kind: IntegratorKind, image: &Image, expected: f64) -> f64 {
+    match kind {
+        IntegratorKind::Pt | IntegratorKind::PtNaive => {
+            4.0 * mean_and_standard_error(image).1 + 1e-4 * expected
+        }
+        IntegratorKind::Pm => (4.0 / PM_PHOTONS.sqrt() + 0.01) * expected,
+        _ => (4.0 / PROGRESSIVE_PHOTONS.sqrt() + 0.01) * expected,
+    }
+}
+
+fn camera_looking(eye: Vec3, target: Vec3, yfov_degrees: f32) -> CameraDesc {
+    CameraDesc {
+        name: "test".into(),
+        camera_to_world: look_at(eye, target, Vec3::Y),
+        yfov: yfov_degrees.to_radians(),
+        aspect_ratio: None,
+    }
+}
+
+/// A quad `center ± u ± v` whose front (and emitting side) faces along u × v.
+fn quad(name: &str, center: Vec3, u: Vec3, v: Vec3, material: u32) -> Mesh {
+    Mesh {
+        name: name.into(),
+        positions: vec![center - u - v, center + u - v, center + u + v, center - u + v],
+        indices: vec![[0, 1, 2], [0, 2, 3]],
+        material,
+        ..Mesh::default()
+    }
+}
+
+fn black_emitter(name: &str, le: f32) -> MaterialDesc {
+    diffuse(name, Vec3::ZERO, Vec3::splat(le))
+}
+
+/// The closed furnace of `test_scenes::furnace` scaled by `scale` and moved to (3, −2, 5)·scale,
+/// so that absolute float errors grow with the scale. L = le / (1 − albedo) = 1 at every scale.
+fn scaled_furnace(scale: f32) -> Scene {
+    let mut scene = furnace(0.5, 0.5);
+    let offset = Vec3::new(3.0, -2.0, 5.0) * scale;
+    for p in &mut scene.meshes[0].positions {
+        *p = *p * scale + offset;
+    }
+    let camera = scene.camera.as_mut().unwrap();
+    camera.camera_to_world = Mat4::from_translation(offset);
+    scene
+}
+
+/// The image mean is 1 (the furnace) within [`tolerance`] and no pixel is NaN, Inf or negative.
+fn assert_unit_furnace(kind: IntegratorKind, image: &Image, what: &str) -> f64 {
+    assert_finite(image, what);
+    let (mean, _) = mean_and_standard_error(image);
+    let bound = tolerance(kind, image, 1.0);
+    assert!((mean - 1.0).abs() < bound, "{what}: mean radiance {mean}, expected 1 ± {bound}");
+    mean
+}
+
+/// The same furnace from 1 mm to 100 km. Every pixel is L = 1 analytically, within [`tolerance`].
+/// For the path tracers, the same seed also gives the same paths up to rounding, so the mean at each
+/// scale must match the mean at 1 m to 0.5% (a handful of the 256 pixels' samples may take another
+/// branch at a rounding boundary). The photon mappers' kNN and radius decisions flip more often at
+/// ties, so for them only the analytic bound applies.
+#[test]
+fn a_furnace_has_the_same_radiance_from_a_millimetre_to_a_hundred_kilometres() {
+    for kind in EVERY_INTEGRATOR {
+        let run = tiny_run(kind, 16);
+        let at_one =
+            assert_unit_furnace(kind, &render_with(scaled_furnace(1.0), &run), &format!("{kind:?}, 1 m"));
+        for scale in [1e-3f32, 1e-1, 1e2, 1e5] {
+            let what = format!("{kind:?}, scale {scale} m");
+            let mean = assert_unit_furnace(kind, &render_with(scaled_furnace(scale), &run), &what);
+            if matches!(kind, IntegratorKind::Pt | IntegratorKind::PtNaive) {
+                assert!((mean - at_one).abs() < 5e-3, "{what}: mean {mean} but {at_one} at 1 m");
+            }
+        }
+    }
+}
+
+/// The furnace with every facet split into three coplanar triangles about its centroid (shared
+/// edges and vertices inside the facets' planes, which a non-watertight test would leak through)
+/// plus zero-area emitting triangles (a repeated vertex) and collinear slivers (a vertex at the
+/// rounded midpoint of an edge: area ≈ 1e-16, not exactly 0, so validation keeps them as tiny lights).
+/// Validation must drop every exactly-zero-area triangle (the UV sphere's poles have some too), and
+/// the render must still give L = 1.
+#[test]
+fn coplanar_splits_and_zero_area_triangles_keep_the_furnace_at_unit_radiance() {
+    let mut scene = furnace(0.5, 0.5);
+    let mesh = &mut scene.meshes[0];
+    let mut indices = Vec::new();
+    for [a, b, c] in std::mem::take(&mut mesh.indices) {
+        let p = [a, b, c].map(|i| mesh.positions[i as usize]);
+        let centroid = mesh.positions.len() as u32;
+        mesh.positions.push((p[0] + p[1] + p[2]) / 3.0);
+        indices.extend([[a, b, centroid], [b, c, centroid], [c, a, centroid]]);
+    }
+    let degenerate = indices.len();
+    for (i, &[a, b, _]) in indices.clone().iter().enumerate().step_by(7) {
+        if i % 2 == 0 {
+            indices.push([a, a, b]);
+        } else {
+            let mid = mesh.positions.len() as u32;
+            mesh.positions.push(mesh.positions[a as usize].lerp(mesh.positions[b as usize], 0.5));
+            indices.push([a, mid, b]);
+        }
+    }
+    assert!(indices.len() > degenerate);
+    let zero_area = indices
+        .iter()
+        .filter(|t| {
+            let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
+            (b - a).cross(c - a).length_squared() == 0.0
+        })
+        .count();
+    mesh.indices = indices;
+    let summary = validate(&mut scene, Path::new("coplanar-furnace")).expect("valid");
+    assert_eq!(summary.degenerate_triangles, zero_area, "validation dropped the wrong triangles");
+    assert_eq!(summary.degenerate_emitter_triangles, zero_area);
+    for kind in EVERY_INTEGRATOR {
+        let image = render_with(scene.clone(), &tiny_run(kind, 16));
+        assert_unit_furnace(kind, &image, &format!("{kind:?}, coplanar + degenerate"));
+    }
+}
+
+/// Zero-area triangles of a non-emitting material that reach the renderer unvalidated (a host that
+/// builds its Scene in memory) must not produce NaN normals or panics.
+#[test]
+fn unvalidated_zero_area_triangles_render_without_nan() {
+    let mut scene = furnace(0.5, 0.5);
+    scene.materials.push(diffuse("grey", Vec3::splat(0.5), Vec3::ZERO));
+    let p = [Vec3::new(0.0, 0.0, -0.5), Vec3::new(0.2, 0.0, -0.5), Vec3::new(0.4, 0.0, -0.5)];
+    scene.meshes.push(Mesh {
+        name: "degenerate".into(),
+        positions: p.to_vec(),
+        indices: vec![[0, 1, 2], [0, 0, 1], [2, 2, 2]],
+        material: 1,
+        ..Mesh::default()
+    });
+    for kind in EVERY_INTEGRATOR {
+        let image = render_with(scene.clone(), &tiny_run(kind, 16));
+        assert_unit_furnace(kind, &image, &format!("{kind:?}, unvalidated zero-area triangles"));
+    }
+}
+
+/// A 100 km emitting plane (albedo 0.5, Le = 0.5, nothing else in the scene) seen from 1 m above,
+/// looking 2° below the horizon, so the far rows hit it at angles down to 1e-5 rad. Nothing reflects
+/// light back to the plane, so every ray that hits it sees exactly Le and every ray that misses sees
+/// 0: every pixel is in [0, Le], pixels wholly below the horizon are Le to float rounding, and only
+/// the one row that straddles the horizon may be in between.
+#[test]
+fn grazing_views_of_a_large_plane_see_exactly_its_emission() {
+    let le = 0.5f32;
+    let scene = Scene {
+        meshes: vec![quad("plane", Vec3::ZERO, Vec3::new(5e4, 0.0, 0.0), Vec3::new(0.0, 0.0, -5e4), 0)],
+        materials: vec![diffuse("plane", Vec3::splat(0.5), Vec3::splat(le))],
+        camera: Some(camera_looking(Vec3::Y, Vec3::new(0.0, 1.0 - 2f32.to_radians().tan(), -1.0), 20.0)),
+        ..Scene::default()
+    };
+    assert!(scene.meshes[0].positions[1].cross(scene.meshes[0].positions[2]).y >= 0.0);
+    let size = 32;
+    for kind in EVERY_INTEGRATOR {
+        let image = render_with(scene.clone(), &tiny_run(kind, size));
+        let what = format!("{kind:?}, grazing plane");
+        assert_finite(&image, &what);
+        let v = grey(&image);
+        let eps = 1e-5 * le as f64;
+        assert!(v.iter().all(|&x| x <= le as f64 + eps), "{what}: a pixel above Le: {v:?}");
+        // The horizon is 2° above the centre row: rows 16.. and more are below it (0.625° per row).
+        let bottom = &v[(size * size / 2) as usize..];
+        assert!(
+            bottom.iter().all(|&x| (x - le as f64).abs() <= eps),
+            "{what}: bottom half not Le: {bottom:?}"
+        );
+        let between = v.iter().filter(|&&x| x > eps && x < le as f64 - eps).count();
+        assert!(between <= size as usize, "{what}: {between} pixels neither 0 nor Le");
+        assert!(v[0] == 0.0, "{what}: the sky is not black");
+    }
+}
+
+/// A thin wall with a bright light right behind it (1e-4 m from the back face), in a void: the camera
+/// side has nothing that could bring light around the wall, so every pixel must be exactly 0 for
+/// every integrator, whether the wall is one double-sided quad or a 1e-5 m thick slab. A photon on the
+/// back face is 1e-5 m from the front's gather point, so this also checks the gather's side test.
+#[test]
+fn no_light_leaks_through_a_thin_wall() {
+    for thickness in [0.0f32, 1e-5] {
+        let (u, v) = (Vec3::new(10.0, 0.0, 0.0), Vec3::new(0.0, 10.0, 0.0));
+        let mut meshes = vec![quad("front", Vec3::ZERO, u, v, 0)];
+        if thickness > 0.0 {
+            meshes.push(quad("back", Vec3::new(0.0, 0.0, -thickness), v, u, 0));
+        }
+        let light_z = -thickness - 1e-4;
+        meshes.push(quad("light", Vec3::new(0.0, 0.0, light_z), u * 0.05, v * 0.05, 1));
+        let scene = Scene {
+            meshes,
+            materials: vec![diffuse("wall", Vec3::splat(0.8), Vec3::ZERO), black_emitter("light", 100.0)],
+            camera: Some(camera_looking(Vec3::new(0.0, 0.0, 1.0), Vec3::ZERO, 40.0)),
+            ..Scene::default()
+        };
+        for kind in EVERY_INTEGRATOR {
+            let image = render_with(scene.clone(), &tiny_run(kind, 16));
+            let what = format!("{kind:?}, wall {thickness} m thick");
+            assert_finite(&image, &what);
+            let lit = image.pixels.iter().filter(|p| p.max_element() > 0.0).count();
+            let max = image.pixels.iter().map(|p| p.max_element()).fold(0.0, f32::max);
+            assert_eq!(lit, 0, "{what}: {lit} pixels lit through the wall, max {max}");
+        }
+    }
+}
+
+/// A run file under scenes/hard, with the render settings of [`tiny_run`] and its own camera and film.
+fn hard_scene(name: &str, kind: IntegratorKind) -> (Scene, RunFile) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/hard").join(name);
+    let (scene, file) = load(&path).expect("hard scene loads");
+    let run = RunFile { camera: file.camera, film: file.film, spheres: file.spheres, ..tiny_run(kind, 16) };
+    (scene, run)
+}
+
+/// scenes/hard/light-in-glass.toml: an emitter of radiance 4 and albedo 0 inside a glass ball, in a
+/// void. Every camera path is a chain of smooth-dielectric events whose branch weights (R or T,
+/// chosen with probability R or T) are exactly one, ending on the emitter (Le = 4, converted by
+/// 1/η² or not on the way out, ≤ 4 either way) or in the void (0); photons land only on the black
+/// emitter, so they add nothing. So no sample, and no pixel, exceeds 4; the light must get out.
+#[test]
+fn a_light_inside_glass_gets_out_and_never_exceeds_its_emission() {
+    for kind in EVERY_INTEGRATOR {
+        let (scene, run) = hard_scene("light-in-glass.toml", kind);
+        let image = render_with(scene, &run);
+        let what = format!("{kind:?}, light in glass");
+        assert_finite(&image, &what);
+        let v = grey(&image);
+        assert!(v.iter().all(|&x| x <= 4.0 * (1.0 + 1e-5)), "{what}: a pixel above Le = 4: {v:?}");
+        let brightest = v.iter().cloned().fold(0.0, f64::max);
+        assert!(brightest > 0.1, "{what}: the light does not get out of the glass (brightest {brightest})");
+    }
+}
+
+/// scenes/hard/light-above-surface.toml: an emitting ball (Le = 1, albedo 0) 1e-4 m above a 1 km
+/// diffuse ball of albedo 0.5 (float error at its top ≈ 1e-4 m). The irradiance of the ground is at
+/// most π·Le (the light fills at most the hemisphere) and nothing else lights it (the emitter absorbs
+/// what comes back), so ground pixels have expectation ≤ 0.5 and emitter pixels exactly 1: the
+/// image mean is at most f + 0.5·(1 − f), f the emitter's share of pixels, which pt measures exactly
+/// (pixels seeing the emitter at the first hit are exactly 1 in every sample: they are the pixels
+/// ≥ 1 − 1e-6 in pt's image up to the few the ground's noise may push there; f is bounded above by
+/// counting those). Plus the estimator tolerance. The ground near the contact must be lit.
+#[test]
+fn a_light_just_above_a_surface_lights_it_without_blowing_up() {
+    let (scene, run) = hard_scene("light-above-surface.toml", IntegratorKind::Pt);
+    let reference = render_with(scene, &run);
+    let f = grey(&reference).iter().filter(|&&x| x >= 1.0 - 1e-6).count() as f64 / 256.0;
+    let expected_max = f + 0.5 * (1.0 - f);
+    for kind in EVERY_INTEGRATOR {
+        let (scene, run) = hard_scene("light-above-surface.toml", kind);
+        let image = render_with(scene, &run);
+        let what = format!("{kind:?}, light 1e-4 above a surface");
+        assert_finite(&image, &what);
+        let (mean, _) = mean_and_standard_error(&image);
+        let bound = expected_max + tolerance(kind, &image, expected_max);
+        assert!(mean <= bound, "{what}: mean {mean} above the energy bound {bound} (emitter share {f})");
+        assert!(mean > f, "{what}: mean {mean}: the ground is not lit (emitter share {f})");
+    }
+}
+
+/// Radiance is linear in emission, and with the same seed every random decision (Russian roulette
+/// on throughput, light choice by relative power, photon paths by albedo) is the same: the Cornell
+/// box with its emission times 1e-6 or 1e6 must be the same image times 1e-6 or 1e6, to float
+/// rounding (1e-4 of the image's largest value per pixel).
+#[test]
+fn images_scale_linearly_from_tiny_to_huge_radiance() {
+    for kind in EVERY_INTEGRATOR {
+        let (scene, _) = load(&common::data("cornell-box.gltf")).expect("test scene loads");
+        let run = tiny_run(kind, 16);
+        let reference = render_with(scene.clone(), &run);
+        assert_finite(&reference, &format!("{kind:?}, cornell box"));
+        let peak = reference.pixels.iter().map(|p| p.max_element()).fold(0.0, f32::max);
+        for k in [1e-6f32, 1e6] {
+            let mut scaled = scene.clone();
+            for m in &mut scaled.materials {
+                m.emission *= k;
+            }
+            let image = render_with(scaled, &run);
+            let what = format!("{kind:?}, emission × {k}");
+            assert_finite(&image, &what);
+            for (i, (a, b)) in image.pixels.iter().zip(&reference.pixels).enumerate() {
+                let error = (*a / k - *b).abs().max_element();
+                assert!(error <= 1e-4 * peak, "{what}: pixel {i} is {a} / k, not {b} (peak {peak})");
+            }
+        }
+    }
+}
+
+/// A height field of 2·(n−1)² triangles under an emitting quad, seen from above.
+fn big_mesh_scene(n: u32) -> Scene {
+    let mut positions = Vec::with_capacity((n * n) as usize);
+    for j in 0..n {
+        for i in 0..n {
+            let (x, z) = (i as f32 / (n - 1) as f32 * 2.0 - 1.0, j as f32 / (n - 1) as f32 * 2.0 - 1.0);
+            positions.push(Vec3::new(x, 0.05 * (17.0 * x).sin() * (13.0 * z).cos(), z));
+        }
+    }
+    let mut indices = Vec::with_capacity((2 * (n - 1) * (n - 1)) as usize);
+    for j in 0..n - 1 {
+        for i in 0..n - 1 {
+            let (a, b, c, d) = (j * n + i, j * n + i + 1, (j + 1) * n + i, (j + 1) * n + i + 1);
+            // Counter-clockwise seen from +y.
+            indices.extend([[a, c, b], [b, c, d]]);
+        }
+    }
+    let ground = Mesh { name: "height field".into(), positions, indices, material: 0, ..Mesh::default() };
+    let light =
+        quad("light", Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 0.0, 0.3), Vec3::new(0.3, 0.0, 0.0), 1);
+    Scene {
+        meshes: vec![ground, light],
+        materials: vec![diffuse("ground", Vec3::splat(0.5), Vec3::ZERO), black_emitter("light", 5.0)],
+        camera: Some(camera_looking(Vec3::new(0.0, 2.0, 2.0), Vec3::ZERO, 40.0)),
+        ..Scene::default()
+    }
+}
+
+fn big_mesh_renders_for_every_integrator(n: u32) {
+    let scene = big_mesh_scene(n);
+    let triangles = scene.meshes[0].indices.len();
+    for kind in EVERY_INTEGRATOR {
+        let start = Instant::now();
+        let mut run = tiny_run(kind, 16);
+        run.render.spp = 1;
+        let image = render_with(scene.clone(), &run);
+        let what = format!("{kind:?}, {triangles} triangles");
+        assert_finite(&image, &what);
+        assert!(image.mean().max_element() > 0.0, "{what}: black image");
+        eprintln!("{what}: {:.2} s", start.elapsed().as_secs_f64());
+    }
+}
+
+/// 1e5 triangles: BVH build and traversal at a size CI can afford for every integrator.
+#[test]
+fn a_hundred_thousand_triangle_mesh_renders_for_every_integrator() {
+    big_mesh_renders_for_every_integrator(225); // 2 · 224² = 100 352 triangles
+}
+
+/// 1e6 triangles.
+#[test]
+fn a_million_triangle_mesh_renders_for_every_integrator() {
+    big_mesh_renders_for_every_integrator(708); // 2 · 707² = 999 698 triangles
+}

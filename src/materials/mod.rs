@@ -181,6 +181,12 @@ impl Bsdf {
         (s.pdf > 0.0 && s.pdf.is_finite() && s.f.is_finite()).then_some(s)
     }
 
+    /// Whether the BSDF is zero for every pair of directions (a black Lambertian): light arriving
+    /// there is absorbed and lights nothing.
+    pub fn reflects_nothing(&self) -> bool {
+        self.lambert == Some(Vec3::ZERO)
+    }
+
     /// Cheap hemispherical-albedo estimate per channel, independent of wo, for Russian roulette of photons
     /// (take its max component as the survival probability).
     ///

@@ -70,7 +70,27 @@ fn import(path: &Path) -> Result<(gltf::Document, Vec<gltf::buffer::Data>, Vec<g
     let bytes = std::fs::read(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
     let gltf_error = |message: String| Error::Gltf { path: path.to_path_buf(), message };
     let gltf::Gltf { document, mut blob } =
-        gltf::Gltf::from_slice(&bytes).map_err(|e| gltf_error(describe(&e)))?;
+        gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| gltf_error(describe(&e)))?;
+    // gltf-json 1.4's validation indexes `accessors` with each POSITION index before checking it
+    // (a panic on an index out of range), so check those first, then validate.
+    let json = document.as_json();
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            let position =
+                primitive.attributes.get(&gltf::json::validation::Checked::Valid(gltf::Semantic::Positions));
+            if let Some(index) = position
+                && index.value() >= json.accessors.len()
+            {
+                return Err(gltf_error(format!(
+                    "{} primitive {p}: POSITION is accessor {}, but the file has {} accessors",
+                    label("mesh", mesh.name.as_deref(), m),
+                    index.value(),
+                    json.accessors.len()
+                )));
+            }
+        }
+    }
+    let document = gltf::Document::from_json(document.into_json()).map_err(|e| gltf_error(describe(&e)))?;
     let version = &document.as_json().asset.version;
     if !version.starts_with("2.") {
         return Err(gltf_error(format!("asset.version is \"{version}\", only 2.x is supported")));

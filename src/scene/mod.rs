@@ -203,7 +203,10 @@ impl Texture {
             let cy = wrap_index(iy, self.height, self.wrap_t);
             self.texels[cy * self.width as usize + cx]
         };
-        let (ix, iy) = (x0 as i64, y0 as i64);
+        // Past ±2^40 texels a float has no sub-texel precision left; clamping there keeps the
+        // neighbour's index (ix + 1) from overflowing for huge or infinite uv (NaN becomes 0).
+        const FAR: f32 = (1u64 << 40) as f32;
+        let (ix, iy) = (x0.clamp(-FAR, FAR) as i64, y0.clamp(-FAR, FAR) as i64);
         let top = texel(ix, iy).lerp(texel(ix + 1, iy), fx);
         let bottom = texel(ix, iy + 1).lerp(texel(ix + 1, iy + 1), fx);
         top.lerp(bottom, fy)

@@ -26,6 +26,10 @@ pub struct ValidationSummary {
     pub emitter_spheres: usize,
 }
 
+/// Largest coordinate a scene may reach, in metres: beyond it f32 positions are coarser than 6 cm
+/// and the BVH's quantised child boxes no longer nest in their parents (obvhs's validation fails).
+pub const MAX_COORDINATE: f32 = 1e6;
+
 /// Checks `scene` (read from `path`), drops degenerate triangles and empty meshes, and warns when nothing emits.
 ///
 /// Messages about meshes and their materials name `scene.source` (the glTF), others name `path`.
@@ -49,6 +53,17 @@ pub fn validate(scene: &mut Scene, path: &Path) -> Result<ValidationSummary> {
         }
         if !s.center.is_finite() || !s.motion.unwrap_or_default().is_finite() {
             return Err(invalid(path, &object, "centre or motion is not finite".to_owned()));
+        }
+        let reach =
+            s.center.abs().max_element() + s.radius + s.motion.unwrap_or_default().abs().max_element();
+        if reach > MAX_COORDINATE {
+            return Err(invalid(
+                path,
+                &object,
+                format!(
+                    "reaches {reach} m from the origin, beyond the ±{MAX_COORDINATE} m f32 geometry supports"
+                ),
+            ));
         }
         if s.material as usize >= scene.materials.len() {
             return Err(invalid(path, &object, format!("material index {} out of range", s.material)));
@@ -208,6 +223,13 @@ fn check_mesh(mesh: &mut Mesh, materials: &[MaterialDesc], file: &Path) -> Resul
     })?;
     if let Some(i) = mesh.positions.iter().position(|p| !p.is_finite()) {
         return Err(format!("position of vertex {i} is {}, not finite", mesh.positions[i]));
+    }
+    let reach = |p: &glam::Vec3| p.abs().max_element() + mesh.motion.unwrap_or_default().abs().max_element();
+    if let Some(i) = mesh.positions.iter().position(|p| reach(p) > MAX_COORDINATE) {
+        return Err(format!(
+            "vertex {i} at {} is beyond the ±{MAX_COORDINATE} m f32 geometry supports",
+            mesh.positions[i]
+        ));
     }
     if let Some(normals) = &mesh.normals {
         if normals.len() != n {
