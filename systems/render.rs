@@ -82,7 +82,10 @@ pub fn scene_world(scene: Scene, run: &RunFile) -> Result<(World, SceneFeatures)
             Camera::framing(min, max)
         }
     };
-    let camera = Camera::new(&camera_desc, &run.camera, width, height, run.film.filter)?;
+    // Name the scene file: a bad camera override is the user's to fix there.
+    let camera = Camera::new(&camera_desc, &run.camera, width, height, run.film.filter).map_err(|e| {
+        Error::InvalidScene { path: scene.source.clone(), object: "camera".into(), problem: e.to_string() }
+    })?;
     let lights = Lights::build(&mut geometry, &scene.materials, settings.light_selection);
     let scene_geometry =
         SceneGeometry { geometry, lights, materials: scene.materials, textures: scene.textures };

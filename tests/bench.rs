@@ -5,7 +5,7 @@ use std::process::Command;
 fn bench(dir: &std::path::Path, extra: &[&str]) -> String {
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/cornell-box.gltf");
     let out = Command::new(env!("CARGO_BIN_EXE_caustica"))
-        .args(["bench", scene, "--integrators", "pt,sppm", "--time", "0.3", "--reference-time", "0.6"])
+        .args(["bench", scene, "--integrators", "pt,sppm", "--time", "1.0", "--reference-time", "1.0"])
         .args(["--width", "24", "--height", "24", "--out-dir"])
         .arg(dir)
         .args(extra)
