@@ -6,8 +6,14 @@ use caustica::film::output::read_exr;
 use std::process::Command;
 
 fn render_with_threads(threads: u32, out: &std::path::Path, scene: &str, integrator: &str) {
+    // "pt-tree": path tracing with the light tree.
+    let (integrator, selection) = match integrator {
+        "pt-tree" => ("pt", "tree"),
+        other => (other, "power"),
+    };
     let status = Command::new(env!("CARGO_BIN_EXE_caustica"))
         .args(["render", scene, "--spp", "4", "--width", "48", "--height", "48", "--quiet", "--seed", "7"])
+        .args(["--light-selection", selection])
         .args(["--integrator", integrator, "--photons", "20000", "--caustic-photons", "20000"])
         .args(["--passes", "3", "--photons-per-pass", "20000"])
         .args(["--threads", &threads.to_string(), "-o"])
@@ -28,6 +34,7 @@ fn one_and_two_threads_give_bit_identical_images() {
         ("cornell-spheres.gltf", "pm"),
         ("cornell-spheres.gltf", "sppm"),
         ("cornell-box.gltf", "cppm"),
+        ("cornell-spheres.gltf", "pt-tree"),
     ] {
         let path = common::data(scene);
         let scene = path.to_str().unwrap();
