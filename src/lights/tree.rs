@@ -65,8 +65,43 @@ impl LightBounds {
     /// an upper bound up to a constant: power × the best-case cosine at the lights / the squared
     /// distance × the best-case cosine at `p` (pbrt-v4 `LightBounds::Importance`).
     pub fn importance(&self, p: Vec3, n: Vec3) -> f32 {
-        let pc = 0.5 * (self.min + self.max);
-        let d2 = p.distance_squared(pc).max(0.5 * (self.max - self.min).length());
+        NodeBounds::new(*self).importance(p, n)
+    }
+}
+
+/// [`LightBounds`] with what every importance evaluation needs precomputed: the tree's descent
+/// evaluates two of these per level for every light sample.
+#[derive(Clone, Copy, Debug)]
+struct NodeBounds {
+    center: Vec3,
+    phi: f32,
+    w: Vec3,
+    cos_theta_o: f32,
+    sin_theta_o: f32,
+    cos_theta_e: f32,
+    /// Squared radius of the bounding sphere of the box.
+    radius2: f32,
+    /// pbrt's floor on the squared distance, half the box diagonal (keeps near points finite).
+    min_d2: f32,
+}
+
+impl NodeBounds {
+    fn new(b: LightBounds) -> Self {
+        let diagonal = b.max - b.min;
+        Self {
+            center: 0.5 * (b.min + b.max),
+            phi: b.phi,
+            w: b.w,
+            cos_theta_o: b.cos_theta_o,
+            sin_theta_o: (1.0 - b.cos_theta_o * b.cos_theta_o).max(0.0).sqrt(),
+            cos_theta_e: b.cos_theta_e,
+            radius2: 0.25 * diagonal.length_squared(),
+            min_d2: 0.5 * diagonal.length(),
+        }
+    }
+
+    #[inline]
+    fn importance(&self, p: Vec3, n: Vec3) -> f32 {
         let cos_sub = |sin_a: f32, cos_a: f32, sin_b: f32, cos_b: f32| {
             if cos_a > cos_b { 1.0 } else { cos_a * cos_b + sin_a * sin_b }
         };
@@ -74,22 +109,21 @@ impl LightBounds {
             if cos_a > cos_b { 0.0 } else { sin_a * cos_b - cos_a * sin_b }
         };
         let safe_sqrt = |x: f32| x.max(0.0).sqrt();
-        let wi = (p - pc).normalize_or_zero();
+        let d = p - self.center;
+        let dist2 = d.length_squared();
+        let wi = if dist2 > 0.0 { d * dist2.sqrt().recip() } else { Vec3::ZERO };
         let cos_w = self.w.dot(wi);
         let sin_w = safe_sqrt(1.0 - cos_w * cos_w);
         // The cone of directions from p that the bounds subtend.
-        let radius2 = 0.25 * (self.max - self.min).length_squared();
-        let dist2 = p.distance_squared(pc);
-        let cos_b = if dist2 < radius2 { -1.0 } else { safe_sqrt(1.0 - radius2 / dist2) };
+        let cos_b = if dist2 < self.radius2 { -1.0 } else { safe_sqrt(1.0 - self.radius2 / dist2) };
         let sin_b = safe_sqrt(1.0 - cos_b * cos_b);
-        let sin_o = safe_sqrt(1.0 - self.cos_theta_o * self.cos_theta_o);
-        let cos_x = cos_sub(sin_w, cos_w, sin_o, self.cos_theta_o);
-        let sin_x = sin_sub(sin_w, cos_w, sin_o, self.cos_theta_o);
+        let cos_x = cos_sub(sin_w, cos_w, self.sin_theta_o, self.cos_theta_o);
+        let sin_x = sin_sub(sin_w, cos_w, self.sin_theta_o, self.cos_theta_o);
         let cos_p = cos_sub(sin_x, cos_x, sin_b, cos_b);
         if cos_p <= self.cos_theta_e {
             return 0.0;
         }
-        let mut importance = self.phi * cos_p / d2;
+        let mut importance = self.phi * cos_p / dist2.max(self.min_d2);
         if n != Vec3::ZERO {
             let cos_i = wi.dot(n).abs();
             let sin_i = safe_sqrt(1.0 - cos_i * cos_i);
@@ -125,7 +159,7 @@ fn cone_union(wa: Vec3, cos_a: f32, wb: Vec3, cos_b: f32) -> (Vec3, f32) {
 /// its light (leaf).
 #[derive(Clone, Copy, Debug)]
 struct Node {
-    bounds: LightBounds,
+    bounds: NodeBounds,
     /// Second child's index for an interior node, the light's index for a leaf.
     index: u32,
     leaf: bool,
@@ -160,7 +194,7 @@ impl LightTree {
             // Depth 63 can only be reached by 2^63 lights; the guard keeps the trail within 64 bits.
             let (light, bounds) = items[0];
             self.trails[light as usize] = trail;
-            self.nodes.push(Node { bounds, index: light, leaf: true });
+            self.nodes.push(Node { bounds: NodeBounds::new(bounds), index: light, leaf: true });
             return bounds;
         }
         // Split at the median of the centroids along the widest axis of the centroids' bounds.
@@ -181,13 +215,14 @@ impl LightTree {
             centroid(&a.1)[axis].total_cmp(&centroid(&b.1)[axis]).then(a.0.cmp(&b.0))
         });
         let node = self.nodes.len();
-        self.nodes.push(Node { bounds: items[0].1, index: 0, leaf: false });
+        self.nodes.push(Node { bounds: NodeBounds::new(items[0].1), index: 0, leaf: false });
         let (left, right) = items.split_at_mut(mid);
         let a = self.build_range(left, trail, depth + 1);
         self.nodes[node].index = self.nodes.len() as u32;
         let b = self.build_range(right, trail | (1 << depth), depth + 1);
-        self.nodes[node].bounds = a.union(&b);
-        self.nodes[node].bounds
+        let union = a.union(&b);
+        self.nodes[node].bounds = NodeBounds::new(union);
+        union
     }
 
     /// Whether the tree holds no light.
