@@ -45,6 +45,9 @@ pub struct BenchArgs {
     /// Integrators to compare, comma-separated.
     #[arg(long, value_enum, value_delimiter = ',', default_value = "pt,pm,ppm,sppm")]
     pub integrators: Vec<IntegratorKind>,
+    /// Light selections to compare for each integrator, comma-separated (default: the run file's).
+    #[arg(long, value_enum, value_delimiter = ',')]
+    pub light_selections: Vec<LightSelection>,
     /// Wall-clock budget per integrator, seconds.
     #[arg(long, default_value_t = 60.0)]
     pub time: f64,

@@ -27,6 +27,14 @@ pub struct ShadowRay {
     pub contribution: Vec3,
     /// Whether the ray still needs tracing.
     pub pending: bool,
+    /// The light it goes to (visibility-aware selection learns from it).
+    pub light: u32,
+    /// Shading normal at its origin, on the shaded side.
+    pub normal: Vec3,
+    /// Traced this step and not yet learned from, and whether it was unoccluded.
+    pub fresh: bool,
+    /// Whether the last trace found the segment free.
+    pub visible: bool,
 }
 
 /// Where a path is in its life.

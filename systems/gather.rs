@@ -10,7 +10,7 @@
 //! splat them and hand out work makes the image bit-identical whatever the thread count. The loop
 //! does no more than an add per finished path, a small share of a bounce.
 
-use super::components::{AdaptiveStats, Chi2Cells, HitPoint, PathState, PathStatus};
+use super::components::{AdaptiveStats, Chi2Cells, HitPoint, PathState, PathStatus, ShadowRay};
 use super::photon_estimate::NORMAL_COSINE;
 use super::resources::{PhotonBuffer, RenderStats, SceneGeometry, Workload};
 use super::visible_points::hit_point_bsdf;
@@ -186,4 +186,20 @@ pub fn gather_photons_with_laplacian(
             stats.laplacian += laplacian;
         },
     );
+}
+
+/// Visibility-aware light selection: learn from every shadow ray traced this step which light
+/// clusters are visible from where (one thread, entity order: the learned grid does not depend on
+/// the thread count).
+pub fn learn_light_visibility(mut scene: ResMut<SceneGeometry>, mut shadows: Query<&mut ShadowRay>) {
+    if !scene.lights.is_learning() {
+        return;
+    }
+    for mut shadow in &mut shadows {
+        if !shadow.fresh {
+            continue;
+        }
+        shadow.fresh = false;
+        scene.lights.record_visibility(shadow.ray.o, shadow.normal, shadow.light, shadow.visible);
+    }
 }

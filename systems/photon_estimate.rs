@@ -213,7 +213,8 @@ pub(super) fn direct_light(
 ) {
     let u_select = sampler.get1d(base + dim::LIGHT_SELECT);
     let u_light = sampler.get2d(base + dim::LIGHT_POINT);
-    let Some((_, ls)) = scene.lights.sample(si.p, si.ns, time, u_select, u_light) else {
+    let n_side = if wo.z >= 0.0 { si.ns } else { -si.ns };
+    let Some((_, ls)) = scene.lights.sample(si.p, n_side, time, u_select, u_light) else {
         return;
     };
     let wi_world = (ls.p - si.p).normalize();

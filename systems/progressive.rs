@@ -152,6 +152,12 @@ pub fn prepare_progressive(scene: Scene, run: &RunFile) -> Result<ProgressiveRen
     }
 
     let (mut world, features) = scene_world(scene, run)?;
+    if features.learns_visibility {
+        tracing::warn!(
+            "visibility-aware light selection learns only in pt; progressive passes use the light tree"
+        );
+        world.resource_mut::<SceneGeometry>().lights.finish_learning();
+    }
     let (area, diagonal, lights) = {
         let scene = world.resource::<SceneGeometry>();
         let (min, max) = scene.geometry.bounds();

@@ -40,6 +40,8 @@ pub struct Renderer {
     pub schedule: Schedule,
     /// What the scene uses (decides which systems are in the schedule).
     pub features: SceneFeatures,
+    /// Samples per pixel still to render once visibility learning ends.
+    pub pending_spp: Option<u32>,
 }
 
 /// Resolve the image size: run file, then the glTF's extras, then the camera's aspect ratio.
@@ -136,7 +138,21 @@ pub fn prepare(scene: Scene, run: &RunFile) -> Result<Renderer> {
     } else {
         settings.spp
     };
-    let mut workload = Workload::new(pixels, 0, spp, wavefront);
+    // Visibility-aware selection learns from the shadow rays of the first sixteenth of the samples
+    // (at least one per pixel), rendered with the plain tree; `run` then freezes what it learned and
+    // renders the rest. Only `pt` with light sampling has the learning system.
+    let learns = features.learns_visibility
+        && settings.integrator == IntegratorKind::Pt
+        && run.schedule.nee_for(settings.integrator);
+    if features.learns_visibility && !learns {
+        tracing::warn!(
+            "visibility-aware light selection learns only in pt with light sampling; using the light tree"
+        );
+        world.resource_mut::<SceneGeometry>().lights.finish_learning();
+    }
+    let features = SceneFeatures { learns_visibility: learns, ..features };
+    let first_spp = if learns { (spp / 16).clamp(1, spp) } else { spp };
+    let mut workload = Workload::new(pixels, 0, first_spp, wavefront);
     spawn_wavefront(&mut world, &mut workload);
     world.insert_resource(workload);
 
@@ -149,7 +165,7 @@ pub fn prepare(scene: Scene, run: &RunFile) -> Result<Renderer> {
         let nee = run.schedule.nee_for(settings.integrator);
         integrators::path::build_ordered(&mut schedule, features, order, nee);
     }
-    Ok(Renderer { world, schedule, features })
+    Ok(Renderer { world, schedule, features, pending_spp: (first_spp < spp).then_some(spp) })
 }
 
 /// Spawn the path entities once, each with its first work item; they are reused until the render ends.
@@ -195,7 +211,13 @@ impl Renderer {
             let stats = *self.world.resource::<RenderStats>();
             progress(&stats);
             if stats.active_paths == 0 {
-                break;
+                // The learning samples are done: freeze the learned selection and render the rest.
+                let Some(spp) = self.pending_spp.take() else { break };
+                if time_limit.is_some_and(|limit| start.elapsed().as_secs_f64() >= limit) {
+                    break;
+                }
+                self.extend_samples(spp);
+                continue;
             }
             if time_limit.is_some_and(|limit| start.elapsed().as_secs_f64() >= limit) {
                 let mut workload = self.world.resource_mut::<Workload>();
@@ -209,6 +231,8 @@ impl Renderer {
     /// they finish. The film keeps what it has, so a render can be refined in steps (benchmarks
     /// measure the error after each).
     pub fn extend_samples(&mut self, spp_end: u32) {
+        // Visibility-aware selection learns from the first batch of samples only.
+        self.world.resource_mut::<SceneGeometry>().lights.finish_learning();
         let old = *self.world.resource::<Workload>();
         if spp_end <= old.spp_end {
             return;

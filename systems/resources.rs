@@ -148,6 +148,8 @@ pub struct SceneFeatures {
     pub motion: bool,
     /// There is at least one emitter (otherwise NEE is skipped).
     pub lights: bool,
+    /// Light selection learns visibility from shadow rays (then a learning system runs).
+    pub learns_visibility: bool,
 }
 
 impl SceneFeatures {
@@ -157,6 +159,7 @@ impl SceneFeatures {
             lens: camera.has_lens(),
             motion: scene.geometry.has_motion(),
             lights: !scene.lights.is_empty(),
+            learns_visibility: scene.lights.is_learning(),
         }
     }
 }

@@ -96,6 +96,8 @@ fn scatter_one<const NEE: bool>(
     let bsdf = Bsdf::new(&scene.shading_params(&si));
     let frame = Frame::from_z(si.ns);
     let wo = frame.to_local(wo_world);
+    // The shading normal on the side the path arrived from: light selection's view of this point.
+    let n_side = if wo.z >= 0.0 { si.ns } else { -si.ns };
     let sampler = Sampler::new(config.seed, state.pixel, state.sample);
     let base = Sampler::bounce_dimension(state.depth);
 
@@ -103,7 +105,7 @@ fn scatter_one<const NEE: bool>(
     if NEE && !bsdf.is_delta() {
         let u_select = sampler.get1d(base + dim::LIGHT_SELECT);
         let u_light = sampler.get2d(base + dim::LIGHT_POINT);
-        if let Some((_, ls)) = scene.lights.sample(si.p, si.ns, ray.time, u_select, u_light) {
+        if let Some((light, ls)) = scene.lights.sample(si.p, n_side, ray.time, u_select, u_light) {
             let to_light = ls.p - si.p;
             let wi_world = to_light.normalize();
             let wi = frame.to_local(wi_world);
@@ -115,6 +117,8 @@ fn scatter_one<const NEE: bool>(
                 shadow.ray = Ray { o: origin, d: ls.p - origin, t_max: 1.0 - SHADOW_EPSILON, time: ray.time };
                 shadow.contribution = state.beta * f * ls.le * (weight / ls.pdf);
                 shadow.pending = true;
+                shadow.light = light;
+                shadow.normal = n_side;
             }
         }
     }
@@ -135,7 +139,7 @@ fn scatter_one<const NEE: bool>(
     state.prev_pdf = bs.pdf;
     state.specular_bounce = bs.is_specular;
     state.prev_p = si.p;
-    state.prev_n = si.ns;
+    state.prev_n = n_side;
     if bs.is_transmission {
         state.eta_scale *= bs.eta * bs.eta;
     }

@@ -28,8 +28,10 @@ pub fn trace_shadow_rays(scene: Res<SceneGeometry>, mut paths: Query<(&mut Shado
                 return;
             }
             shadow.pending = false;
+            shadow.fresh = true;
             state.shadow_rays += 1;
-            if !scene.geometry.occluded(&shadow.ray) {
+            shadow.visible = !scene.geometry.occluded(&shadow.ray);
+            if shadow.visible {
                 state.l += shadow.contribution;
             }
         },

@@ -25,7 +25,7 @@ fn bench_writes_a_monotone_csv_with_finite_errors_and_decodable_plots() {
     );
     let csv = std::fs::read_to_string(dir.join("errors.csv")).unwrap();
     let mut lines = csv.lines();
-    assert_eq!(lines.next(), Some("integrator,seconds,samples_or_passes,rmse,relmse,mae"));
+    assert_eq!(lines.next(), Some("integrator,seconds,samples_or_passes,rmse,relmse,mae,light_selection"));
     let rows: Vec<Vec<String>> = lines.map(|l| l.split(',').map(str::to_owned).collect()).collect();
     for integrator in ["pt", "sppm"] {
         let mine: Vec<&Vec<String>> = rows.iter().filter(|r| r[0] == integrator).collect();

@@ -6,9 +6,10 @@ use caustica::film::output::read_exr;
 use std::process::Command;
 
 fn render_with_threads(threads: u32, out: &std::path::Path, scene: &str, integrator: &str) {
-    // "pt-tree": path tracing with the light tree.
+    // "pt-tree", "pt-visibility": path tracing with the light tree, and with learned visibility.
     let (integrator, selection) = match integrator {
         "pt-tree" => ("pt", "tree"),
+        "pt-visibility" => ("pt", "visibility"),
         other => (other, "power"),
     };
     let status = Command::new(env!("CARGO_BIN_EXE_caustica"))
@@ -35,6 +36,7 @@ fn one_and_two_threads_give_bit_identical_images() {
         ("cornell-spheres.gltf", "sppm"),
         ("cornell-box.gltf", "cppm"),
         ("cornell-spheres.gltf", "pt-tree"),
+        ("cornell-box.gltf", "pt-visibility"),
     ] {
         let path = common::data(scene);
         let scene = path.to_str().unwrap();

@@ -11,7 +11,7 @@ use crate::error::{Error, Result};
 use crate::film::Image;
 use crate::film::compare::compare;
 use crate::film::output::{read_exr, write_image};
-use crate::scene::{IntegratorKind, RunFile, Scene, load};
+use crate::scene::{IntegratorKind, LightSelection, RunFile, Scene, load};
 use crate::systems::progressive::prepare_progressive;
 use crate::systems::render::prepare;
 use std::io::Write as _;
@@ -23,6 +23,8 @@ use std::time::Instant;
 pub struct Checkpoint {
     /// Which integrator.
     pub integrator: IntegratorKind,
+    /// With which light selection.
+    pub light_selection: LightSelection,
     /// Wall time spent rendering so far (measuring the error is not counted).
     pub seconds: f64,
     /// Samples per pixel (path tracing, photon mapping) or passes (progressive photon mapping).
@@ -76,28 +78,39 @@ pub fn run(args: &BenchArgs) -> Result<BenchReport> {
     run.film.width = Some(reference.width);
     run.film.height = Some(reference.height);
 
+    let selections = if args.light_selections.is_empty() {
+        vec![run.render.light_selection]
+    } else {
+        args.light_selections.clone()
+    };
     let mut checkpoints = Vec::new();
+    let mut series = Vec::new();
     for &integrator in &args.integrators {
-        let mut measure = |seconds: f64, samples_or_passes: f64, image: &Image| {
-            if let Some(e) = compare(image, &reference) {
-                let c = Checkpoint {
-                    integrator,
-                    seconds,
-                    samples_or_passes,
-                    rmse: e.rmse,
-                    relmse: e.relmse,
-                    mae: e.mae,
-                };
-                checkpoints.push(c);
-            }
-        };
-        let image = render_for(&scene, &run, integrator, args.time, &mut measure)?;
-        let name = integrator_name(integrator);
-        let exr = args.out_dir.join(format!("{name}.exr"));
-        write_image(&image, &exr, run.film.exposure)?;
-        let error_png = args.out_dir.join(format!("{name}-error.png"));
-        false_colour::write_error_image(&image, &reference, &error_png)?;
-        files.extend([exr, error_png]);
+        for &light_selection in &selections {
+            let mut measure = |seconds: f64, samples_or_passes: f64, image: &Image| {
+                if let Some(e) = compare(image, &reference) {
+                    checkpoints.push(Checkpoint {
+                        integrator,
+                        light_selection,
+                        seconds,
+                        samples_or_passes,
+                        rmse: e.rmse,
+                        relmse: e.relmse,
+                        mae: e.mae,
+                    });
+                }
+            };
+            let mut run = run.clone();
+            run.render.light_selection = light_selection;
+            let image = render_for(&scene, &run, integrator, args.time, &mut measure)?;
+            let name = series_name(integrator, light_selection, selections.len() > 1);
+            let exr = args.out_dir.join(format!("{name}.exr"));
+            write_image(&image, &exr, run.film.exposure)?;
+            let error_png = args.out_dir.join(format!("{name}-error.png"));
+            false_colour::write_error_image(&image, &reference, &error_png)?;
+            files.extend([exr, error_png]);
+            series.push((integrator, light_selection, name));
+        }
     }
 
     let csv = args.out_dir.join("errors.csv");
@@ -106,10 +119,25 @@ pub fn run(args: &BenchArgs) -> Result<BenchReport> {
     let stem = if args.spp_sweep { "relmse-vs-samples" } else { "relmse-vs-time" };
     for ext in ["png", "svg"] {
         let path = args.out_dir.join(format!("{stem}.{ext}"));
-        plot::write_plot(&path, &checkpoints, &args.integrators, args.spp_sweep)?;
+        plot::write_plot(&path, &checkpoints, &series, args.spp_sweep)?;
         files.push(path);
     }
     Ok(BenchReport { checkpoints, files, rendered_reference })
+}
+
+/// A series' name: the integrator, and the light selection when several are compared (`pt-tree`).
+pub fn series_name(integrator: IntegratorKind, selection: LightSelection, with_selection: bool) -> String {
+    if with_selection {
+        format!("{}-{}", integrator_name(integrator), selection_name(selection))
+    } else {
+        integrator_name(integrator)
+    }
+}
+
+/// The name of a light selection as on the command line.
+pub fn selection_name(selection: LightSelection) -> String {
+    clap::ValueEnum::to_possible_value(&selection)
+        .map_or_else(|| format!("{selection:?}"), |v| v.get_name().to_owned())
 }
 
 /// The name of an integrator as on the command line.
@@ -170,17 +198,18 @@ fn render_for(
 fn write_csv(path: &std::path::Path, checkpoints: &[Checkpoint]) -> Result<()> {
     let io = |source| Error::Io { path: path.to_path_buf(), source };
     let mut file = std::io::BufWriter::new(std::fs::File::create(path).map_err(io)?);
-    writeln!(file, "integrator,seconds,samples_or_passes,rmse,relmse,mae").map_err(io)?;
+    writeln!(file, "integrator,seconds,samples_or_passes,rmse,relmse,mae,light_selection").map_err(io)?;
     for c in checkpoints {
         writeln!(
             file,
-            "{},{:.6},{:.4},{:.8},{:.8},{:.8}",
+            "{},{:.6},{:.4},{:.8},{:.8},{:.8},{}",
             integrator_name(c.integrator),
             c.seconds,
             c.samples_or_passes,
             c.rmse,
             c.relmse,
-            c.mae
+            c.mae,
+            selection_name(c.light_selection)
         )
         .map_err(io)?;
     }

@@ -1,32 +1,35 @@
 //! The log-log plot of relMSE against time (or samples) for `caustica bench`, PNG and SVG.
 
-use super::{Checkpoint, integrator_name};
+use super::Checkpoint;
 use crate::error::{Error, Result};
-use crate::scene::IntegratorKind;
+use crate::scene::{IntegratorKind, LightSelection};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
 
 const SIZE: (u32, u32) = (900, 560);
 
-/// Draw one line per integrator into `path` (.png or .svg).
+/// One plotted line: integrator, light selection, label.
+pub type Series = (IntegratorKind, LightSelection, String);
+
+/// Draw one line per series into `path` (.png or .svg).
 pub fn write_plot(
     path: &Path,
     checkpoints: &[Checkpoint],
-    integrators: &[IntegratorKind],
+    series: &[Series],
     by_samples: bool,
 ) -> Result<()> {
     let fail = |e: String| Error::Output { path: path.into(), message: format!("plotting failed: {e}") };
     let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, crate::density::plot::FONT);
     if path.extension().is_some_and(|e| e == "svg") {
         let root = SVGBackend::new(path, SIZE).into_drawing_area();
-        draw(&root, checkpoints, integrators, by_samples).map_err(fail)?;
+        draw(&root, checkpoints, series, by_samples).map_err(fail)?;
         root.present().map_err(|e| fail(e.to_string()))
     } else {
         let mut buffer = vec![255u8; (SIZE.0 * SIZE.1 * 3) as usize];
         {
             let root = BitMapBackend::with_buffer(&mut buffer, SIZE).into_drawing_area();
-            draw(&root, checkpoints, integrators, by_samples).map_err(fail)?;
+            draw(&root, checkpoints, series, by_samples).map_err(fail)?;
             root.present().map_err(|e| fail(e.to_string()))?;
         }
         image::RgbImage::from_raw(SIZE.0, SIZE.1, buffer)
@@ -39,7 +42,7 @@ pub fn write_plot(
 fn draw<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     checkpoints: &[Checkpoint],
-    integrators: &[IntegratorKind],
+    series: &[Series],
     by_samples: bool,
 ) -> std::result::Result<(), String> {
     let x_of = |c: &Checkpoint| if by_samples { c.samples_or_passes } else { c.seconds };
@@ -64,20 +67,20 @@ fn draw<DB: DrawingBackend>(
         .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
         .map_err(|e| e.to_string())?;
     chart.configure_mesh().x_desc(x_label).y_desc("relMSE").draw().map_err(|e| e.to_string())?;
-    for (i, &kind) in integrators.iter().enumerate() {
+    for (i, (kind, selection, label)) in series.iter().enumerate() {
         let color = Palette99::pick(i).to_rgba();
-        let series: Vec<(f64, f64)> = checkpoints
+        let line: Vec<(f64, f64)> = checkpoints
             .iter()
-            .filter(|c| c.integrator == kind && c.relmse > 0.0)
+            .filter(|c| c.integrator == *kind && c.light_selection == *selection && c.relmse > 0.0)
             .map(|c| (x_of(c), c.relmse))
             .collect();
         chart
-            .draw_series(LineSeries::new(series.clone(), color.stroke_width(2)))
+            .draw_series(LineSeries::new(line.clone(), color.stroke_width(2)))
             .map_err(|e| e.to_string())?
-            .label(integrator_name(kind))
+            .label(label.clone())
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
         chart
-            .draw_series(series.iter().map(|&p| Circle::new(p, 3, color.filled())))
+            .draw_series(line.iter().map(|&p| Circle::new(p, 3, color.filled())))
             .map_err(|e| e.to_string())?;
     }
     chart

@@ -3,10 +3,12 @@
 pub mod area;
 pub mod select;
 pub mod tree;
+pub mod visibility;
 
 pub use area::{EmissionSample, Light, LightSample, LightShape};
 pub use select::LightSelector;
 pub use tree::LightTree;
+pub use visibility::VisibilityGrid;
 
 use crate::geometry::Geometry;
 use crate::geometry::bvh::PrimitiveShape;
@@ -21,6 +23,8 @@ pub struct Lights {
     selector: LightSelector,
     /// The light tree, when selection is by tree (then `selector` is unused for NEE).
     tree: Option<LightTree>,
+    /// The learned visibility, when selection is visibility-aware (on top of the tree).
+    visibility: Option<VisibilityGrid>,
     /// Selection in proportion to power, for photon emission (whatever `selector` does for NEE).
     by_power: LightSelector,
 }
@@ -49,10 +53,18 @@ impl Lights {
         let by_power = LightSelector::new(&power);
         let selector = match selection {
             LightSelection::Uniform => LightSelector::new(&vec![1.0; lights.len()]),
-            LightSelection::Power | LightSelection::Tree => by_power.clone(),
+            LightSelection::Power | LightSelection::Tree | LightSelection::Visibility => by_power.clone(),
         };
-        let tree = (selection == LightSelection::Tree).then(|| LightTree::build(&lights));
-        Self { selector, by_power, lights, tree }
+        let uses_tree = matches!(selection, LightSelection::Tree | LightSelection::Visibility);
+        let tree = uses_tree.then(|| LightTree::build(&lights));
+        let visibility = match (&tree, selection) {
+            (Some(tree), LightSelection::Visibility) if !lights.is_empty() => {
+                let (min, max) = geometry.bounds();
+                Some(VisibilityGrid::new(min, max, tree))
+            }
+            _ => None,
+        };
+        Self { selector, by_power, lights, tree, visibility }
     }
 
     /// Whether the scene has no emitter.
@@ -65,8 +77,8 @@ impl Lights {
         self.lights.iter().map(Light::power).sum()
     }
 
-    /// Pick a light with `u_select` for a shading point `p_ref` with normal `n_ref` (zero: none) and a
-    /// point on it at `time`. The returned pdf is per unit solid angle at `p_ref` and includes the
+    /// Pick a light with `u_select` for a shading point `p_ref` with normal `n_ref` (zero: none; on the
+    /// side the point is shaded from, which visibility-aware selection needs) and a point on it at `time`. The returned pdf is per unit solid angle at `p_ref` and includes the
     /// selection probability.
     #[inline]
     pub fn sample(
@@ -77,9 +89,10 @@ impl Lights {
         u_select: f32,
         u: Vec2,
     ) -> Option<(u32, LightSample)> {
-        let (index, pmf) = match &self.tree {
-            Some(tree) => tree.sample(p_ref, n_ref, u_select)?,
-            None => self.selector.sample(u_select)?,
+        let (index, pmf) = match (&self.tree, &self.visibility) {
+            (Some(tree), Some(grid)) => grid.sample(tree, p_ref, n_ref, u_select)?,
+            (Some(tree), None) => tree.sample(p_ref, n_ref, u_select)?,
+            (None, _) => self.selector.sample(u_select)?,
         };
         let mut s = self.lights[index as usize].sample(p_ref, time, u)?;
         s.pdf *= pmf;
@@ -113,9 +126,30 @@ impl Lights {
 
     /// Probability of picking light `index` for a shading point `p_ref` with normal `n_ref`.
     pub fn pmf(&self, index: u32, p_ref: Vec3, n_ref: Vec3) -> f32 {
-        match &self.tree {
-            Some(tree) => tree.pmf(index, p_ref, n_ref),
-            None => self.selector.pmf(index),
+        match (&self.tree, &self.visibility) {
+            (Some(tree), Some(grid)) => grid.pmf(tree, index, p_ref, n_ref),
+            (Some(tree), None) => tree.pmf(index, p_ref, n_ref),
+            (None, _) => self.selector.pmf(index),
+        }
+    }
+
+    /// Whether selection is visibility-aware and still learning from shadow rays.
+    pub fn is_learning(&self) -> bool {
+        self.visibility.as_ref().is_some_and(|g| !g.is_ready())
+    }
+
+    /// Learn from a shadow ray from `p` (normal `n` on the shaded side) to light `index`: whether it
+    /// got through.
+    pub fn record_visibility(&mut self, p: Vec3, n: Vec3, index: u32, unoccluded: bool) {
+        if let (Some(tree), Some(grid)) = (&self.tree, &mut self.visibility) {
+            grid.record(p, n, tree.cluster(index, visibility::CLUSTER_DEPTH), unoccluded);
+        }
+    }
+
+    /// End learning: later selections use the learned distributions.
+    pub fn finish_learning(&mut self) {
+        if let (Some(tree), Some(grid)) = (&self.tree, &mut self.visibility) {
+            grid.finish_learning(tree);
         }
     }
 }

@@ -273,6 +273,101 @@ impl LightTree {
         (pmf > 0.0).then_some((self.nodes[node].index, pmf))
     }
 
+    /// The nodes at `depth` (or leaves above it), by cluster id (the bits of the path to them), and
+    /// `u32::MAX` for ids no node has.
+    pub fn cluster_nodes(&self, depth: u32) -> Vec<u32> {
+        let mut nodes = vec![u32::MAX; 1usize << depth];
+        if !self.nodes.is_empty() {
+            self.collect_clusters(0, 0, 0, depth, &mut nodes);
+        }
+        nodes
+    }
+
+    fn collect_clusters(&self, node: usize, level: u32, prefix: u32, depth: u32, out: &mut [u32]) {
+        if level == depth || self.nodes[node].leaf {
+            out[prefix as usize] = node as u32;
+            return;
+        }
+        self.collect_clusters(node + 1, level + 1, prefix, depth, out);
+        self.collect_clusters(self.nodes[node].index as usize, level + 1, prefix | (1 << level), depth, out);
+    }
+
+    /// The importance of node `node` for (p, n).
+    #[inline]
+    pub fn node_importance(&self, node: u32, p: Vec3, n: Vec3) -> f32 {
+        self.nodes[node as usize].bounds.importance(p, n)
+    }
+
+    /// The first `depth` bits of a light's path from the root: its cluster at that depth (a light
+    /// whose leaf is shallower is a cluster of its own, and no other light shares its prefix).
+    pub fn cluster(&self, light: u32, depth: u32) -> u32 {
+        (self.trails.get(light as usize).copied().unwrap_or(0) & ((1u64 << depth) - 1)) as u32
+    }
+
+    /// Pick a light within cluster `cluster` of depth `depth` (its first `depth` turns are forced, the
+    /// rest follow importance as in [`LightTree::sample`]); returns it and its probability within
+    /// the cluster.
+    #[inline]
+    pub fn sample_in_cluster(
+        &self,
+        cluster: u32,
+        depth: u32,
+        p: Vec3,
+        n: Vec3,
+        mut u: f32,
+    ) -> Option<(u32, f32)> {
+        if self.nodes.is_empty() {
+            return None;
+        }
+        let (mut node, mut pmf, mut level) = (0usize, 1.0f32, 0);
+        while !self.nodes[node].leaf {
+            if level < depth {
+                node = if cluster & (1 << level) == 0 { node + 1 } else { self.nodes[node].index as usize };
+            } else {
+                let p_first = self.split(node, p, n)?;
+                if u < p_first {
+                    u = (u / p_first).min(ONE_MINUS_EPSILON);
+                    pmf *= p_first;
+                    node += 1;
+                } else {
+                    u = ((u - p_first) / (1.0 - p_first)).min(ONE_MINUS_EPSILON);
+                    pmf *= 1.0 - p_first;
+                    node = self.nodes[node].index as usize;
+                }
+            }
+            level += 1;
+        }
+        (pmf > 0.0).then_some((self.nodes[node].index, pmf))
+    }
+
+    /// The probability that [`LightTree::sample`] picks `light` at (p, n), and the probability that
+    /// [`LightTree::sample_in_cluster`] picks it within its cluster of depth `depth`.
+    #[inline]
+    pub fn pmf_and_in_cluster(&self, light: u32, depth: u32, p: Vec3, n: Vec3) -> (f32, f32) {
+        let Some(&trail) = self.trails.get(light as usize) else { return (0.0, 0.0) };
+        if self.nodes.is_empty() {
+            return (0.0, 0.0);
+        }
+        let root = self.nodes[0].bounds.importance(p, n) > 0.0;
+        let (mut node, mut above, mut below, mut level) = (0usize, 1.0f32, 1.0f32, 0);
+        while !self.nodes[node].leaf {
+            let first = trail & (1 << level) == 0;
+            let p_turn = self.split(node, p, n).map(|p_first| if first { p_first } else { 1.0 - p_first });
+            if level < depth {
+                above *= p_turn.unwrap_or(0.0);
+            } else {
+                let Some(p_turn) = p_turn else { return (0.0, 0.0) };
+                below *= p_turn;
+            }
+            node = if first { node + 1 } else { self.nodes[node].index as usize };
+            level += 1;
+        }
+        if self.nodes[node].index != light {
+            return (0.0, 0.0);
+        }
+        (if root { above * below } else { 0.0 }, below)
+    }
+
     /// The probability that [`LightTree::sample`] picks light `light` at (p, n).
     #[inline]
     pub fn pmf(&self, light: u32, p: Vec3, n: Vec3) -> f32 {

@@ -50,6 +50,9 @@ pub enum LightSelection {
     /// By a light tree: power, distance and orientation towards the shading point (Conty Estevez &
     /// Kulla 2018).
     Tree,
+    /// The light tree plus a grid that learns from the first samples' shadow rays which light
+    /// clusters actually reach each region after occlusion (mixed with the tree, so unbiased).
+    Visibility,
 }
 
 /// Pixel reconstruction filter, sampled by importance (each sample lands in one pixel with weight 1).

@@ -39,6 +39,13 @@ pub fn build_ordered(
     if nee && features.lights {
         schedule.add_systems(scatter_paths::<true>.in_set(PassSystems::Scatter));
         schedule.add_systems(trace_shadow_rays.in_set(PassSystems::Shadow));
+        if features.learns_visibility {
+            schedule.add_systems(
+                crate::systems::gather::learn_light_visibility
+                    .before(splat_paths_to_film)
+                    .in_set(PassSystems::Gather),
+            );
+        }
     } else {
         schedule.add_systems(scatter_paths::<false>.in_set(PassSystems::Scatter));
     }
