@@ -253,24 +253,12 @@ impl LightTree {
 
     /// Pick a light for a point `p` with normal `n` (zero for none), and its probability.
     #[inline]
-    pub fn sample(&self, p: Vec3, n: Vec3, mut u: f32) -> Option<(u32, f32)> {
+    pub fn sample(&self, p: Vec3, n: Vec3, u: f32) -> Option<(u32, f32)> {
         if self.nodes.is_empty() || self.nodes[0].bounds.importance(p, n) <= 0.0 {
             return None;
         }
-        let (mut node, mut pmf) = (0usize, 1.0f32);
-        while !self.nodes[node].leaf {
-            let p_first = self.split(node, p, n)?;
-            if u < p_first {
-                u = (u / p_first).min(ONE_MINUS_EPSILON);
-                pmf *= p_first;
-                node += 1;
-            } else {
-                u = ((u - p_first) / (1.0 - p_first)).min(ONE_MINUS_EPSILON);
-                pmf *= 1.0 - p_first;
-                node = self.nodes[node].index as usize;
-            }
-        }
-        (pmf > 0.0).then_some((self.nodes[node].index, pmf))
+        // The whole tree is the cluster of depth 0.
+        self.sample_in_cluster(0, 0, p, n, u)
     }
 
     /// The nodes at `depth` (or leaves above it), by cluster id (the bits of the path to them), and
@@ -371,23 +359,7 @@ impl LightTree {
     /// The probability that [`LightTree::sample`] picks light `light` at (p, n).
     #[inline]
     pub fn pmf(&self, light: u32, p: Vec3, n: Vec3) -> f32 {
-        let Some(&trail) = self.trails.get(light as usize) else { return 0.0 };
-        if self.nodes.is_empty() || self.nodes[0].bounds.importance(p, n) <= 0.0 {
-            return 0.0;
-        }
-        let (mut node, mut pmf, mut depth) = (0usize, 1.0f32, 0);
-        while !self.nodes[node].leaf {
-            let Some(p_first) = self.split(node, p, n) else { return 0.0 };
-            if trail & (1 << depth) == 0 {
-                pmf *= p_first;
-                node += 1;
-            } else {
-                pmf *= 1.0 - p_first;
-                node = self.nodes[node].index as usize;
-            }
-            depth += 1;
-        }
-        if self.nodes[node].index == light { pmf } else { 0.0 }
+        self.pmf_and_in_cluster(light, 0, p, n).0
     }
 }
 
