@@ -239,3 +239,13 @@ pub fn store_photons(
     stats.active = active;
     stats.steps += 1;
 }
+
+/// Spawn `count` photon entities, idle until a pass hands them photons (numbered 0..count).
+pub fn spawn_photon_wavefront(world: &mut World, count: u32, status: PathStatus) -> Vec<Entity> {
+    world
+        .spawn_batch((0..count).map(|index| {
+            let state = PhotonState { index, status, ..Default::default() };
+            (PhotonRay::default(), PhotonHit::default(), state)
+        }))
+        .collect()
+}

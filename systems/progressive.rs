@@ -224,10 +224,7 @@ pub fn prepare_progressive(scene: Scene, run: &RunFile) -> Result<ProgressiveRen
     world.insert_resource(PhotonBuffer::default());
     world.insert_resource(PhotonStats::default());
     world.insert_resource(PassPhotons::default());
-    world.spawn_batch((0..photon_wavefront).map(|index| {
-        let state = PhotonState { index, status: PathStatus::Idle, ..Default::default() };
-        (PhotonRay::default(), PhotonHit::default(), state)
-    }));
+    super::photons::spawn_photon_wavefront(&mut world, photon_wavefront, PathStatus::Idle);
 
     let mut schedules = ProgressiveSchedules::with_order(stage_order);
     match kind {

@@ -193,9 +193,7 @@ mod tests {
         let hp = world.get::<HitPoint>(e).unwrap();
         assert!(hp.r2 > 0.0 && hp.r2.is_finite() && hp.n.is_finite() && hp.tau.is_finite(), "{hp:?}");
         assert!(hp.n > 6.0e6, "N = {}", hp.n);
-        // L = τ/(π r² passes) estimates the flux density fed in: 1e-3 per photon, ~100 photons per
-        // pass in a disc that now holds N/α-equivalent photons; it must stay O(1), not drift to 0 or ∞.
-        assert!((hp.tau.x / (hp.r2 as f64 * 1e5)).is_finite());
+        assert!(hp.tau.x > 0.0, "τ = {}: the flux correction underflowed", hp.tau.x);
     }
 
     #[test]

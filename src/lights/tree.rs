@@ -7,6 +7,7 @@
 //! shading point is recomputed exactly by walking that path: MIS with BSDF sampling stays unbiased.
 
 use super::{Light, LightShape};
+use crate::sampling::ONE_MINUS_EPSILON;
 use glam::{Quat, Vec3};
 use std::f32::consts::PI;
 
@@ -363,9 +364,6 @@ impl LightTree {
     }
 }
 
-/// Largest f32 below one.
-const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -424,26 +422,9 @@ mod tests {
                 assert!((pmf / tree.pmf(light, p, n) - 1.0).abs() < 1e-5, "pmf at sampling ≠ pmf()");
                 counts[light as usize] += 1;
             }
-            // Pearson's χ² over lights with an expected count ≥ 5 (the rest pooled).
-            let (mut chi2, mut cells, mut pooled_obs, mut pooled_exp) = (0.0, 0, 0.0, 0.0);
-            for (i, &c) in counts.iter().enumerate() {
-                let expected = draws as f64 * tree.pmf(i as u32, p, n) as f64;
-                if expected >= 5.0 {
-                    chi2 += (c as f64 - expected).powi(2) / expected;
-                    cells += 1;
-                } else {
-                    pooled_obs += c as f64;
-                    pooled_exp += expected;
-                }
-            }
-            if pooled_exp >= 5.0 {
-                chi2 += (pooled_obs - pooled_exp).powi(2) / pooled_exp;
-                cells += 1;
-            }
-            // Wilson–Hilferty 0.999 quantile of χ² with k = cells − 1 degrees of freedom.
-            let k = (cells - 1) as f64;
-            let quantile = k * (1.0 - 2.0 / (9.0 * k) + 3.09 * (2.0 / (9.0 * k)).sqrt()).powi(3);
-            assert!(chi2 < quantile, "χ² {chi2} ≥ {quantile} over {cells} cells at {p}");
+            let pmf: Vec<f64> = (0..lights.len() as u32).map(|i| tree.pmf(i, p, n) as f64).collect();
+            let p_value = crate::sampling::chi2::discrete_chi2_p_value(&counts, &pmf, draws).unwrap();
+            assert!(p_value > 1e-3, "χ² p-value {p_value} at {p}");
         }
     }
 

@@ -14,6 +14,7 @@
 //! 1/DEFENSIVE.
 
 use super::LightTree;
+use crate::sampling::ONE_MINUS_EPSILON;
 use glam::{UVec3, Vec3};
 
 /// Share of samples drawn from the plain tree.
@@ -167,9 +168,6 @@ impl VisibilityGrid {
     }
 }
 
-/// Largest f32 below one.
-const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -229,17 +227,8 @@ mod tests {
                 assert!((pmf / grid.pmf(&tree, light, p, n) - 1.0).abs() < 1e-5);
                 counts[light as usize] += 1;
             }
-            let (mut chi2, mut cells) = (0.0, 0);
-            for (l, &c) in counts.iter().enumerate() {
-                let expected = draws as f64 * pmfs[l];
-                if expected >= 5.0 {
-                    chi2 += (c as f64 - expected).powi(2) / expected;
-                    cells += 1;
-                }
-            }
-            let k = (cells - 1) as f64;
-            let quantile = k * (1.0 - 2.0 / (9.0 * k) + 3.09 * (2.0 / (9.0 * k)).sqrt()).powi(3);
-            assert!(chi2 < quantile, "χ² {chi2} ≥ {quantile} over {cells} cells at {p}");
+            let p_value = crate::sampling::chi2::discrete_chi2_p_value(&counts, &pmfs, draws).unwrap();
+            assert!(p_value > 1e-3, "χ² p-value {p_value} at {p}");
         }
     }
 

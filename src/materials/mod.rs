@@ -23,6 +23,7 @@ pub use dielectric::Dielectric;
 pub use microfacet::Ggx;
 pub use plastic::Plastic;
 
+use crate::sampling::ONE_MINUS_EPSILON;
 use crate::sampling::warp::cosine_hemisphere;
 use fresnel::f0_from_ior;
 use glam::{Vec2, Vec3};
@@ -75,8 +76,6 @@ pub struct BsdfSample {
 
 /// Number of lobes in the mixture: conductor, plastic, dielectric.
 const LOBES: usize = 3;
-/// Largest f32 below one: keeps remapped lobe numbers in [0, 1).
-const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
 
 /// The BSDF at one hit: small, `Copy`, built per hit without allocation.
 #[derive(Clone, Copy, Debug)]

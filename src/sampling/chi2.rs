@@ -188,6 +188,16 @@ pub fn chi2_statistic(
     Ok((statistic, cells - 1))
 }
 
+/// p-value of Pearson's test that `counts` (of `draws` samples over discrete outcomes) follow the
+/// probabilities `pmf`, sparse cells pooled as in [`chi2_statistic`]: the test of a discrete sampler
+/// (light selection) against the pmf it reports.
+pub fn discrete_chi2_p_value(counts: &[u32], pmf: &[f64], draws: u32) -> Result<f64, String> {
+    let observed: Vec<f64> = counts.iter().map(|&c| c as f64).collect();
+    let expected: Vec<f64> = pmf.iter().map(|&p| p * draws as f64).collect();
+    let (statistic, dof) = chi2_statistic(&observed, &expected, 5.0, draws)?;
+    Ok(chi_square_p_value(statistic, dof))
+}
+
 /// Probability that a χ² variable with `dof` degrees of freedom exceeds `statistic`.
 pub fn chi_square_p_value(statistic: f64, dof: u32) -> f64 {
     regularized_gamma_q(0.5 * dof as f64, 0.5 * statistic)

@@ -8,3 +8,6 @@ pub mod rng;
 pub mod warp;
 
 pub use rng::Sampler;
+
+/// Largest f32 below one: keeps remapped random numbers in [0, 1).
+pub const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;

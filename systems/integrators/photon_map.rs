@@ -17,11 +17,13 @@ use crate::materials::Bsdf;
 use crate::photon::PhotonMap;
 use crate::scene::PhotonSettings;
 use crate::systems::PassSystems;
-use crate::systems::components::{PathStatus, PhotonHit, PhotonRay, PhotonState};
+use crate::systems::components::PathStatus;
 use crate::systems::emit::emit_camera_paths_for;
 use crate::systems::gather::splat_paths_to_film;
 use crate::systems::photon_estimate::scatter_photon_mapped;
-use crate::systems::photons::{emit_photons, scatter_photons, store_photons, trace_photons};
+use crate::systems::photons::{
+    emit_photons, scatter_photons, spawn_photon_wavefront, store_photons, trace_photons,
+};
 use crate::systems::render::MAX_WAVEFRONT;
 use crate::systems::resources::{
     PhotonBuffer, PhotonMapKind, PhotonMaps, PhotonStats, PhotonWork, RenderConfig, SceneFeatures,
@@ -117,12 +119,7 @@ pub fn run_photon_pass(
     });
     world.insert_resource(PhotonBuffer::default());
     world.insert_resource(PhotonStats::default());
-    let entities: Vec<Entity> = world
-        .spawn_batch((0..wavefront).map(|index| {
-            let state = PhotonState { index, status: PathStatus::NeedsCamera, ..Default::default() };
-            (PhotonRay::default(), PhotonHit::default(), state)
-        }))
-        .collect();
+    let entities = spawn_photon_wavefront(world, wavefront, PathStatus::NeedsCamera);
     let mut schedule = photon_schedule();
     loop {
         schedule.run(world);
