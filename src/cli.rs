@@ -17,7 +17,7 @@ pub struct Cli {
 #[derive(Subcommand, Debug)]
 pub enum Command {
     /// Render a run file (.toml) or a glTF file (.gltf / .glb).
-    Render(RenderArgs),
+    Render(Box<RenderArgs>),
     /// Print RMSE, relMSE and MAE of IMAGE against REFERENCE (linear EXR files).
     Compare {
         /// The image to judge.
@@ -153,6 +153,30 @@ pub struct RenderArgs {
     /// glTF camera to use, by name; overrides the run file.
     #[arg(long)]
     pub camera: Option<String>,
+    /// Camera position X,Y,Z; overrides the file's camera (or the automatic framing).
+    #[arg(long, value_name = "X,Y,Z")]
+    pub eye: Option<Triple>,
+    /// Point the camera looks at, X,Y,Z.
+    #[arg(long, value_name = "X,Y,Z")]
+    pub target: Option<Triple>,
+    /// Camera up vector X,Y,Z (default +Y when a target is given).
+    #[arg(long, value_name = "X,Y,Z")]
+    pub up: Option<Triple>,
+    /// Vertical field of view in degrees.
+    #[arg(long, value_name = "DEGREES")]
+    pub yfov: Option<f32>,
+    /// Environment light: an equirectangular map (.exr or .hdr); overrides the run file.
+    #[arg(long, value_name = "FILE")]
+    pub environment: Option<PathBuf>,
+    /// Environment light of constant radiance R,G,B (linear); overrides the run file.
+    #[arg(long, value_name = "R,G,B", conflicts_with = "environment")]
+    pub environment_color: Option<Triple>,
+    /// Multiplies the environment's radiance.
+    #[arg(long)]
+    pub environment_strength: Option<f32>,
+    /// Rotation of the environment map about world X, then Y, then Z, in degrees.
+    #[arg(long, value_name = "X,Y,Z")]
+    pub environment_rotation: Option<Triple>,
     /// Output image(s), .exr (linear) or .png (sRGB); repeatable; overrides the run file.
     #[arg(short, long)]
     pub output: Vec<PathBuf>,
@@ -240,8 +264,45 @@ impl RenderArgs {
         f.height = self.height.or(f.height);
         f.filter = self.filter.unwrap_or(f.filter);
         f.exposure = self.exposure.unwrap_or(f.exposure);
+        let c = &mut run.camera;
         if self.camera.is_some() {
-            run.camera.name = self.camera.clone();
+            c.name = self.camera.clone();
+        }
+        c.eye = self.eye.map(|t| t.0).or(c.eye);
+        c.target = self.target.map(|t| t.0).or(c.target);
+        c.up = self.up.map(|t| t.0).or(c.up);
+        c.yfov_degrees = self.yfov.or(c.yfov_degrees);
+        let e = &mut run.environment;
+        if let Some(file) = &self.environment {
+            // Relative to where the command runs, not to the run file's directory.
+            e.file = Some(std::path::absolute(file).unwrap_or_else(|_| file.clone()));
+            e.color = None;
+        }
+        if let Some(color) = self.environment_color {
+            e.color = Some(color.0);
+            e.file = None;
+        }
+        e.strength = self.environment_strength.or(e.strength);
+        e.rotation_degrees = self.environment_rotation.map(|t| t.0).or(e.rotation_degrees);
+    }
+}
+
+/// Three comma-separated numbers (`1,0.5,2`): a point, vector, colour or set of angles.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Triple(pub [f32; 3]);
+
+impl std::str::FromStr for Triple {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        let values: Vec<f32> = s
+            .split(',')
+            .map(|v| v.trim().parse::<f32>().map_err(|e| format!("'{v}' is not a number: {e}")))
+            .collect::<Result<_, _>>()?;
+        match values[..] {
+            [x, y, z] if values.iter().all(|v| v.is_finite()) => Ok(Triple([x, y, z])),
+            [_, _, _] => Err(format!("'{s}' must be three finite numbers")),
+            _ => Err(format!("'{s}' must be three comma-separated numbers, got {}", values.len())),
         }
     }
 }

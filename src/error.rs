@@ -61,6 +61,14 @@ pub enum Error {
         /// The constraint that failed.
         problem: String,
     },
+    /// An image (reference, environment map) could not be read or decoded.
+    #[error("{path}: cannot read image: {message}")]
+    Image {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        message: String,
+    },
     /// An image could not be written.
     #[error("{path}: cannot write image: {message}")]
     Output {

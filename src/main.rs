@@ -19,7 +19,7 @@ const DEFAULT_SCENE: &str = "scenes/default.toml";
 fn main() -> Result<()> {
     let cli = Cli::parse();
     let render_args = match &cli.command {
-        Some(Command::Render(args)) => args.clone(),
+        Some(Command::Render(args)) => (**args).clone(),
         _ => RenderArgs::default(),
     };
     let profile = render_args.profile.then(SystemProfile::default);
@@ -119,8 +119,7 @@ fn render(args: &RenderArgs) -> Result<()> {
     let start = Instant::now();
     init_thread_pools(args.threads);
     let scene_path = args.scene.clone().unwrap_or_else(default_scene);
-    let (scene, mut run) = scene::load(&scene_path)?;
-    args.apply(&mut run);
+    let (scene, run) = scene::load_with(&scene_path, |run| args.apply(run))?;
     let outputs = output_paths(args, &run, &scene_path);
     for path in &outputs {
         output::check_output_path(path)?;

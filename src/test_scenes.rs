@@ -66,3 +66,26 @@ pub fn furnace(albedo: f32, le: f32) -> Scene {
         ..Scene::default()
     }
 }
+
+/// The environment furnace: a convex Lambertian sphere of `albedo` (flat facets) at the origin under a
+/// constant environment of radiance `le`, seen from +Z at distance 3 with a 50° field of view. Each
+/// facet sees the whole environment over its hemisphere and nothing of the sphere, so it reflects
+/// exactly `albedo · le`; the background is `le`.
+pub fn environment_furnace(albedo: f32, le: f32) -> Scene {
+    let mut sphere = uv_sphere("ball", Vec3::ZERO, 1.0, 24, false, 0);
+    sphere.normals = None;
+    Scene {
+        meshes: vec![sphere],
+        materials: vec![diffuse("ball", Vec3::splat(albedo), Vec3::ZERO)],
+        camera: Some(CameraDesc {
+            name: "front".into(),
+            camera_to_world: Mat4::from_translation(Vec3::new(0.0, 0.0, 3.0)),
+            yfov: 50f32.to_radians(),
+            aspect_ratio: None,
+        }),
+        resolution: Some((32, 32)),
+        environment: Some(crate::scene::environment::EnvironmentDesc::constant(Vec3::splat(le))),
+        source: "environment furnace (procedural)".into(),
+        ..Scene::default()
+    }
+}

@@ -96,14 +96,21 @@ fn shade(
     state: &mut PathState,
     shadow: &mut ShadowRay,
 ) {
+    // Emission (and the environment) seen directly or through specular bounces; elsewhere NEE and
+    // the maps account for it.
+    let seen_directly = state.depth == 0 || state.specular_bounce;
     if !hit.is_hit() {
+        if seen_directly
+            && !state.gathering
+            && let Some(env) = &scene.lights.environment
+        {
+            state.l += state.beta * env.le(ray.d);
+        }
         state.status = PathStatus::Finished;
         return;
     }
     let si = scene.geometry.surface_hit(ray, hit);
     let wo_world = -ray.d;
-    // Emission seen directly or through specular bounces; elsewhere NEE and the maps account for it.
-    let seen_directly = state.depth == 0 || state.specular_bounce;
     if si.light != NO_LIGHT && si.ng.dot(wo_world) > 0.0 && seen_directly && !state.gathering {
         state.l += state.beta * scene.materials[si.material as usize].emission;
     }

@@ -126,7 +126,6 @@ pub fn prepare_progressive(scene: Scene, run: &RunFile) -> Result<ProgressiveRen
             ),
         });
     }
-    let source = scene.source.clone();
     let pixels = {
         let (w, h) = super::render::resolution(&scene, run)?;
         w as u64 * h as u64
@@ -158,17 +157,11 @@ pub fn prepare_progressive(scene: Scene, run: &RunFile) -> Result<ProgressiveRen
         );
         world.resource_mut::<SceneGeometry>().lights.finish_learning();
     }
-    let (area, diagonal, lights) = {
+    let (area, diagonal) = {
         let scene = world.resource::<SceneGeometry>();
         let (min, max) = scene.geometry.bounds();
-        (surface_area(scene), (max - min).length(), !scene.lights.is_empty())
+        (surface_area(scene), (max - min).length())
     };
-    if !lights {
-        tracing::warn!(
-            "{}: no emitters: progressive photon mapping will render only black",
-            source.display()
-        );
-    }
     let r0 =
         settings.initial_radius.unwrap_or_else(|| initial_radius(area, diagonal, settings.photons_per_pass));
     let rule = match kind {

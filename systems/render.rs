@@ -5,12 +5,11 @@
 
 use super::components::{PathHit, PathRay, PathState, PathStatus, ShadowRay};
 use super::integrators;
-use super::resources::{RenderConfig, RenderStats, SceneFeatures, SceneGeometry, Workload};
+use super::resources::{RenderConfig, RenderStats, SceneFeatures, SceneGeometry, Workload, scene_lights};
 use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::film::{Film, Image};
 use crate::geometry::Geometry;
-use crate::lights::Lights;
 use crate::scene::{IntegratorKind, RunFile, Scene};
 use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::SingleThreadedExecutor;
@@ -77,18 +76,22 @@ pub fn scene_world(scene: Scene, run: &RunFile) -> Result<(World, SceneFeatures)
         Some(c) => c.clone(),
         None => {
             let (min, max) = geometry.bounds();
-            tracing::warn!(
-                "{}: no camera in the file; framing the scene from +Z with a 45° field of view",
-                scene.source.display()
-            );
-            Camera::framing(min, max)
+            // With both eye and target given the user has placed the camera: nothing to warn about.
+            if run.camera.eye.is_none() || run.camera.target.is_none() {
+                tracing::warn!(
+                    "{}: no camera in the file; framing the scene's bounds from +Z (looking down -Z) with a \
+                 45° vertical field of view; set [camera] eye/target/yfov_degrees or --eye/--target/--yfov",
+                    scene.source.display()
+                );
+            }
+            Camera::framing(min, max, width as f32 / height as f32)
         }
     };
     // Name the scene file: a bad camera override is the user's to fix there.
     let camera = Camera::new(&camera_desc, &run.camera, width, height, run.film.filter).map_err(|e| {
         Error::InvalidScene { path: scene.source.clone(), object: "camera".into(), problem: e.to_string() }
     })?;
-    let lights = Lights::build(&mut geometry, &scene.materials, settings.light_selection);
+    let lights = scene_lights(&mut geometry, &scene, settings.light_selection);
     let scene_geometry =
         SceneGeometry { geometry, lights, materials: scene.materials, textures: scene.textures };
     let features = SceneFeatures::of(&camera, &scene_geometry);

@@ -25,7 +25,7 @@ impl SceneGeometry {
     /// that moves objects between frames re-inserts after editing its `Scene`.
     pub fn build(scene: &crate::scene::Scene, light_selection: crate::scene::LightSelection) -> Self {
         let mut geometry = Geometry::build(scene);
-        let lights = Lights::build(&mut geometry, &scene.materials, light_selection);
+        let lights = scene_lights(&mut geometry, scene, light_selection);
         Self { geometry, lights, materials: scene.materials.clone(), textures: scene.textures.clone() }
     }
 
@@ -60,6 +60,27 @@ impl SceneGeometry {
             specular_color: m.specular_color,
         }
     }
+}
+
+/// The lights of `scene` over its built `geometry`. A scene with no emitter and no environment is lit
+/// by a uniform white environment (radiance 1), as glTF viewers light files made for them, with a
+/// warning: a black image helps nobody.
+pub fn scene_lights(
+    geometry: &mut Geometry,
+    scene: &crate::scene::Scene,
+    light_selection: crate::scene::LightSelection,
+) -> Lights {
+    let lights = Lights::build(geometry, &scene.materials, scene.environment.as_ref(), light_selection);
+    if !lights.is_empty() {
+        return lights;
+    }
+    tracing::warn!(
+        "{}: no emitters and no environment: lighting the scene with a uniform white environment \
+         (radiance 1); choose one with [environment] or --environment / --environment-color",
+        scene.source.display()
+    );
+    let white = crate::scene::environment::EnvironmentDesc::constant(glam::Vec3::ONE);
+    Lights::build(geometry, &scene.materials, Some(&white), light_selection)
 }
 
 /// Settings of the path integrators.

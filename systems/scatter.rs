@@ -67,8 +67,17 @@ fn scatter_one<const NEE: bool>(
     state: &mut PathState,
     shadow: &mut ShadowRay,
 ) {
-    // Terminate paths that leave the scene (no environment light yet).
+    // A path that leaves the scene brings back the environment, weighted against light sampling as
+    // emission found on a surface is.
     if !hit.is_hit() {
+        if let Some((le, light_pdf)) = scene.lights.escaped(ray.d, state.prev_p, state.prev_n) {
+            let weight = if !NEE || state.depth == 0 || state.specular_bounce {
+                1.0
+            } else {
+                power_heuristic(state.prev_pdf, light_pdf)
+            };
+            state.l += state.beta * le * weight;
+        }
         state.status = PathStatus::Finished;
         return;
     }

@@ -54,13 +54,18 @@ fn advance<const NEE: bool>(
         // Until this pass finds a surface, the pixel gathers nothing.
         hit_point.beta = Vec3::ZERO;
     }
+    // Emission (and the environment) seen directly or through specular bounces; photons carry every
+    // other light.
+    let seen_directly = state.depth == 0 || state.specular_bounce;
     if !hit.is_hit() {
+        if seen_directly && let Some(env) = &scene.lights.environment {
+            state.l += state.beta * env.le(ray.d);
+        }
         return false;
     }
     let si = scene.geometry.surface_hit(ray, hit);
     let wo_world = -ray.d;
-    // Emission seen directly or through specular bounces; photons carry every other light.
-    if si.light != NO_LIGHT && si.ng.dot(wo_world) > 0.0 && (state.depth == 0 || state.specular_bounce) {
+    if si.light != NO_LIGHT && si.ng.dot(wo_world) > 0.0 && seen_directly {
         state.l += state.beta * scene.materials[si.material as usize].emission;
     }
     let params = scene.shading_params(&si);

@@ -82,7 +82,7 @@ pub fn read_exr(path: &Path) -> Result<Image> {
     )
     .map_err(|e| match e {
         exr::error::Error::Io(source) => Error::Io { path: path.to_path_buf(), source },
-        other => Error::Output { path: path.to_path_buf(), message: format!("not a readable EXR: {other}") },
+        other => Error::Image { path: path.to_path_buf(), message: format!("not a readable EXR: {other}") },
     })?;
     let size = read.layer_data.size;
     let (_, pixels) = read.layer_data.channel_data.pixels;

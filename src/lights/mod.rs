@@ -1,25 +1,40 @@
-//! Lights: emissive triangles and spheres, sampled for next-event estimation, and light selection.
+//! Lights: emissive triangles and spheres, the environment, sampled for next-event estimation, and
+//! light selection.
 
 pub mod area;
+pub mod environment;
 pub mod select;
 pub mod tree;
 pub mod visibility;
 
 pub use area::{EmissionSample, Light, LightSample, LightShape};
+pub use environment::Environment;
 pub use select::LightSelector;
 pub use tree::LightTree;
 pub use visibility::VisibilityGrid;
 
 use crate::geometry::Geometry;
 use crate::geometry::bvh::PrimitiveShape;
+use crate::sampling::ONE_MINUS_EPSILON;
+use crate::scene::environment::EnvironmentDesc;
 use crate::scene::{LightSelection, MaterialDesc};
 use glam::{Vec2, Vec3};
 
+/// Share of light-tree selections that go to the environment when there are also area lights: the
+/// tree cannot bound an infinite light, so it is chosen beside the tree's root (pbrt-v4
+/// `BVHLightSampler` with one infinite light).
+const TREE_ENVIRONMENT_SHARE: f32 = 0.5;
+
 /// Every emitter in the scene and the distribution that picks one for a shadow ray.
+///
+/// Light indices `0..lights.len()` are the area lights; index `lights.len()` (see
+/// [`Lights::environment_index`]) is the environment, when there is one.
 #[derive(Clone, Debug, Default)]
 pub struct Lights {
-    /// The lights; index = light id stored on the emitting primitive.
+    /// The area lights; index = light id stored on the emitting primitive.
     pub lights: Vec<Light>,
+    /// The infinite environment light, if any.
+    pub environment: Option<Environment>,
     selector: LightSelector,
     /// The light tree, when selection is by tree (then `selector` is unused for NEE).
     tree: Option<LightTree>,
@@ -30,8 +45,14 @@ pub struct Lights {
 }
 
 impl Lights {
-    /// Find the emissive primitives, give each a light id in `geometry`, and build the selector.
-    pub fn build(geometry: &mut Geometry, materials: &[MaterialDesc], selection: LightSelection) -> Self {
+    /// Find the emissive primitives, give each a light id in `geometry`, add the environment around
+    /// the geometry's bounds, and build the selector.
+    pub fn build(
+        geometry: &mut Geometry,
+        materials: &[MaterialDesc],
+        environment: Option<&EnvironmentDesc>,
+        selection: LightSelection,
+    ) -> Self {
         let mut lights = Vec::new();
         let mut ids = Vec::new();
         for (prim, shape, info, motion) in geometry.primitives() {
@@ -49,10 +70,17 @@ impl Lights {
         for (i, &prim) in ids.iter().enumerate() {
             geometry.set_light(prim, i as u32);
         }
-        let power: Vec<f32> = lights.iter().map(Light::power).collect();
+        let environment = environment.map(|desc| {
+            let (min, max) = geometry.bounds();
+            Environment::new(desc, min, max)
+        });
+        // Uniform and power selection treat the environment as one more light, by its power through
+        // the scene's cross-section (pbrt-v4 `PowerLightSampler`).
+        let power: Vec<f32> =
+            lights.iter().map(Light::power).chain(environment.as_ref().map(Environment::power)).collect();
         let by_power = LightSelector::new(&power);
         let selector = match selection {
-            LightSelection::Uniform => LightSelector::new(&vec![1.0; lights.len()]),
+            LightSelection::Uniform => LightSelector::new(&vec![1.0; power.len()]),
             LightSelection::Power | LightSelection::Tree | LightSelection::Visibility => by_power.clone(),
         };
         let uses_tree = matches!(selection, LightSelection::Tree | LightSelection::Visibility);
@@ -64,17 +92,61 @@ impl Lights {
             }
             _ => None,
         };
-        Self { selector, by_power, lights, tree, visibility }
+        Self { selector, by_power, lights, environment, tree, visibility }
     }
 
-    /// Whether the scene has no emitter.
+    /// Whether the scene has no emitter and no environment.
     pub fn is_empty(&self) -> bool {
-        self.lights.is_empty()
+        self.lights.is_empty() && self.environment.is_none()
     }
 
-    /// Total emitted power (luminance-weighted watts in renderer units).
+    /// The light index of the environment (one past the area lights).
+    #[inline]
+    pub fn environment_index(&self) -> u32 {
+        self.lights.len() as u32
+    }
+
+    /// Total emitted power (luminance-weighted watts in renderer units), the environment's included.
     pub fn total_power(&self) -> f32 {
-        self.lights.iter().map(Light::power).sum()
+        self.lights.iter().map(Light::power).sum::<f32>()
+            + self.environment.as_ref().map_or(0.0, Environment::power)
+    }
+
+    /// Radiance a ray that leaves the scene along `d` brings back, and the solid-angle pdf (selection
+    /// included) with which light sampling from `p_ref` (normal `n_ref`) would have picked that
+    /// direction: what MIS needs for a BSDF-sampled ray that escapes.
+    #[inline]
+    pub fn escaped(&self, d: Vec3, p_ref: Vec3, n_ref: Vec3) -> Option<(Vec3, f32)> {
+        let env = self.environment.as_ref()?;
+        let pdf = self.pmf(self.environment_index(), p_ref, n_ref) * env.pdf(n_ref, d);
+        Some((env.le(d), pdf))
+    }
+
+    /// Share of tree selections that go to the environment.
+    fn tree_environment_share(&self) -> f32 {
+        match (&self.environment, self.lights.is_empty()) {
+            (None, _) => 0.0,
+            (Some(_), true) => 1.0,
+            (Some(_), false) => TREE_ENVIRONMENT_SHARE,
+        }
+    }
+
+    /// Pick a light index for a shading point and its probability.
+    #[inline]
+    fn select(&self, p_ref: Vec3, n_ref: Vec3, u_select: f32) -> Option<(u32, f32)> {
+        let Some(tree) = &self.tree else {
+            return self.selector.sample(u_select);
+        };
+        let share = self.tree_environment_share();
+        if u_select < share {
+            return Some((self.environment_index(), share));
+        }
+        let u = ((u_select - share) / (1.0 - share)).min(ONE_MINUS_EPSILON);
+        let (index, pmf) = match &self.visibility {
+            Some(grid) => grid.sample(tree, p_ref, n_ref, u)?,
+            None => tree.sample(p_ref, n_ref, u)?,
+        };
+        Some((index, pmf * (1.0 - share)))
     }
 
     /// Pick a light with `u_select` for a shading point `p_ref` with normal `n_ref` (zero: none; on the
@@ -89,12 +161,11 @@ impl Lights {
         u_select: f32,
         u: Vec2,
     ) -> Option<(u32, LightSample)> {
-        let (index, pmf) = match (&self.tree, &self.visibility) {
-            (Some(tree), Some(grid)) => grid.sample(tree, p_ref, n_ref, u_select)?,
-            (Some(tree), None) => tree.sample(p_ref, n_ref, u_select)?,
-            (None, _) => self.selector.sample(u_select)?,
+        let (index, pmf) = self.select(p_ref, n_ref, u_select)?;
+        let mut s = match self.lights.get(index as usize) {
+            Some(light) => light.sample(p_ref, time, u)?,
+            None => self.environment.as_ref()?.sample(p_ref, n_ref, u)?,
         };
-        let mut s = self.lights[index as usize].sample(p_ref, time, u)?;
         s.pdf *= pmf;
         Some((index, s))
     }
@@ -119,18 +190,28 @@ impl Lights {
         u_dir: Vec2,
     ) -> Option<(u32, EmissionSample)> {
         let (index, pmf) = self.by_power.sample(u_select)?;
-        let mut s = self.lights[index as usize].sample_emission(time, u_pos, u_dir)?;
+        let mut s = match self.lights.get(index as usize) {
+            Some(light) => light.sample_emission(time, u_pos, u_dir)?,
+            None => self.environment.as_ref()?.sample_emission(u_pos, u_dir)?,
+        };
         s.weight /= pmf;
         Some((index, s))
     }
 
     /// Probability of picking light `index` for a shading point `p_ref` with normal `n_ref`.
     pub fn pmf(&self, index: u32, p_ref: Vec3, n_ref: Vec3) -> f32 {
-        match (&self.tree, &self.visibility) {
-            (Some(tree), Some(grid)) => grid.pmf(tree, index, p_ref, n_ref),
-            (Some(tree), None) => tree.pmf(index, p_ref, n_ref),
-            (None, _) => self.selector.pmf(index),
+        let Some(tree) = &self.tree else {
+            return self.selector.pmf(index);
+        };
+        let share = self.tree_environment_share();
+        if index == self.environment_index() {
+            return share;
         }
+        let in_tree = match &self.visibility {
+            Some(grid) => grid.pmf(tree, index, p_ref, n_ref),
+            None => tree.pmf(index, p_ref, n_ref),
+        };
+        in_tree * (1.0 - share)
     }
 
     /// Whether selection is visibility-aware and still learning from shadow rays.
@@ -141,6 +222,10 @@ impl Lights {
     /// Learn from a shadow ray from `p` (normal `n` on the shaded side) to light `index`: whether it
     /// got through.
     pub fn record_visibility(&mut self, p: Vec3, n: Vec3, index: u32, unoccluded: bool) {
+        // The environment is selected beside the tree, so the grid has nothing to learn about it.
+        if index >= self.environment_index() {
+            return;
+        }
         if let (Some(tree), Some(grid)) = (&self.tree, &mut self.visibility) {
             grid.record(p, n, tree.cluster(index, visibility::CLUSTER_DEPTH), unoccluded);
         }

@@ -4,6 +4,7 @@
 //! depend on how work is split between threads.
 
 pub mod chi2;
+pub mod distribution;
 pub mod rng;
 pub mod warp;
 

@@ -3,6 +3,7 @@
 //! Everything here is plain data in world space. Loaders (`gltf`, `run_file`) fill it and `validate`
 //! checks it, so that the systems downstream can take it as valid and return nothing.
 
+pub mod environment;
 pub mod gltf;
 pub mod run_file;
 pub mod schedule;
@@ -20,15 +21,30 @@ pub use validate::{ValidationSummary, validate};
 /// Loads and validates a scene: a run file (.toml) with the glTF it names and its additions, or a bare .gltf/.glb
 /// with the default settings.
 pub fn load(path: &Path) -> Result<(Scene, RunFile)> {
+    load_with(path, |_| {})
+}
+
+/// As [`load`], with `overrides` (the command line's) applied to the run file before the scene is
+/// read: they can pick the glTF's camera or the environment.
+pub fn load_with(path: &Path, overrides: impl FnOnce(&mut RunFile)) -> Result<(Scene, RunFile)> {
     let extension = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
-    let (mut scene, run) = match extension.as_deref() {
-        Some("toml") => {
-            let run = RunFile::load(path)?;
-            (run.load_scene(path)?, run)
-        }
-        Some("gltf" | "glb") => (self::gltf::load_gltf(path)?, RunFile::default()),
+    let mut run = match extension.as_deref() {
+        Some("toml") => RunFile::load(path)?,
+        Some("gltf" | "glb") => RunFile::default(),
         _ => {
             return Err(Error::UnknownFormat { path: path.to_path_buf() });
+        }
+    };
+    overrides(&mut run);
+    run.environment.check().map_err(|problem| Error::Setting { name: "environment".into(), problem })?;
+    let mut scene = match extension.as_deref() {
+        Some("toml") => run.load_scene(path)?,
+        _ => {
+            let mut scene = self::gltf::load_gltf_with_camera(path, run.camera.name.as_deref())?;
+            // A bare glTF has no run file: environment paths come from the command line, relative
+            // to the working directory.
+            scene.environment = run.environment.load(Path::new(""))?;
+            scene
         }
     };
     validate(&mut scene, path)?;
@@ -52,6 +68,8 @@ pub struct Scene {
     pub camera: Option<CameraDesc>,
     /// Resolution suggested by the file (glTF `scenes[i].extras.width/height`).
     pub resolution: Option<(u32, u32)>,
+    /// The environment light, if the run file or command line gives one.
+    pub environment: Option<environment::EnvironmentDesc>,
 }
 
 /// A triangle mesh in world space.

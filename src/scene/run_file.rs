@@ -301,6 +301,8 @@ pub struct RunFile {
     pub schedule: super::schedule::ScheduleSettings,
     /// Output files.
     pub output: OutputSettings,
+    /// The environment light.
+    pub environment: super::environment::EnvironmentSettings,
     /// Analytic spheres.
     #[serde(rename = "sphere")]
     pub spheres: Vec<SphereSpec>,
@@ -364,6 +366,7 @@ impl RunFile {
         };
         self.add_spheres(&mut scene);
         self.apply_motions(&mut scene, path)?;
+        scene.environment = self.environment.load(path.parent().unwrap_or(Path::new("")))?;
         Ok(scene)
     }
 
@@ -414,6 +417,7 @@ impl RunFile {
         if self.render.spp == 0 {
             return Err("render.spp is 0, must be at least 1".to_owned());
         }
+        self.environment.check()?;
         if self.film.width == Some(0) || self.film.height == Some(0) {
             return Err("film.width and film.height must be at least 1".to_owned());
         }

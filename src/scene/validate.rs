@@ -30,7 +30,9 @@ pub struct ValidationSummary {
 /// and the BVH's quantised child boxes no longer nest in their parents (obvhs's validation fails).
 pub const MAX_COORDINATE: f32 = 1e6;
 
-/// Checks `scene` (read from `path`), drops degenerate triangles and empty meshes, and warns when nothing emits.
+/// Checks `scene` (read from `path`) and drops degenerate triangles and empty meshes. A scene that
+/// emits nothing is not an error: `systems::resources::scene_lights` lights it with a default
+/// environment when it is built.
 ///
 /// Messages about meshes and their materials name `scene.source` (the glTF), others name `path`.
 pub fn validate(scene: &mut Scene, path: &Path) -> Result<ValidationSummary> {
@@ -157,9 +159,6 @@ pub fn validate(scene: &mut Scene, path: &Path) -> Result<ValidationSummary> {
         return Err(invalid(mesh_file, "resolution", "width and height must be at least 1".to_owned()));
     }
 
-    if summary.emitter_triangles == 0 && summary.emitter_spheres == 0 {
-        warn!(file = %path.display(), "no lights: the image will be black");
-    }
     info!(
         file = %path.display(),
         meshes = summary.meshes,

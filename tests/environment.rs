@@ -1,0 +1,334 @@
+//! The environment light end to end: run files and flags that choose it, the default white one, bad
+//! maps, and unbiased next-event estimation and MIS with every light selection.
+
+mod common;
+
+use caustica::cli::{Cli, Command, RenderArgs};
+use caustica::film::Image;
+use caustica::film::output::write_image;
+use caustica::scene::environment::EnvironmentRadiance;
+use caustica::scene::{self, IntegratorKind, LightSelection, RunFile, Scene};
+use caustica::systems::resources::SceneGeometry;
+use clap::Parser;
+use glam::Vec3;
+use std::path::{Path, PathBuf};
+
+fn temp_dir(test: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("caustica-environment-{}-{test}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("create temp dir");
+    dir
+}
+
+/// A 64 × 32 sky: a blue gradient brighter at the zenith, a warm patch (the "sun", 40× the sky) of
+/// 3 × 2 texels, and a dark ground.
+fn sky_map() -> Image {
+    let (width, height) = (64u32, 32u32);
+    let pixels = (0..width * height)
+        .map(|i| {
+            let (x, y) = (i % width, i / width);
+            if (20..23).contains(&x) && (8..10).contains(&y) {
+                Vec3::new(40.0, 32.0, 24.0)
+            } else if y < height / 2 {
+                Vec3::new(0.3, 0.5, 1.0) * (1.5 - y as f32 / height as f32)
+            } else {
+                Vec3::splat(0.05)
+            }
+        })
+        .collect();
+    Image { width, height, pixels }
+}
+
+fn write_sky(dir: &Path) -> PathBuf {
+    let path = dir.join("sky.exr");
+    write_image(&sky_map(), &path, 0.0).expect("write sky");
+    path
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let path = dir.join(name);
+    std::fs::write(&path, text).expect("write temp file");
+    path
+}
+
+/// A grey hill (a big sphere, kept small enough that photons from the environment's disc land near the
+/// camera), a plastic ball and a small lamp above, under `environment` (run-file syntax).
+fn outdoor_run_file(dir: &Path, environment: &str) -> PathBuf {
+    write(
+        dir,
+        "outdoor.toml",
+        &format!(
+            r#"
+[camera]
+eye = [0.0, 1.2, 4.0]
+target = [0.0, 0.4, 0.0]
+yfov_degrees = 45.0
+
+[film]
+width = 32
+height = 24
+
+[environment]
+{environment}
+
+[[sphere]]
+name = "ball"
+center = [0.0, 0.5, 0.0]
+radius = 0.5
+material = {{ base_color = [0.8, 0.3, 0.2], roughness = 0.3 }}
+
+[[sphere]]
+name = "floor"
+center = [0.0, -3.0, 0.0]
+radius = 3.0
+material = {{ base_color = [0.5, 0.5, 0.5], roughness = 1.0 }}
+
+[[sphere]]
+name = "lamp"
+center = [1.2, 1.8, 0.5]
+radius = 0.15
+material = {{ emission = [6.0, 6.0, 5.0] }}
+"#
+        ),
+    )
+}
+
+fn render(scene: Scene, run: &RunFile) -> Image {
+    common::render(scene, run)
+}
+
+#[test]
+fn run_file_environment_map_is_read_relative_to_the_run_file() {
+    let dir = temp_dir("run-file-map");
+    write_sky(&dir);
+    let path =
+        outdoor_run_file(&dir, "file = \"sky.exr\"\nstrength = 2.0\nrotation_degrees = [0.0, 90.0, 0.0]");
+    let (scene, _) = scene::load(&path).expect("run file with a map loads");
+    let env = scene.environment.expect("environment");
+    assert_eq!(env.strength, 2.0);
+    assert!((env.rotation * Vec3::Z - Vec3::X).length() < 1e-6);
+    match env.radiance {
+        EnvironmentRadiance::Map(image) => assert_eq!(image, sky_map()),
+        other => panic!("expected a map, got {other:?}"),
+    }
+}
+
+#[test]
+fn flags_choose_the_environment_over_the_run_file() {
+    let dir = temp_dir("flags");
+    let sky = write_sky(&dir);
+    let path = outdoor_run_file(&dir, "color = [0.1, 0.2, 0.3]");
+    let cli = Cli::parse_from([
+        "caustica",
+        "render",
+        path.to_str().unwrap(),
+        "--environment",
+        sky.to_str().unwrap(),
+        "--environment-strength",
+        "3",
+    ]);
+    let Some(Command::Render(args)) = cli.command else { panic!("render command") };
+    let (scene, run) = scene::load_with(&path, |run| args.apply(run)).expect("loads");
+    assert_eq!(run.environment.color, None);
+    let env = scene.environment.expect("environment");
+    assert!(matches!(env.radiance, EnvironmentRadiance::Map(_)));
+    assert_eq!(env.strength, 3.0);
+
+    let cli = Cli::parse_from(["caustica", "render", "x.gltf", "--environment-color", "1,0.5,0.25"]);
+    let Some(Command::Render(args)) = cli.command else { panic!("render command") };
+    let (scene, _) = scene::load_with(&path, |run| args.apply(run)).expect("loads");
+    let env = scene.environment.expect("environment");
+    assert_eq!(env.radiance, EnvironmentRadiance::Constant(Vec3::new(1.0, 0.5, 0.25)));
+}
+
+#[test]
+fn malformed_colour_and_conflicting_flags_are_refused_by_the_parser() {
+    for args in [
+        vec!["caustica", "render", "--environment-color", "1,2"],
+        vec!["caustica", "render", "--environment-color", "1,x,2"],
+        vec!["caustica", "render", "--eye", "1,2,inf"],
+        vec!["caustica", "render", "--environment", "a.exr", "--environment-color", "1,1,1"],
+    ] {
+        assert!(Cli::try_parse_from(&args).is_err(), "{args:?} parsed");
+    }
+    let args = RenderArgs { environment_strength: Some(-1.0), ..RenderArgs::default() };
+    let dir = temp_dir("negative-strength");
+    let path = outdoor_run_file(&dir, "color = [1.0, 1.0, 1.0]");
+    let error = scene::load_with(&path, |run| args.apply(run)).expect_err("negative strength");
+    assert!(error.to_string().contains("environment.strength"), "{error}");
+}
+
+#[test]
+fn bad_environment_maps_are_errors_naming_the_file() {
+    let dir = temp_dir("bad-maps");
+    let missing = outdoor_run_file(&dir, "file = \"nowhere.exr\"");
+    let error = scene::load(&missing).expect_err("missing map").to_string();
+    assert!(error.contains("nowhere.exr") && error.contains("environment"), "{error}");
+
+    write(&dir, "garbage.exr", "not an exr");
+    let path = outdoor_run_file(&dir, "file = \"garbage.exr\"");
+    let error = scene::load(&path).expect_err("garbage map").to_string();
+    assert!(error.contains("garbage.exr") && error.contains("EXR"), "{error}");
+
+    let mut sky = sky_map();
+    sky.pixels[5 * 64 + 7] = Vec3::new(1.0, f32::NAN, 1.0);
+    write_image(&sky, &dir.join("nan.exr"), 0.0).expect("write");
+    let path = outdoor_run_file(&dir, "file = \"nan.exr\"");
+    let error = scene::load(&path).expect_err("NaN texel").to_string();
+    assert!(error.contains("nan.exr") && error.contains("(7, 5)"), "{error}");
+
+    write(&dir, "sky.png", "png");
+    let path = outdoor_run_file(&dir, "file = \"sky.png\"");
+    let error = scene::load(&path).expect_err("PNG map").to_string();
+    assert!(error.contains("sky.png") && error.contains(".hdr"), "{error}");
+
+    let path = outdoor_run_file(&dir, "file = \"sky.exr\"\ncolor = [1.0, 1.0, 1.0]");
+    let error = scene::load(&path).expect_err("both").to_string();
+    assert!(error.contains("outdoor.toml") && error.contains("choose one"), "{error}");
+}
+
+#[test]
+fn radiance_hdr_maps_load_like_exr() {
+    let dir = temp_dir("hdr");
+    let sky = sky_map();
+    let rgb: Vec<image::Rgb<f32>> = sky.pixels.iter().map(|p| image::Rgb(p.to_array())).collect();
+    let file = std::fs::File::create(dir.join("sky.hdr")).expect("create");
+    image::codecs::hdr::HdrEncoder::new(file).encode(&rgb, 64, 32).expect("encode hdr");
+    let path = outdoor_run_file(&dir, "file = \"sky.hdr\"");
+    let (scene, _) = scene::load(&path).expect("hdr loads");
+    let EnvironmentRadiance::Map(image) = scene.environment.expect("environment").radiance else {
+        panic!("a map")
+    };
+    // RGBE keeps 8 bits of mantissa per channel.
+    for (a, b) in image.pixels.iter().zip(&sky.pixels) {
+        assert!((*a - *b).abs().max_element() <= 0.01 * b.max_element() + 1e-6, "{a} vs {b}");
+    }
+}
+
+/// A scene with neither emitters nor an environment is lit by a white one, with a warning naming the
+/// file; a lit scene gets no environment unless it asks for one.
+#[test]
+fn a_scene_without_lights_gets_a_white_environment_with_a_warning() {
+    let mut dark = caustica::test_scenes::environment_furnace(0.5, 1.0);
+    dark.environment = None;
+    let logs = common::capture_logs(|| SceneGeometry::build(&dark, LightSelection::Power));
+    let (geometry, logs) = logs;
+    assert!(geometry.lights.environment.is_some());
+    assert!(logs.contains("environment furnace (procedural)") && logs.contains("uniform white"), "{logs}");
+    let mut run = RunFile::default();
+    run.render.spp = 4;
+    let image = render(dark, &run);
+    let mean = image.mean();
+    assert!(mean.min_element() > 0.3, "a dark scene renders lit: mean {mean}");
+
+    let mut lit = caustica::test_scenes::furnace(0.5, 0.5);
+    lit.environment = None;
+    let (geometry, logs) = common::capture_logs(|| SceneGeometry::build(&lit, LightSelection::Power));
+    assert!(geometry.lights.environment.is_none());
+    assert!(!logs.contains("uniform white"), "{logs}");
+}
+
+/// pt with each light selection against pt-naive on a scene lit by a map (with a sun) and a lamp:
+/// next-event estimation picks the environment by its distribution and the selector's pmf, and a
+/// BSDF ray that escapes is weighted by the pdf light sampling would have had. A pmf or pdf that does
+/// not match what is sampled biases the difference by far more than the 4 standard errors allowed.
+#[test]
+fn light_sampling_of_the_environment_is_unbiased_for_every_selection() {
+    let dir = temp_dir("unbiased");
+    write_sky(&dir);
+    let path = outdoor_run_file(&dir, "file = \"sky.exr\"\nrotation_degrees = [0.0, 40.0, 0.0]");
+    let (scene, mut run) = scene::load(&path).expect("loads");
+    run.render.integrator = IntegratorKind::PtNaive;
+    run.render.spp = 256;
+    run.render.seed = 1;
+    let naive = render(scene.clone(), &run);
+    assert!(naive.mean().min_element() > 0.05, "lit: {}", naive.mean());
+    for selection in
+        [LightSelection::Uniform, LightSelection::Power, LightSelection::Tree, LightSelection::Visibility]
+    {
+        let mut run = run.clone();
+        run.render.integrator = IntegratorKind::Pt;
+        run.render.light_selection = selection;
+        run.render.spp = 64;
+        run.render.seed = 2;
+        let image = render(scene.clone(), &run);
+        let (mean, se) = common::paired_difference(&image, &naive);
+        assert!(mean.abs() < 4.0 * se, "{selection:?}: pt − pt-naive = {mean} ± {se}");
+        for (block, z) in common::block_z_scores(&image, &naive, 4).iter().enumerate() {
+            // 16 blocks × 4 selections: 4.5σ keeps the family-wise false-alarm rate near 5e-4.
+            assert!(z.abs() < 4.5, "{selection:?}: block {block} z = {z}");
+        }
+    }
+}
+
+/// The photon mappers see the same environment: sppm (photons from the environment's disc, light
+/// sampling at the hit points) agrees with pt on the outdoor scene within its density-estimation
+/// bias, measured on the image mean.
+#[test]
+fn photon_mappers_see_the_same_environment_as_the_path_tracer() {
+    let dir = temp_dir("photons");
+    write_sky(&dir);
+    let path = outdoor_run_file(&dir, "file = \"sky.exr\"");
+    let (scene, mut run) = scene::load(&path).expect("loads");
+    run.render.spp = 128;
+    let pt = render(scene.clone(), &run).mean();
+    for kind in [IntegratorKind::Pm, IntegratorKind::Ppm, IntegratorKind::Sppm] {
+        let mut run = run.clone();
+        run.render.integrator = kind;
+        run.render.spp = 16;
+        run.photons.photons = 100_000;
+        run.progressive.passes = 32;
+        run.progressive.photons_per_pass = 20_000;
+        let image = if kind.is_progressive() {
+            caustica::systems::render::init_thread_pools(None);
+            let mut renderer =
+                caustica::systems::progressive::prepare_progressive(scene.clone(), &run).unwrap();
+            renderer.run(None, |_, _| {});
+            renderer.image()
+        } else {
+            render(scene.clone(), &run)
+        };
+        let mean = image.mean();
+        let relative = ((mean - pt) / pt).abs().max_element();
+        assert!(relative < 0.05, "{kind:?}: image mean {mean} vs pt {pt}");
+    }
+}
+
+#[test]
+fn a_camera_less_file_is_framed_and_the_flags_override_the_framing() {
+    let mut scene = caustica::test_scenes::environment_furnace(0.5, 1.0);
+    scene.camera = None;
+    let mut run = RunFile::default();
+    run.film.width = Some(40);
+    run.film.height = Some(20);
+    let (result, logs) = common::capture_logs(|| caustica::systems::render::scene_world(scene.clone(), &run));
+    let (world, _) = result.expect("world");
+    assert!(logs.contains("no camera in the file") && logs.contains("+Z"), "{logs}");
+    let camera = world.resource::<caustica::camera::Camera>();
+    // The unit ball's bounding box has radius √3; at 45° it is framed from √3 / sin 22.5° on +Z.
+    let eye = camera.generate_ray(20, 10, glam::Vec2::splat(0.5), glam::Vec2::ZERO, 0.0).o;
+    assert!((eye - Vec3::new(0.0, 0.0, 3f32.sqrt() / 22.5f32.to_radians().sin())).length() < 1e-3, "{eye}");
+
+    // Tall images fit the horizontal field instead.
+    run.film.width = Some(20);
+    run.film.height = Some(40);
+    let (world, _) = caustica::systems::render::scene_world(scene.clone(), &run).unwrap();
+    let camera = world.resource::<caustica::camera::Camera>();
+    let eye = camera.generate_ray(10, 20, glam::Vec2::splat(0.5), glam::Vec2::ZERO, 0.0).o;
+    let half_x = (0.5 * (22.5f32.to_radians().tan())).atan();
+    assert!((eye.z - 3f32.sqrt() / half_x.sin()).abs() < 1e-3, "{eye}");
+
+    run.camera.eye = Some([4.0, 0.0, 0.0]);
+    run.camera.target = Some([0.0, 0.0, 0.0]);
+    run.camera.yfov_degrees = Some(30.0);
+    let (result, logs) = common::capture_logs(|| caustica::systems::render::scene_world(scene.clone(), &run));
+    let (world, _) = result.expect("world");
+    assert!(!logs.contains("no camera"), "eye and target given: no warning: {logs}");
+    let ray = world.resource::<caustica::camera::Camera>().generate_ray(
+        10,
+        20,
+        glam::Vec2::splat(0.5),
+        glam::Vec2::ZERO,
+        0.0,
+    );
+    assert!((ray.o - Vec3::new(4.0, 0.0, 0.0)).length() < 1e-5 && ray.d.x < -0.99, "{ray:?}");
+}
