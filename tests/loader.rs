@@ -456,6 +456,9 @@ fn scene_without_emitters_loads() {
     let (scene, _) = scene::load(&path).expect("a dark scene is not an error");
     assert_eq!(triangle_count(&scene), 1);
     assert!(scene.environment.is_none());
+    let lit = write(&temp_dir("lit"), "lit.gltf", &triangle_gltf("", r#","material":0"#, EMISSIVE));
+    let (scene, _) = scene::load(&lit).expect("lit scene loads");
+    assert!(scene.materials[0].emission.max_element() > 0.0);
 }
 
 // ---------------------------------------------------------------------------------------------------------------
