@@ -1,8 +1,11 @@
 //! Scene loader: the test scenes, Khronos samples, run files, and one test per kind of bad input.
 
 use caustica::Error;
-use caustica::scene::gltf::{load_gltf, load_gltf_with_camera};
-use caustica::scene::{self, RunFile, Scene, Wrap, validate};
+use caustica::geometry::{Ray, SurfaceHit};
+use caustica::materials::ShadingParams;
+use caustica::scene::gltf::{load_gltf, load_gltf_with_camera, srgb_to_linear};
+use caustica::scene::{self, LightSelection, RunFile, Scene, Wrap, validate};
+use caustica::systems::resources::SceneGeometry;
 use glam::{Vec2, Vec3};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -663,4 +666,688 @@ fn negative_emission_is_rejected_naming_the_material() {
     assert!(matches!(error, Error::InvalidScene { .. }), "{error:?}");
     assert_names_file(&error, &path);
     assert!(error.to_string().contains("material 'antilight'"), "{error}");
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Loader cases, each on the smallest hand-built file that has it
+
+/// Standard padded base64 (RFC 4648), for data URIs.
+fn base64(bytes: &[u8]) -> String {
+    const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::with_capacity(bytes.len().div_ceil(3) * 4);
+    for chunk in bytes.chunks(3) {
+        let n = chunk.iter().enumerate().fold(0u32, |n, (i, &b)| n | u32::from(b) << (16 - 8 * i));
+        for i in 0..4 {
+            out.push(if i <= chunk.len() {
+                ALPHABET[(n >> (18 - 6 * i) & 63) as usize] as char
+            } else {
+                '='
+            });
+        }
+    }
+    out
+}
+
+/// A buffer built by a test: data appended at 4-byte-aligned offsets, as glTF requires for vertex attributes.
+#[derive(Default)]
+struct Bin(Vec<u8>);
+
+impl Bin {
+    /// Appends `bytes`; returns their offset.
+    fn push(&mut self, bytes: &[u8]) -> usize {
+        self.0.resize(self.0.len().next_multiple_of(4), 0);
+        let offset = self.0.len();
+        self.0.extend_from_slice(bytes);
+        offset
+    }
+
+    fn f32(&mut self, values: &[f32]) -> usize {
+        self.push(&values.iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>())
+    }
+
+    fn u16(&mut self, values: &[u16]) -> usize {
+        self.push(&values.iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>())
+    }
+
+    /// `"buffers":[...],` with the data as a base64 data URI.
+    fn json(&self) -> String {
+        format!(
+            r#""buffers":[{{"byteLength":{},"uri":"data:application/octet-stream;base64,{}"}}],"#,
+            self.0.len(),
+            base64(&self.0)
+        )
+    }
+}
+
+/// The unit triangle (0,0,0), (1,0,0), (0,1,0): counter-clockwise seen from +Z.
+const UNIT_TRIANGLE: [f32; 9] = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+
+/// A file whose one scene holds node 'n' with mesh 'm'; `primitives`, `views` and `accessors` are the contents of
+/// those JSON arrays, `rest` adds top-level members (each ending with a comma).
+fn mesh_gltf(bin: &Bin, views: &str, accessors: &str, primitives: &str, rest: &str) -> String {
+    format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],"nodes":[{{"name":"n","mesh":0}}],
+        "meshes":[{{"name":"m","primitives":[{primitives}]}}],{rest}{buffers}
+        "bufferViews":[{views}],"accessors":[{accessors}]}}"#,
+        buffers = bin.json()
+    )
+}
+
+/// POSITION accessor over the unit triangle at `offset` of bufferView `view`.
+fn unit_triangle_accessor(view: usize, offset: usize) -> String {
+    format!(
+        r#"{{"bufferView":{view},"byteOffset":{offset},"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}}"#
+    )
+}
+
+/// An encoded RGB image (`format` png or jpeg) of `width` × `height` texels, row-major from the top.
+fn encode_image(width: u32, height: u32, texels: &[[u8; 3]], format: image::ImageFormat) -> Vec<u8> {
+    let image = image::RgbImage::from_raw(width, height, texels.concat()).expect("texel count");
+    let mut bytes = Vec::new();
+    image.write_to(&mut std::io::Cursor::new(&mut bytes), format).expect("encode image");
+    bytes
+}
+
+fn png_data_uri(width: u32, height: u32, texels: &[[u8; 3]]) -> String {
+    format!("data:image/png;base64,{}", base64(&encode_image(width, height, texels, image::ImageFormat::Png)))
+}
+
+/// The surface hit and resolved material where a ray down -Z through (x, y) meets the scene.
+fn shade(scene: &Scene, x: f32, y: f32) -> (SurfaceHit, ShadingParams) {
+    let geometry = SceneGeometry::build(scene, LightSelection::Uniform);
+    // Not `-Vec3::Z`: obvhs 0.4 takes a -0.0 component for a positive direction in its octant but a negative one
+    // in its inverse direction, and the traversal misses.
+    let ray = Ray { o: Vec3::new(x, y, 1.0), d: Vec3::new(0.0, 0.0, -1.0), t_max: f32::INFINITY, time: 0.0 };
+    let hit = geometry.geometry.intersect(&ray);
+    assert!(hit.is_hit(), "the ray through ({x}, {y}) misses");
+    let si = geometry.geometry.surface_hit(&ray, &hit);
+    (si, geometry.shading_params(&si))
+}
+
+fn close2(a: Vec2, b: Vec2) -> bool {
+    (a - b).abs().max_element() < 1e-6
+}
+
+#[test]
+fn sparse_accessors_substitute_values_over_a_buffer_view_and_over_zeros() {
+    let mut bin = Bin::default();
+    // Vertex 1 of the base is wrong on purpose: the sparse value must replace it.
+    let base = bin.f32(&[0.0, 0.0, 0.0, 9.0, 9.0, 9.0, 0.0, 1.0, 0.0]);
+    let position_index = bin.push(&[1]);
+    let position_value = bin.f32(&[1.0, 0.0, 0.0]);
+    let uv_indices = bin.u16(&[0, 2]);
+    let uv_values = bin.f32(&[0.25, 0.5, 0.75, 1.0]);
+    let views = format!(
+        r#"{{"buffer":0,"byteOffset":{base},"byteLength":36}},{{"buffer":0,"byteOffset":{position_index},"byteLength":1}},
+        {{"buffer":0,"byteOffset":{position_value},"byteLength":12}},{{"buffer":0,"byteOffset":{uv_indices},"byteLength":4}},
+        {{"buffer":0,"byteOffset":{uv_values},"byteLength":16}}"#
+    );
+    let accessors = r#"{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0],
+            "sparse":{"count":1,"indices":{"bufferView":1,"componentType":5121},"values":{"bufferView":2}}},
+        {"componentType":5126,"count":3,"type":"VEC2",
+            "sparse":{"count":2,"indices":{"bufferView":3,"componentType":5123},"values":{"bufferView":4}}}"#;
+    let text = mesh_gltf(&bin, &views, accessors, r#"{"attributes":{"POSITION":0,"TEXCOORD_0":1}}"#, "");
+    let path = write(&temp_dir("sparse"), "sparse.gltf", &text);
+    let (scene, _) = scene::load(&path).expect("sparse accessors load");
+    let mesh = &scene.meshes[0];
+    assert_eq!(
+        mesh.positions,
+        vec![Vec3::ZERO, Vec3::X, Vec3::Y],
+        "base from the view, vertex 1 from sparse"
+    );
+    assert_eq!(
+        mesh.uvs[0],
+        vec![Vec2::new(0.25, 0.5), Vec2::ZERO, Vec2::new(0.75, 1.0)],
+        "no bufferView: zeros, with the sparse values at indices 0 and 2"
+    );
+}
+
+#[test]
+fn accessor_without_buffer_view_or_sparse_reads_as_zeros() {
+    // glTF 2.0 accessor.bufferView: "When undefined, the accessor MUST be initialized with zeros".
+    let mut bin = Bin::default();
+    bin.f32(&UNIT_TRIANGLE);
+    let accessors =
+        format!(r#"{},{{"componentType":5126,"count":3,"type":"VEC2"}}"#, unit_triangle_accessor(0, 0));
+    let primitives = r#"{"attributes":{"POSITION":0,"TEXCOORD_0":1}}"#;
+    let text = mesh_gltf(&bin, r#"{"buffer":0,"byteLength":36}"#, &accessors, primitives, "");
+    let path = write(&temp_dir("zeros"), "zeros.gltf", &text);
+    let (scene, _) = scene::load(&path).expect("an accessor without bufferView is valid glTF");
+    assert_eq!(scene.meshes[0].uvs[0], vec![Vec2::ZERO; 3]);
+}
+
+#[test]
+fn interleaved_position_normal_and_uv_with_byte_stride_32_are_read() {
+    let normals = [Vec3::Z, Vec3::new(0.0, 0.6, 0.8), Vec3::new(0.6, 0.0, 0.8)];
+    let uvs = [Vec2::new(0.1, 0.2), Vec2::new(0.3, 0.4), Vec2::new(0.5, 0.6)];
+    let mut vertices = Vec::new();
+    for i in 0..3 {
+        vertices.extend_from_slice(&UNIT_TRIANGLE[3 * i..3 * i + 3]);
+        vertices.extend_from_slice(&normals[i].to_array());
+        vertices.extend_from_slice(&uvs[i].to_array());
+    }
+    let mut bin = Bin::default();
+    bin.f32(&vertices);
+    assert_eq!(bin.0.len(), 96, "three 32-byte vertices");
+    let views = r#"{"buffer":0,"byteLength":96,"byteStride":32,"target":34962}"#;
+    let accessors = format!(
+        r#"{},{{"bufferView":0,"byteOffset":12,"componentType":5126,"count":3,"type":"VEC3"}},
+        {{"bufferView":0,"byteOffset":24,"componentType":5126,"count":3,"type":"VEC2"}}"#,
+        unit_triangle_accessor(0, 0)
+    );
+    let primitives = r#"{"attributes":{"POSITION":0,"NORMAL":1,"TEXCOORD_0":2}}"#;
+    let path = write(
+        &temp_dir("interleaved"),
+        "interleaved.gltf",
+        &mesh_gltf(&bin, views, &accessors, primitives, ""),
+    );
+    let (scene, _) = scene::load(&path).expect("interleaved view loads");
+    let mesh = &scene.meshes[0];
+    assert_eq!(mesh.positions, vec![Vec3::ZERO, Vec3::X, Vec3::Y]);
+    let read = mesh.normals.as_ref().expect("NORMAL");
+    assert!(read.iter().zip(normals).all(|(a, b)| close(*a, b)), "normals {read:?}");
+    assert_eq!(mesh.uvs[0], uvs.to_vec());
+}
+
+#[test]
+fn normalized_integer_uvs_and_colours_come_out_in_the_unit_range() {
+    let mut bin = Bin::default();
+    let positions = bin.f32(&UNIT_TRIANGLE);
+    // Vertex attributes are 4-byte aligned: UNSIGNED_BYTE VEC2 gets byteStride 4, UNSIGNED_SHORT VEC3 byteStride 8.
+    let uv8 = bin.push(&[0, 255, 0, 0, 51, 102, 0, 0, 255, 0, 0, 0]);
+    let color8 = bin.push(&[255, 0, 51, 255, 0, 255, 102, 0, 128, 128, 128, 128]);
+    let uv16 = bin.u16(&[0, 65535, 32768, 13107, 65535, 0]);
+    let color16 = bin.u16(&[65535, 0, 13107, 0, 0, 65535, 32768, 0, 1, 2, 3, 0]);
+    let views = format!(
+        r#"{{"buffer":0,"byteOffset":{positions},"byteLength":36}},
+        {{"buffer":0,"byteOffset":{uv8},"byteLength":12,"byteStride":4}},
+        {{"buffer":0,"byteOffset":{color8},"byteLength":12}},
+        {{"buffer":0,"byteOffset":{uv16},"byteLength":12}},
+        {{"buffer":0,"byteOffset":{color16},"byteLength":24,"byteStride":8}}"#
+    );
+    let accessors = format!(
+        r#"{},
+        {{"bufferView":1,"componentType":5121,"normalized":true,"count":3,"type":"VEC2"}},
+        {{"bufferView":2,"componentType":5121,"normalized":true,"count":3,"type":"VEC4"}},
+        {{"bufferView":3,"componentType":5123,"normalized":true,"count":3,"type":"VEC2"}},
+        {{"bufferView":4,"componentType":5123,"normalized":true,"count":3,"type":"VEC3"}}"#,
+        unit_triangle_accessor(0, 0)
+    );
+    let primitives = r#"{"attributes":{"POSITION":0,"TEXCOORD_0":1,"COLOR_0":2}},
+        {"attributes":{"POSITION":0,"TEXCOORD_0":3,"COLOR_0":4}}"#;
+    let path = write(
+        &temp_dir("normalized"),
+        "normalized.gltf",
+        &mesh_gltf(&bin, &views, &accessors, primitives, ""),
+    );
+    let (scene, _) = scene::load(&path).expect("normalized integer attributes load");
+    let (bytes, shorts) = (&scene.meshes[0], &scene.meshes[1]);
+    let expect_uvs = |mesh: &scene::Mesh, expected: [Vec2; 3]| {
+        assert!(mesh.uvs[0].iter().zip(expected).all(|(a, b)| close2(*a, b)), "uvs {:?}", mesh.uvs[0]);
+    };
+    expect_uvs(bytes, [Vec2::Y, Vec2::new(0.2, 0.4), Vec2::X]);
+    expect_uvs(shorts, [Vec2::Y, Vec2::new(32768.0 / 65535.0, 0.2), Vec2::X]);
+    let expect_colors = |mesh: &scene::Mesh, expected: [Vec3; 3]| {
+        let colors = mesh.colors.as_ref().expect("COLOR_0");
+        assert!(colors.iter().zip(expected).all(|(a, b)| close(*a, b)), "colours {colors:?}");
+    };
+    expect_colors(bytes, [Vec3::new(1.0, 0.0, 0.2), Vec3::new(0.0, 1.0, 0.4), Vec3::splat(128.0 / 255.0)]);
+    let [a, b, c] = [1.0, 2.0, 3.0].map(|v| v / 65535.0);
+    expect_colors(
+        shorts,
+        [Vec3::new(1.0, 0.0, 0.2), Vec3::new(0.0, 1.0, 32768.0 / 65535.0), Vec3::new(a, b, c)],
+    );
+    for mesh in &scene.meshes {
+        let values = mesh.uvs[0].iter().flat_map(|v| v.to_array());
+        let values = values.chain(mesh.colors.iter().flatten().flat_map(|c| c.to_array()));
+        assert!(values.clone().all(|v| (0.0..=1.0).contains(&v)), "{:?}", values.collect::<Vec<_>>());
+    }
+}
+
+#[test]
+fn integer_attribute_not_marked_normalized_is_rejected() {
+    let mut bin = Bin::default();
+    bin.f32(&UNIT_TRIANGLE);
+    let uv = bin.push(&[0, 1, 0, 0, 1, 0, 0, 0, 1, 1, 0, 0]);
+    let views = format!(
+        r#"{{"buffer":0,"byteLength":36}},{{"buffer":0,"byteOffset":{uv},"byteLength":12,"byteStride":4}}"#
+    );
+    let accessors = format!(
+        r#"{},{{"name":"raw","bufferView":1,"componentType":5121,"count":3,"type":"VEC2"}}"#,
+        unit_triangle_accessor(0, 0)
+    );
+    let primitives = r#"{"attributes":{"POSITION":0,"TEXCOORD_0":1}}"#;
+    let path =
+        write(&temp_dir("unnormalized"), "raw.gltf", &mesh_gltf(&bin, &views, &accessors, primitives, ""));
+    let error = load_gltf(&path).expect_err("unnormalized UNSIGNED_BYTE texture coordinates");
+    assert!(matches!(error, Error::InvalidScene { .. }), "{error:?}");
+    assert_names_file(&error, &path);
+    let message = error.to_string();
+    assert!(
+        message.contains("TEXCOORD_0") && message.contains("'raw'") && message.contains("normalized"),
+        "{message}"
+    );
+}
+
+#[test]
+fn primitive_without_indices_draws_its_vertices_in_order() {
+    let mut bin = Bin::default();
+    // Two triangles and one vertex too many.
+    bin.f32(&[
+        0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 2.0, 0.0, 0.0, 3.0, 0.0, 0.0, 2.0, 1.0, 0.0, 5.0, 5.0,
+        0.0,
+    ]);
+    let accessors =
+        r#"{"bufferView":0,"componentType":5126,"count":7,"type":"VEC3","min":[0,0,0],"max":[5,5,0]}"#;
+    let text =
+        mesh_gltf(&bin, r#"{"buffer":0,"byteLength":84}"#, accessors, r#"{"attributes":{"POSITION":0}}"#, "");
+    let path = write(&temp_dir("no-indices"), "no-indices.gltf", &text);
+    let (scene, logs) = capture_logs(|| load_gltf(&path).expect("loads"));
+    assert_eq!(scene.meshes[0].indices, vec![[0, 1, 2], [3, 4, 5]]);
+    assert!(logs.contains("1 trailing index(es)"), "the seventh vertex is reported: {logs}");
+}
+
+#[test]
+fn primitive_without_normals_is_shaded_with_flat_normals() {
+    let mut bin = Bin::default();
+    bin.f32(&UNIT_TRIANGLE);
+    let text = mesh_gltf(
+        &bin,
+        r#"{"buffer":0,"byteLength":36}"#,
+        &unit_triangle_accessor(0, 0),
+        r#"{"attributes":{"POSITION":0}}"#,
+        "",
+    );
+    let path = write(&temp_dir("no-normals"), "flat.gltf", &text);
+    let (scene, _) = scene::load(&path).expect("loads");
+    assert!(scene.meshes[0].normals.is_none(), "no NORMAL means flat normals");
+    let (si, _) = shade(&scene, 0.25, 0.25);
+    assert!(close(si.ng, Vec3::Z) && si.ns == si.ng, "flat: ns {} = ng {}", si.ns, si.ng);
+}
+
+#[test]
+fn base_color_texture_with_tex_coord_1_is_shaded_from_texcoord_1() {
+    // Texel 0 red, texel 1 blue; TEXCOORD_0 points at red, TEXCOORD_1 at blue.
+    let uri = png_data_uri(2, 1, &[[255, 0, 0], [0, 0, 255]]);
+    let mut bin = Bin::default();
+    bin.f32(&UNIT_TRIANGLE);
+    let uv0 = bin.f32(&[0.25, 0.5, 0.25, 0.5, 0.25, 0.5]);
+    let uv1 = bin.f32(&[0.75, 0.5, 0.75, 0.5, 0.75, 0.5]);
+    let views = format!(
+        r#"{{"buffer":0,"byteLength":36}},{{"buffer":0,"byteOffset":{uv0},"byteLength":24}},
+        {{"buffer":0,"byteOffset":{uv1},"byteLength":24}}"#
+    );
+    let accessors = format!(
+        r#"{},{{"bufferView":1,"componentType":5126,"count":3,"type":"VEC2"}},
+        {{"bufferView":2,"componentType":5126,"count":3,"type":"VEC2"}}"#,
+        unit_triangle_accessor(0, 0)
+    );
+    let rest = format!(
+        r#""materials":[{{"pbrMetallicRoughness":{{"baseColorTexture":{{"index":0,"texCoord":1}}}}}}],
+        "textures":[{{"source":0,"sampler":0}}],"samplers":[{{"wrapS":33071,"wrapT":33071}}],
+        "images":[{{"uri":"{uri}"}}],"#
+    );
+    let primitives = r#"{"attributes":{"POSITION":0,"TEXCOORD_0":1,"TEXCOORD_1":2},"material":0}"#;
+    let path =
+        write(&temp_dir("uv-sets"), "uv1.gltf", &mesh_gltf(&bin, &views, &accessors, primitives, &rest));
+    let (scene, _) = scene::load(&path).expect("two uv sets load");
+    assert_eq!(scene.materials[0].base_color_texture.expect("texture").tex_coord, 1);
+    let mesh = &scene.meshes[0];
+    assert_eq!(mesh.uvs.len(), 2, "both sets read");
+    assert_eq!(mesh.uvs[1], vec![Vec2::new(0.75, 0.5); 3]);
+    let (si, params) = shade(&scene, 0.25, 0.25);
+    assert!(close2(si.uv[0], Vec2::new(0.25, 0.5)) && close2(si.uv[1], Vec2::new(0.75, 0.5)), "{:?}", si.uv);
+    assert!(
+        close(params.base_color, Vec3::Z),
+        "blue from TEXCOORD_1, not red from TEXCOORD_0: {}",
+        params.base_color
+    );
+}
+
+#[test]
+fn texture_reading_a_uv_set_shading_does_not_carry_is_rejected() {
+    let uri = png_data_uri(1, 1, &[[255, 255, 255]]);
+    let rest = format!(
+        r#""materials":[{{"name":"third","pbrMetallicRoughness":{{"baseColorTexture":{{"index":0,"texCoord":2}}}}}}],
+        "textures":[{{"source":0}}],"images":[{{"uri":"{uri}"}}],"#
+    );
+    let path = write(&temp_dir("uv-set-2"), "uv2.gltf", &triangle_gltf("", r#","material":0"#, &rest));
+    let error = load_gltf(&path).expect_err("TEXCOORD_2");
+    assert!(matches!(error, Error::InvalidScene { .. }), "{error:?}");
+    assert_names_file(&error, &path);
+    let message = error.to_string();
+    assert!(message.contains("material 'third'") && message.contains("TEXCOORD_2"), "{message}");
+}
+
+#[test]
+fn vertex_colour_multiplies_the_base_colour_factor() {
+    let mut bin = Bin::default();
+    bin.f32(&UNIT_TRIANGLE);
+    let colors = bin.f32(&[1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]);
+    let views =
+        format!(r#"{{"buffer":0,"byteLength":36}},{{"buffer":0,"byteOffset":{colors},"byteLength":36}}"#);
+    let accessors = format!(
+        r#"{},{{"bufferView":1,"componentType":5126,"count":3,"type":"VEC3"}}"#,
+        unit_triangle_accessor(0, 0)
+    );
+    let rest = r#""materials":[{"pbrMetallicRoughness":{"baseColorFactor":[0.5,0.8,1.0,1.0]}}],"#;
+    let primitives = r#"{"attributes":{"POSITION":0,"COLOR_0":1},"material":0}"#;
+    let path = write(
+        &temp_dir("vertex-colors"),
+        "colors.gltf",
+        &mesh_gltf(&bin, &views, &accessors, primitives, rest),
+    );
+    let (scene, _) = scene::load(&path).expect("loads");
+    // At (0.25, 0.25) the barycentric weights are 0.5, 0.25, 0.25.
+    let (si, params) = shade(&scene, 0.25, 0.25);
+    let color = Vec3::new(0.5, 0.25, 0.25);
+    assert!(close(si.color, color), "interpolated colour {}", si.color);
+    assert!(
+        close(params.base_color, Vec3::new(0.5, 0.8, 1.0) * color),
+        "factor × vertex colour, got {}",
+        params.base_color
+    );
+}
+
+#[test]
+fn texture_transform_and_its_tex_coord_override_reach_the_texture_ref() {
+    let uri = png_data_uri(1, 1, &[[255, 255, 255]]);
+    let rest = format!(
+        r#""materials":[{{"pbrMetallicRoughness":{{
+            "baseColorTexture":{{"index":0,"texCoord":0,"extensions":{{"KHR_texture_transform":{{
+                "offset":[0.25,0.5],"rotation":1.5707964,"scale":[2,3],"texCoord":1}}}}}},
+            "metallicRoughnessTexture":{{"index":0,"texCoord":1,"extensions":{{"KHR_texture_transform":{{
+                "offset":[0.5,0]}}}}}}}}}}],
+        "extensionsUsed":["KHR_texture_transform"],
+        "textures":[{{"source":0}}],"images":[{{"uri":"{uri}"}}],"#
+    );
+    let path = write(
+        &temp_dir("texture-transform"),
+        "transform.gltf",
+        &triangle_gltf("", r#","material":0"#, &rest),
+    );
+    let scene = load_gltf(&path).expect("loads");
+    let material = &scene.materials[0];
+    let color = material.base_color_texture.expect("base colour texture");
+    assert_eq!(color.tex_coord, 1, "the extension's texCoord overrides the textureInfo's");
+    // T · R · S with R rotating counter-clockwise in uv space, whose v axis points down (KhronosGroup/glTF#1563).
+    let [x, y, offset] = color.transform.expect("transform");
+    assert!(close2(x, Vec2::new(0.0, -2.0)) && close2(y, Vec2::new(3.0, 0.0)), "axes {x} {y}");
+    assert_eq!(offset, Vec2::new(0.25, 0.5));
+    let data = material.metallic_roughness_texture.expect("metallic-roughness texture");
+    assert_eq!(data.tex_coord, 1, "without an override the textureInfo's texCoord stays");
+    assert_eq!(
+        data.transform,
+        Some([Vec2::X, Vec2::Y, Vec2::new(0.5, 0.0)]),
+        "defaults: no rotation, unit scale"
+    );
+}
+
+#[test]
+fn sampler_wrap_modes_are_read_per_axis_and_honoured_by_sample() {
+    // 2×2: red, green / blue, white; 0 and 255 are the same in sRGB and linear.
+    let uri = png_data_uri(2, 2, &[[255, 0, 0], [0, 255, 0], [0, 0, 255], [255, 255, 255]]);
+    let materials: Vec<String> = (0..4)
+        .map(|i| format!(r#"{{"pbrMetallicRoughness":{{"baseColorTexture":{{"index":{i}}}}}}}"#))
+        .collect();
+    let rest = format!(
+        r#""materials":[{}],
+        "textures":[{{"source":0,"sampler":0}},{{"source":0,"sampler":1}},{{"source":0,"sampler":2}},{{"source":0}}],
+        "samplers":[{{"wrapS":10497,"wrapT":33071}},{{"wrapS":33071,"wrapT":33648}},{{"wrapS":33648,"wrapT":10497}}],
+        "images":[{{"uri":"{uri}"}}],"#,
+        materials.join(",")
+    );
+    let path = write(&temp_dir("wrap"), "wrap.gltf", &triangle_gltf("", r#","material":0"#, &rest));
+    let scene = load_gltf(&path).expect("loads");
+    let textures: Vec<&scene::Texture> = scene
+        .materials
+        .iter()
+        .map(|m| &scene.textures[m.base_color_texture.expect("texture").texture as usize])
+        .collect();
+    let modes: Vec<(Wrap, Wrap)> = textures.iter().map(|t| (t.wrap_s, t.wrap_t)).collect();
+    use Wrap::{ClampToEdge, MirroredRepeat, Repeat};
+    assert_eq!(
+        modes,
+        vec![
+            (Repeat, ClampToEdge),
+            (ClampToEdge, MirroredRepeat),
+            (MirroredRepeat, Repeat),
+            (Repeat, Repeat)
+        ],
+        "per axis, and REPEAT without a sampler"
+    );
+    // Texel centres past either edge: 1.75 is texel 3 and -0.25 texel -1 of a 2-texel axis.
+    let wrapped = |wrap: Wrap| match wrap {
+        Repeat => [1, 1],
+        ClampToEdge => [1, 0],
+        MirroredRepeat => [0, 0],
+    };
+    for texture in textures {
+        for (coordinate, expected) in [1.75, -0.25].into_iter().zip(wrapped(texture.wrap_s)) {
+            let got = texture.sample(Vec2::new(coordinate, 0.25));
+            assert_eq!(got, texture.texels[expected], "wrap_s {:?} at u = {coordinate}", texture.wrap_s);
+        }
+        for (coordinate, expected) in [1.75, -0.25].into_iter().zip(wrapped(texture.wrap_t)) {
+            let got = texture.sample(Vec2::new(0.25, coordinate));
+            assert_eq!(got, texture.texels[2 * expected], "wrap_t {:?} at v = {coordinate}", texture.wrap_t);
+        }
+    }
+}
+
+#[test]
+fn embedded_and_external_png_and_jpeg_images_are_decoded_and_a_missing_one_is_named() {
+    let dir = temp_dir("images");
+    std::fs::write(
+        dir.join("checker.png"),
+        encode_image(2, 1, &[[255, 0, 0], [0, 0, 255]], image::ImageFormat::Png),
+    )
+    .expect("write png");
+    std::fs::write(dir.join("flat.jpg"), encode_image(8, 8, &[[200, 100, 50]; 64], image::ImageFormat::Jpeg))
+        .expect("write jpeg");
+    let embedded = png_data_uri(1, 1, &[[0, 255, 0]]);
+    let materials: Vec<String> = (0..3)
+        .map(|i| format!(r#"{{"pbrMetallicRoughness":{{"baseColorTexture":{{"index":{i}}}}}}}"#))
+        .collect();
+    let rest = format!(
+        r#""materials":[{}],"textures":[{{"source":0}},{{"source":1}},{{"source":2}}],
+        "images":[{{"uri":"{embedded}"}},{{"uri":"checker.png"}},{{"uri":"flat.jpg"}}],"#,
+        materials.join(",")
+    );
+    let text = triangle_gltf("", r#","material":0"#, &rest);
+    let scene = load_gltf(&write(&dir, "images.gltf", &text)).expect("images load");
+    let texture = |material: usize| {
+        &scene.textures[scene.materials[material].base_color_texture.expect("t").texture as usize]
+    };
+    let (embedded, png, jpeg) = (texture(0), texture(1), texture(2));
+    assert_eq!(embedded.texels, vec![glam::Vec4::new(0.0, 1.0, 0.0, 1.0)]);
+    assert_eq!((png.name.as_str(), png.width, png.height), ("checker.png", 2, 1));
+    assert_eq!(png.texels, vec![glam::Vec4::new(1.0, 0.0, 0.0, 1.0), glam::Vec4::new(0.0, 0.0, 1.0, 1.0)]);
+    assert_eq!((jpeg.name.as_str(), jpeg.width, jpeg.height), ("flat.jpg", 8, 8));
+    let expected = Vec3::new(200.0, 100.0, 50.0).map(|c| srgb_to_linear(c / 255.0));
+    for texel in &jpeg.texels {
+        // JPEG is lossy; a flat colour survives to within a few levels.
+        assert!((texel.truncate() - expected).abs().max_element() < 0.02, "{texel} vs {expected}");
+    }
+
+    let missing = write(&dir, "missing.gltf", &text.replace("flat.jpg", "absent.jpg"));
+    let error = load_gltf(&missing).expect_err("missing image");
+    assert!(matches!(error, Error::Gltf { .. }), "{error:?}");
+    assert_names_file(&error, &missing);
+    let message = error.to_string();
+    assert!(
+        message.contains("image #2") && message.contains(&dir.join("absent.jpg").display().to_string()),
+        "{message}"
+    );
+}
+
+#[test]
+fn image_in_a_buffer_view_is_decoded_and_one_outside_its_buffer_is_rejected() {
+    let png = encode_image(1, 1, &[[0, 0, 255]], image::ImageFormat::Png);
+    let mut bin = Bin::default();
+    bin.f32(&UNIT_TRIANGLE);
+    let image = bin.push(&png);
+    let views = |length: usize| {
+        format!(r#"{{"buffer":0,"byteLength":36}},{{"buffer":0,"byteOffset":{image},"byteLength":{length}}}"#)
+    };
+    let rest = r#""materials":[{"pbrMetallicRoughness":{"baseColorTexture":{"index":0}}}],
+        "textures":[{"source":0}],"images":[{"bufferView":1,"mimeType":"image/png"}],"#;
+    let primitives = r#"{"attributes":{"POSITION":0},"material":0}"#;
+    let dir = temp_dir("image-view");
+    let text = mesh_gltf(&bin, &views(png.len()), &unit_triangle_accessor(0, 0), primitives, rest);
+    let scene = load_gltf(&write(&dir, "view.gltf", &text)).expect("image in a bufferView loads");
+    assert_eq!(scene.textures[0].texels, vec![glam::Vec4::new(0.0, 0.0, 1.0, 1.0)]);
+
+    let text = mesh_gltf(&bin, &views(png.len() + 100), &unit_triangle_accessor(0, 0), primitives, rest);
+    let path = write(&dir, "past-the-end.gltf", &text);
+    let error = load_gltf(&path).expect_err("bufferView past the end of its buffer");
+    assert!(matches!(error, Error::Gltf { .. }), "{error:?}");
+    assert_names_file(&error, &path);
+    assert!(error.to_string().contains("bufferView #1"), "{error}");
+}
+
+#[test]
+fn accessor_past_the_end_of_its_buffer_view_is_rejected_even_with_an_absurd_count() {
+    let dir = temp_dir("accessor-range");
+    for (name, count) in [("seven.gltf", "7"), ("huge.gltf", "4611686018427387904")] {
+        let text = triangle_gltf("", "", "").replacen(r#""count":3"#, &format!(r#""count":{count}"#), 1);
+        let path = write(&dir, name, &text);
+        let error = load_gltf(&path).expect_err(name);
+        assert!(matches!(error, Error::InvalidScene { .. }), "{name}: {error:?}");
+        assert_names_file(&error, &path);
+        let message = error.to_string();
+        assert!(message.contains("POSITION") && message.contains("past the end"), "{name}: {message}");
+    }
+}
+
+#[test]
+fn uri_that_is_not_utf_8_once_percent_decoded_is_rejected() {
+    let dir = temp_dir("percent");
+    let image = r#""materials":[{"pbrMetallicRoughness":{"baseColorTexture":{"index":0}}}],
+        "textures":[{"source":0}],"images":[{"uri":"tex%FF.png"}],"#;
+    // %C3%28 is a UTF-8 lead byte followed by '(': not UTF-8.
+    let buffer = triangle_gltf("", "", "")
+        .replace(&format!("data:application/octet-stream;base64,{TRIANGLE_BUFFER}"), "tri%C3%28.bin");
+    let cases = [
+        ("image.gltf", triangle_gltf("", r#","material":0"#, image), "image #0"),
+        ("buffer.gltf", buffer, "buffer #0"),
+    ];
+    for (name, text, object) in cases {
+        let path = write(&dir, name, &text);
+        let error = load_gltf(&path).expect_err(name);
+        assert!(matches!(error, Error::Gltf { .. }), "{name}: {error:?}");
+        assert_names_file(&error, &path);
+        let message = error.to_string();
+        assert!(message.contains(object) && message.contains("not UTF-8"), "{name}: {message}");
+    }
+}
+
+#[test]
+fn the_default_scene_is_loaded_and_without_one_the_first_with_a_warning() {
+    let two_scenes = |default: &str| {
+        format!(
+            r#"{{"asset":{{"version":"2.0"}},{default}"scenes":[{{"name":"a","nodes":[0]}},{{"name":"b","nodes":[1]}}],
+            "nodes":[{{"name":"first","mesh":0}},{{"name":"second","mesh":0,"translation":[10,0,0]}}],
+            "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}}}}]}}],
+            "buffers":[{{"byteLength":72,"uri":"data:application/octet-stream;base64,{TRIANGLE_BUFFER}"}}],
+            "bufferViews":[{{"buffer":0,"byteLength":72}}],
+            "accessors":[{}]}}"#,
+            unit_triangle_accessor(0, 0)
+        )
+    };
+    let dir = temp_dir("scenes");
+    let (scene, logs) = capture_logs(|| {
+        load_gltf(&write(&dir, "default.gltf", &two_scenes(r#""scene":1,"#))).expect("loads")
+    });
+    let nodes: Vec<_> = scene.meshes.iter().map(|m| m.node_name.as_deref()).collect();
+    assert_eq!(nodes, vec![Some("second")], "`scene` picks scenes[1], not scenes[0]");
+    assert!(!logs.contains("WARN"), "no warning when `scene` is given: {logs}");
+
+    let (scene, logs) =
+        capture_logs(|| load_gltf(&write(&dir, "no-default.gltf", &two_scenes(""))).expect("loads"));
+    let nodes: Vec<_> = scene.meshes.iter().map(|m| m.node_name.as_deref()).collect();
+    assert_eq!(nodes, vec![Some("first")], "without `scene`, scenes[0]");
+    assert!(
+        logs.contains("scene 'a' (#0)") && logs.contains("2 scenes"),
+        "warns which scene it chose: {logs}"
+    );
+}
+
+#[test]
+fn cameras_are_picked_by_camera_or_node_name() {
+    let rest = r#""cameras":[{"name":"wide","type":"perspective","perspective":{"yfov":1.0,"znear":0.1}},
+        {"name":"tele","type":"perspective","perspective":{"yfov":0.3,"aspectRatio":2.0,"znear":0.1}},
+        {"name":"plan","type":"orthographic","orthographic":{"xmag":1,"ymag":1,"zfar":10,"znear":0.1}}],"#;
+    let text = triangle_gltf("", "", rest)
+        .replace(r#""scenes":[{"nodes":[0]}]"#, r#""scenes":[{"nodes":[0,1,2,3]}]"#)
+        .replace(
+            r#""nodes":[{"name":"tri","mesh":0}]"#,
+            r#""nodes":[{"name":"tri","mesh":0},{"name":"left","camera":0,"translation":[-1,0,5]},
+                {"name":"right","camera":1,"translation":[1,0,5]},{"name":"top","camera":2}]"#,
+        );
+    let path = write(&temp_dir("camera-names"), "cameras.gltf", &text);
+    let pick = |name: Option<&str>| load_gltf_with_camera(&path, name).map(|s| s.camera.expect("a camera"));
+    let first = pick(None).expect("default camera");
+    assert_eq!((first.name.as_str(), first.yfov), ("wide", 1.0), "the first perspective camera");
+    let tele = pick(Some("tele")).expect("by camera name");
+    assert_eq!((tele.name.as_str(), tele.yfov, tele.aspect_ratio), ("tele", 0.3, Some(2.0)));
+    assert!(close(tele.camera_to_world.w_axis.truncate(), Vec3::new(1.0, 0.0, 5.0)), "on node 'right'");
+    let left = pick(Some("left")).expect("by node name");
+    assert_eq!(left.name, "wide", "node 'left' carries camera 'wide'");
+    assert!(close(left.camera_to_world.w_axis.truncate(), Vec3::new(-1.0, 0.0, 5.0)));
+
+    let error = pick(Some("plan")).expect_err("orthographic");
+    assert_names_file(&error, &path);
+    assert!(error.to_string().contains("orthographic"), "{error}");
+    let error = pick(Some("zoom")).expect_err("unknown camera");
+    assert!(matches!(error, Error::InvalidScene { .. }), "{error:?}");
+    assert_names_file(&error, &path);
+    let message = error.to_string();
+    assert!(
+        ["'wide'", "'tele'", "'plan'"].iter().all(|c| message.contains(c)),
+        "lists the cameras: {message}"
+    );
+}
+
+#[test]
+fn skins_animations_and_morph_targets_are_warned_about_once_each() {
+    let mut bin = Bin::default();
+    let positions = bin.f32(&UNIT_TRIANGLE);
+    let offsets = bin.f32(&[0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0]);
+    let times = bin.f32(&[0.0, 1.0]);
+    let translations = bin.f32(&[0.0, 0.0, 0.0, 0.0, 1.0, 0.0]);
+    let views = format!(
+        r#"{{"buffer":0,"byteOffset":{positions},"byteLength":36}},{{"buffer":0,"byteOffset":{offsets},"byteLength":36}},
+        {{"buffer":0,"byteOffset":{times},"byteLength":8}},{{"buffer":0,"byteOffset":{translations},"byteLength":24}}"#
+    );
+    let accessors = format!(
+        r#"{},{{"bufferView":1,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,1],"max":[0,0,1]}},
+        {{"bufferView":2,"componentType":5126,"count":2,"type":"SCALAR","min":[0],"max":[1]}},
+        {{"bufferView":3,"componentType":5126,"count":2,"type":"VEC3"}}"#,
+        unit_triangle_accessor(0, 0)
+    );
+    let animation = r#"{"channels":[{"sampler":0,"target":{"node":3,"path":"translation"}}],"samplers":[{"input":2,"output":3}]}"#;
+    let text = format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0,1,2,3,4,5,6]}}],
+        "nodes":[{{"name":"s0","mesh":0,"skin":0}},{{"name":"s1","mesh":0,"skin":1}},{{"name":"s2","mesh":0,"skin":2}},
+            {{"name":"joint"}},{{"name":"morphed","mesh":1}},{{"name":"again","mesh":1}},{{"name":"unweighted","mesh":2}}],
+        "skins":[{{"joints":[3]}},{{"joints":[3]}},{{"joints":[3]}}],
+        "animations":[{animation},{animation}],
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}}}}]}},
+            {{"primitives":[{{"attributes":{{"POSITION":0}},"targets":[{{"POSITION":1}}]}}],"weights":[0.5]}},
+            {{"primitives":[{{"attributes":{{"POSITION":0}},"targets":[{{"POSITION":1}}]}}]}}],
+        {buffers}"bufferViews":[{views}],"accessors":[{accessors}]}}"#,
+        buffers = bin.json()
+    );
+    let path = write(&temp_dir("skins"), "rigged.gltf", &text);
+    let (scene, logs) = capture_logs(|| load_gltf(&path).expect("loads"));
+    assert_eq!(scene.meshes.len(), 6, "skinned and morphed meshes are kept");
+    let lines = |needle: &str| logs.lines().filter(|l| l.contains(needle)).count();
+    assert_eq!(lines("skin(s) ignored"), 1, "one skin warning for three skinned meshes: {logs}");
+    assert!(logs.contains("3 skin(s)"), "{logs}");
+    assert_eq!(lines("animation(s) ignored"), 1, "{logs}");
+    assert_eq!(lines("morph targets"), 1, "{logs}");
+    assert!(logs.contains("3 primitive(s) with morph targets"), "{logs}");
+    // The rest pose: the mesh's default weights, none for the mesh without weights.
+    let z: Vec<f32> = scene.meshes[3..].iter().map(|m| m.positions[1].z).collect();
+    assert_eq!(z, vec![0.5, 0.5, 0.0]);
 }

@@ -46,8 +46,20 @@ pub fn load_gltf_with_camera(path: &Path, camera: Option<&str>) -> Result<Scene>
         let desc = loader.material(&material)?;
         loader.scene.materials.push(desc);
     }
-    // glTF allows a file without `scene`: then the first one is the natural choice.
-    match document.default_scene().or_else(|| document.scenes().next()) {
+    // glTF allows a file without `scene`: then the first one is the natural choice, but with several it is a guess.
+    let scene = document.default_scene().or_else(|| {
+        let first = document.scenes().next()?;
+        let count = document.scenes().len();
+        if count > 1 {
+            warn!(
+                file = %path.display(),
+                "the file has {count} scenes and no default `scene`: loading {}",
+                label("scene", first.name(), first.index())
+            );
+        }
+        Some(first)
+    });
+    match scene {
         Some(scene) => {
             loader.scene.resolution = resolution(&scene, path)?;
             loader.walk(&scene, document.nodes().len())?;
@@ -90,7 +102,7 @@ fn import(path: &Path) -> Result<(gltf::Document, Vec<gltf::buffer::Data>, Vec<g
             }
         }
     }
-    let document = gltf::Document::from_json(document.into_json()).map_err(|e| gltf_error(describe(&e)))?;
+    let document = validate(document.into_json()).map_err(|e| gltf_error(describe(&e)))?;
     let version = &document.as_json().asset.version;
     if !version.starts_with("2.") {
         return Err(gltf_error(format!("asset.version is \"{version}\", only 2.x is supported")));
@@ -99,6 +111,9 @@ fn import(path: &Path) -> Result<(gltf::Document, Vec<gltf::buffer::Data>, Vec<g
     let mut buffers = Vec::with_capacity(document.buffers().len());
     for buffer in document.buffers() {
         let object = label("buffer", buffer.name(), buffer.index());
+        if let gltf::buffer::Source::Uri(uri) = buffer.source() {
+            check_uri(uri).map_err(|problem| gltf_error(format!("{object}: {problem}")))?;
+        }
         let data = gltf::buffer::Data::from_source_and_blob(buffer.source(), Some(base), &mut blob).map_err(
             |e| {
                 let source = match buffer.source() {
@@ -117,15 +132,33 @@ fn import(path: &Path) -> Result<(gltf::Document, Vec<gltf::buffer::Data>, Vec<g
         }
         buffers.push(data);
     }
+    // The gltf crate computes view ends unchecked and slices image views without a bounds check.
+    for view in document.views() {
+        let buffer = view.buffer();
+        if view.offset().checked_add(view.length()).is_none_or(|end| end > buffer.length()) {
+            return Err(gltf_error(format!(
+                "{}: byteOffset {} + byteLength {} is past the end of {} ({} bytes)",
+                label("bufferView", view.name(), view.index()),
+                view.offset(),
+                view.length(),
+                label("buffer", buffer.name(), buffer.index()),
+                buffer.length()
+            )));
+        }
+    }
     // The gltf crate unwraps these (its validation does not check them), so reject them before it panics.
     for (index, image) in document.as_json().images.iter().enumerate() {
+        let object = label("image", image.name.as_deref(), index);
         let problem = match (&image.uri, &image.buffer_view, &image.mime_type) {
             (None, None, _) => "has neither uri nor bufferView",
             (Some(_), Some(_), _) => "has both uri and bufferView",
             (None, Some(_), None) => "has a bufferView but no mimeType",
+            (Some(uri), None, _) => match check_uri(uri) {
+                Ok(()) => continue,
+                Err(problem) => return Err(gltf_error(format!("{object}: {problem}"))),
+            },
             _ => continue,
         };
-        let object = label("image", image.name.as_deref(), index);
         return Err(gltf_error(format!("{object} {problem}")));
     }
     let mut images = Vec::with_capacity(document.images().len());
@@ -148,6 +181,27 @@ fn import(path: &Path) -> Result<(gltf::Document, Vec<gltf::buffer::Data>, Vec<g
     Ok((document, buffers, images))
 }
 
+/// gltf-json's validation, except that it requires a bufferView on every accessor that is not sparse, where glTF 2.0
+/// defines an accessor without one as all zeros (which [`read`] supplies).
+fn validate(json: gltf::json::Root) -> Result<gltf::Document, gltf::Error> {
+    use gltf::json::validation::{Error as Invalid, Validate};
+    let mut errors = Vec::new();
+    json.validate(&json, gltf::json::Path::new, &mut |path, error| {
+        let path = path();
+        let zeros = matches!(error, Invalid::Missing)
+            && path.as_str().starts_with("accessors[")
+            && path.as_str().ends_with("].bufferView");
+        if !zeros {
+            errors.push((path, error));
+        }
+    });
+    if errors.is_empty() {
+        Ok(gltf::Document::from_json_without_validation(json))
+    } else {
+        Err(gltf::Error::Validation(errors))
+    }
+}
+
 fn describe(error: &gltf::Error) -> String {
     match error {
         gltf::Error::Deserialize(e) => format!("invalid JSON or wrong glTF structure: {e}"),
@@ -158,6 +212,33 @@ fn describe(error: &gltf::Error) -> String {
             format!("invalid glTF: {}{more}", first.join("; "))
         }
         other => other.to_string(),
+    }
+}
+
+/// The gltf crate unwraps the UTF-8 decoding of a percent-encoded relative URI, so reject those it would panic on.
+fn check_uri(uri: &str) -> Result<(), String> {
+    // Only relative references are percent-decoded; `data:` and `file:` URIs are taken as they are.
+    if uri.contains(':') {
+        return Ok(());
+    }
+    let (bytes, mut decoded) = (uri.as_bytes(), Vec::with_capacity(uri.len()));
+    let hex = |i: usize| bytes.get(i).and_then(|&b| char::from(b).to_digit(16));
+    let mut i = 0;
+    while i < bytes.len() {
+        match (bytes[i], hex(i + 1), hex(i + 2)) {
+            (b'%', Some(high), Some(low)) => {
+                decoded.push((high * 16 + low) as u8);
+                i += 3;
+            }
+            (b, _, _) => {
+                decoded.push(b);
+                i += 1;
+            }
+        }
+    }
+    match String::from_utf8(decoded) {
+        Ok(_) => Ok(()),
+        Err(_) => Err(format!("URI '{uri}' percent-decodes to bytes that are not UTF-8")),
     }
 }
 
@@ -466,11 +547,11 @@ impl Loader<'_> {
             }
         };
 
+        if primitive.morph_targets().len() > 0 {
+            self.morphed_primitives += 1;
+        }
         // The rest pose of a morphed mesh is the base plus its default weights times the targets.
         if let Some(weights) = weights.filter(|w| w.iter().any(|&w| w != 0.0)) {
-            if primitive.morph_targets().len() > 0 {
-                self.morphed_primitives += 1;
-            }
             for ((i, target), (dp, dn, _)) in
                 primitive.morph_targets().enumerate().zip(reader.read_morph_targets())
             {
@@ -499,15 +580,15 @@ impl Loader<'_> {
             Some(index) => index as u32,
             None => self.default_material(),
         };
-        // Sets must be consecutive from 0; read those the material's textures use, and at least 0 and 1.
-        let sets_needed = 2.max(self.tex_coord_sets(material));
+        // Sets are consecutive from 0; hits carry sets 0 and 1 (`SurfaceHit::uv`), the only ones textures may use.
         let mut uvs = Vec::new();
-        for set in 0..sets_needed {
+        for set in 0..2 {
             let Some(accessor) = primitive.get(&Semantic::TexCoords(set)) else {
                 break;
             };
             let what = format!("TEXCOORD_{set}");
             check(&accessor, &what, &[Dimensions::Vec2], &[DataType::F32, DataType::U8, DataType::U16])
+                .and_then(|()| check_normalized(&accessor, &what))
                 .map_err(&bad)?;
             let values =
                 read(&accessor, &what, reader.read_tex_coords(set).map(|t| t.into_f32())).map_err(&bad)?;
@@ -519,7 +600,9 @@ impl Loader<'_> {
             None => None,
             Some(accessor) => {
                 let types = [DataType::F32, DataType::U8, DataType::U16];
-                check(&accessor, "COLOR_0", &[Dimensions::Vec3, Dimensions::Vec4], &types).map_err(&bad)?;
+                check(&accessor, "COLOR_0", &[Dimensions::Vec3, Dimensions::Vec4], &types)
+                    .and_then(|()| check_normalized(&accessor, "COLOR_0"))
+                    .map_err(&bad)?;
                 let values = read(&accessor, "COLOR_0", reader.read_colors(0).map(|c| c.into_rgb_f32()))
                     .map_err(&bad)?;
                 same_count("COLOR_0", values.len())?;
@@ -554,18 +637,6 @@ impl Loader<'_> {
         })
     }
 
-    fn tex_coord_sets(&self, material: u32) -> u32 {
-        let Some(m) = self.scene.materials.get(material as usize) else {
-            return 0;
-        };
-        [m.base_color_texture, m.metallic_roughness_texture]
-            .iter()
-            .flatten()
-            .map(|t| t.tex_coord + 1)
-            .max()
-            .unwrap_or(0)
-    }
-
     fn material(&mut self, material: &gltf::Material) -> Result<MaterialDesc> {
         let index = material.index().unwrap_or_default();
         let object = label("material", material.name(), index);
@@ -575,6 +646,20 @@ impl Loader<'_> {
             pbr.base_color_texture().map(|info| self.texture_ref(&info, true)).transpose()?;
         let metallic_roughness_texture =
             pbr.metallic_roughness_texture().map(|info| self.texture_ref(&info, false)).transpose()?;
+        for (slot, texture) in [
+            ("baseColorTexture", &base_color_texture),
+            ("metallicRoughnessTexture", &metallic_roughness_texture),
+        ] {
+            if let Some(t) = texture.filter(|t| t.tex_coord > 1) {
+                return Err(self.invalid(
+                    object,
+                    format!(
+                        "{slot} reads TEXCOORD_{}; only TEXCOORD_0 and TEXCOORD_1 are supported",
+                        t.tex_coord
+                    ),
+                ));
+            }
+        }
         let specular = material.specular();
         let volume = material.volume();
 
@@ -699,7 +784,61 @@ fn check(
             accessor.size()
         ));
     }
+    // The reader computes these extents unchecked, so an absurd count would overflow.
+    let past_the_end = |what: &str, view: gltf::buffer::View| {
+        format!(
+            "{object}{what} reads past the end of its {} ({} bytes)",
+            label("bufferView", view.name(), view.index()),
+            view.length()
+        )
+    };
+    let size = accessor.size();
+    if let Some(view) = accessor.view()
+        && !fits(accessor.offset(), view.stride().unwrap_or(size), accessor.count(), size, view.length())
+    {
+        return Err(past_the_end("", view));
+    }
+    if let Some(sparse) = accessor.sparse() {
+        let (indices, values) = (sparse.indices(), sparse.values());
+        let (index_size, view) = (indices.index_type().size(), indices.view());
+        if !fits(
+            indices.offset(),
+            view.stride().unwrap_or(index_size),
+            sparse.count(),
+            index_size,
+            view.length(),
+        ) {
+            return Err(past_the_end(" sparse indices", view));
+        }
+        let view = values.view();
+        if !fits(values.offset(), view.stride().unwrap_or(size), sparse.count(), size, view.length()) {
+            return Err(past_the_end(" sparse values", view));
+        }
+    }
     Ok(())
+}
+
+/// Whether `count` elements of `size` bytes, `stride` apart from `offset`, end within `length` bytes.
+fn fits(offset: usize, stride: usize, count: usize, size: usize, length: usize) -> bool {
+    count
+        .checked_sub(1)
+        .and_then(|n| n.checked_mul(stride))
+        .and_then(|n| n.checked_add(size))
+        .and_then(|n| n.checked_add(offset))
+        .is_some_and(|end| end <= length)
+}
+
+/// The reader normalizes integer texture coordinates and colours whether or not the accessor says so; unnormalized
+/// ones (KHR_mesh_quantization) would come out wrong.
+fn check_normalized(accessor: &Accessor, what: &str) -> Result<(), String> {
+    if accessor.data_type() == DataType::F32 || accessor.normalized() {
+        return Ok(());
+    }
+    Err(format!(
+        "{what} ({}) is {:?} but not normalized; only normalized integers are supported (KHR_mesh_quantization is not)",
+        label("accessor", accessor.name(), accessor.index()),
+        accessor.data_type()
+    ))
 }
 
 /// Collects an accessor's values; `values` is `None` when its data lies outside its buffer, or when it has no
