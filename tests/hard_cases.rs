@@ -38,6 +38,27 @@ fn scene_at_scale(scale: f32) -> Scene {
     }
 }
 
+/// Directions with a negative-zero component (`-Vec3::Z` is (-0, -0, -1)) hit what their positive-zero
+/// twins hit: obvhs 0.4 reads the sign of -0.0 inconsistently, and these rays used to miss everything.
+#[test]
+fn directions_with_negative_zero_components_hit_like_positive_zero_ones() {
+    let scene = scene_at_scale(1.0);
+    let geometry = Geometry::build(&scene);
+    let center = scene.spheres[0].center;
+    for (offset, d) in [
+        (Vec3::new(0.0, 0.0, 5.0), -Vec3::Z),
+        (Vec3::new(0.0, 5.0, 0.0), -Vec3::Y),
+        (Vec3::new(5.0, 0.0, 0.0), -Vec3::X),
+        (Vec3::new(0.0, 0.0, -5.0), Vec3::new(-0.0, -0.0, 1.0)),
+    ] {
+        let ray = Ray { o: center + offset, d, t_max: f32::INFINITY, time: 0.0 };
+        let twin = Ray { d: d + Vec3::ZERO, ..ray };
+        let (hit, twin_hit) = (geometry.intersect(&ray), geometry.intersect(&twin));
+        assert!(twin_hit.is_hit(), "direction {d}: the positive-zero twin misses");
+        assert!(hit.is_hit() && hit.t == twin_hit.t, "direction {d:?}: {hit:?} vs {twin_hit:?}");
+    }
+}
+
 #[test]
 fn rays_spawned_from_a_surface_never_rehit_it_at_any_scale() {
     for scale in [1e-3f32, 1e-1, 1.0, 1e2, 1e4] {

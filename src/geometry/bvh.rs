@@ -313,7 +313,11 @@ impl Geometry {
 
 #[inline]
 fn to_bvh_ray(ray: &Ray, t_max: f32) -> obvhs::ray::Ray {
-    obvhs::ray::Ray::new(Vec3A::from(ray.o), Vec3A::from(ray.d), 0.0, t_max)
+    // obvhs 0.4 picks the ray's octant by `d >= 0` but takes 1/d, so a -0.0 component (from `-Vec3::Z`,
+    // a negated normal, ...) counts as positive there and as -inf here, and the ray misses every box.
+    // Adding +0.0 turns -0.0 into +0.0 and leaves every other value as it is.
+    let d = Vec3A::from(ray.d) + Vec3A::ZERO;
+    obvhs::ray::Ray::new(Vec3A::from(ray.o), d, 0.0, t_max)
 }
 
 #[inline]
