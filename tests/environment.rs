@@ -278,15 +278,7 @@ fn photon_mappers_see_the_same_environment_as_the_path_tracer() {
         run.photons.photons = 100_000;
         run.progressive.passes = 32;
         run.progressive.photons_per_pass = 20_000;
-        let image = if kind.is_progressive() {
-            caustica::systems::render::init_thread_pools(None);
-            let mut renderer =
-                caustica::systems::progressive::prepare_progressive(scene.clone(), &run).unwrap();
-            renderer.run(None, |_, _| {});
-            renderer.image()
-        } else {
-            render(scene.clone(), &run)
-        };
+        let image = render(scene.clone(), &run);
         let mean = image.mean();
         let relative = ((mean - pt) / pt).abs().max_element();
         assert!(relative < 0.05, "{kind:?}: image mean {mean} vs pt {pt}");

@@ -8,8 +8,6 @@ mod common;
 
 use caustica::film::Image;
 use caustica::scene::{IntegratorKind, RunFile, Scene, load, validate};
-use caustica::systems::progressive::prepare_progressive;
-use caustica::systems::render::{init_thread_pools, prepare};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, FileFailurePersistence, RngAlgorithm, TestRng, TestRunner};
 use std::path::{Path, PathBuf};
@@ -52,16 +50,7 @@ fn bound_settings(run: &mut RunFile) {
 
 /// Prepare and render; Err carries the error message.
 fn render(scene: Scene, run: &RunFile) -> Result<Image, String> {
-    init_thread_pools(None);
-    if run.render.integrator.is_progressive() {
-        let mut renderer = prepare_progressive(scene, run).map_err(|e| e.to_string())?;
-        renderer.run(None, |_, _| {});
-        Ok(renderer.image())
-    } else {
-        let mut renderer = prepare(scene, run).map_err(|e| e.to_string())?;
-        renderer.run(|_| {});
-        Ok(renderer.image())
-    }
+    common::try_render(scene, run)
 }
 
 fn check_image(image: &Image, what: &str) -> Result<(), TestCaseError> {
@@ -491,15 +480,7 @@ fn temp_gltf(bytes: &[u8]) -> PathBuf {
     path
 }
 
-const INTEGRATORS: [IntegratorKind; 7] = [
-    IntegratorKind::Pt,
-    IntegratorKind::PtNaive,
-    IntegratorKind::Pm,
-    IntegratorKind::Ppm,
-    IntegratorKind::Sppm,
-    IntegratorKind::Appm,
-    IntegratorKind::Cppm,
-];
+const INTEGRATORS: [IntegratorKind; 7] = IntegratorKind::ALL;
 
 fn gltf_case(seed: usize, edits: &[(u8, u32, u16)], integrator: usize) -> Result<(), TestCaseError> {
     let original = std::fs::read(common::data(SEEDS[seed % SEEDS.len()])).expect("seed file");

@@ -149,22 +149,12 @@ mod common;
 use caustica::camera::look_at;
 use caustica::film::Image;
 use caustica::scene::{CameraDesc, IntegratorKind, MaterialDesc, RunFile, load, validate};
-use caustica::systems::progressive::prepare_progressive;
-use caustica::systems::render::{init_thread_pools, prepare};
 use caustica::test_scenes::furnace;
 use glam::Mat4;
 use std::path::Path;
 use std::time::Instant;
 
-const EVERY_INTEGRATOR: [IntegratorKind; 7] = [
-    IntegratorKind::Pt,
-    IntegratorKind::PtNaive,
-    IntegratorKind::Pm,
-    IntegratorKind::Ppm,
-    IntegratorKind::Sppm,
-    IntegratorKind::Appm,
-    IntegratorKind::Cppm,
-];
+const EVERY_INTEGRATOR: [IntegratorKind; 7] = IntegratorKind::ALL;
 
 /// Photons emitted by one render of [`tiny_run`]: per pass × passes for the progressive mappers, the
 /// global map for `pm`.
@@ -188,16 +178,7 @@ fn tiny_run(kind: IntegratorKind, size: u32) -> RunFile {
 
 /// Render with whichever driver the integrator needs.
 fn render_with(scene: Scene, run: &RunFile) -> Image {
-    init_thread_pools(None);
-    if run.render.integrator.is_progressive() {
-        let mut renderer = prepare_progressive(scene, run).expect("scene prepares");
-        renderer.run(None, |_, _| {});
-        renderer.image()
-    } else {
-        let mut renderer = prepare(scene, run).expect("scene prepares");
-        renderer.run(|_| {});
-        renderer.image()
-    }
+    common::render(scene, run)
 }
 
 fn assert_finite(image: &Image, what: &str) {

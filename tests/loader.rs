@@ -1,5 +1,7 @@
 //! Scene loader: the test scenes, Khronos samples, run files, and one test per kind of bad input.
 
+mod common;
+
 use caustica::Error;
 use caustica::geometry::{Ray, SurfaceHit};
 use caustica::materials::ShadingParams;
@@ -7,13 +9,9 @@ use caustica::scene::gltf::{load_gltf, load_gltf_with_camera, srgb_to_linear};
 use caustica::scene::{self, LightSelection, RunFile, Scene, Wrap, validate};
 use caustica::systems::resources::SceneGeometry;
 use glam::{Vec2, Vec3};
-use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::sync::{Arc, Mutex};
 
-fn data(name: &str) -> PathBuf {
-    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data")).join(name)
-}
+use common::data;
 
 fn sample(name: &str) -> PathBuf {
     data("gltf-samples").join(name)
@@ -66,31 +64,6 @@ fn triangle_gltf(node: &str, primitive: &str, rest: &str) -> String {
 }
 
 const EMISSIVE: &str = r#""materials":[{"name":"lamp","emissiveFactor":[1,1,1]}],"#;
-
-/// Collects what `tracing` logs while `f` runs.
-fn capture_logs<T>(f: impl FnOnce() -> T) -> (T, String) {
-    #[derive(Clone, Default)]
-    struct Buffer(Arc<Mutex<Vec<u8>>>);
-    impl Write for Buffer {
-        fn write(&mut self, bytes: &[u8]) -> std::io::Result<usize> {
-            self.0.lock().expect("log buffer").extend_from_slice(bytes);
-            Ok(bytes.len())
-        }
-        fn flush(&mut self) -> std::io::Result<()> {
-            Ok(())
-        }
-    }
-    let buffer = Buffer::default();
-    let writer = buffer.clone();
-    let subscriber = tracing_subscriber::fmt()
-        .with_writer(move || writer.clone())
-        .with_ansi(false)
-        .without_time()
-        .finish();
-    let result = tracing::subscriber::with_default(subscriber, f);
-    let logs = String::from_utf8(buffer.0.lock().expect("log buffer").clone()).expect("utf-8 logs");
-    (result, logs)
-}
 
 fn triangle_count(scene: &Scene) -> usize {
     scene.meshes.iter().map(|m| m.indices.len()).sum()
@@ -216,7 +189,7 @@ fn sparse_accessor_substitutes_its_values() {
 
 #[test]
 fn perspective_camera_is_picked_over_the_orthographic_one() {
-    let (scene, logs) = capture_logs(|| load_gltf(&sample("Cameras.gltf")).expect("Cameras loads"));
+    let (scene, logs) = common::capture_logs(|| load_gltf(&sample("Cameras.gltf")).expect("Cameras loads"));
     let camera = scene.camera.expect("the perspective camera");
     assert_eq!(camera.aspect_ratio, Some(1.0));
     assert!((camera.yfov - 0.7).abs() < 1e-6);
@@ -312,7 +285,7 @@ fn animated_skinned_and_morphed_samples_load_in_rest_pose() {
         "BoxAnimated.gltf",
         "RiggedSimple.gltf",
     ] {
-        let (result, logs) = capture_logs(|| scene::load(&sample(name)));
+        let (result, logs) = common::capture_logs(|| scene::load(&sample(name)));
         let (scene, _) = result.unwrap_or_else(|e| panic!("{name}: {e}"));
         assert!(!scene.meshes.is_empty(), "{name}: has meshes");
         assert!(logs.contains("rest pose") || logs.contains("default weights"), "{name}: warns: {logs}");
@@ -441,7 +414,7 @@ fn degenerate_triangles_are_dropped_and_counted() {
     let mut scene = load_gltf(&path).expect("loads");
     assert_eq!(scene.meshes.len(), 2);
     let (summary, logs) =
-        capture_logs(|| validate(&mut scene, &path).expect("degenerate triangles are not errors"));
+        common::capture_logs(|| validate(&mut scene, &path).expect("degenerate triangles are not errors"));
     assert_eq!(summary.degenerate_triangles, 4);
     assert_eq!(summary.degenerate_emitter_triangles, 4);
     assert_eq!((summary.triangles, summary.emitter_triangles), (1, 1));
@@ -942,7 +915,7 @@ fn primitive_without_indices_draws_its_vertices_in_order() {
     let text =
         mesh_gltf(&bin, r#"{"buffer":0,"byteLength":84}"#, accessors, r#"{"attributes":{"POSITION":0}}"#, "");
     let path = write(&temp_dir("no-indices"), "no-indices.gltf", &text);
-    let (scene, logs) = capture_logs(|| load_gltf(&path).expect("loads"));
+    let (scene, logs) = common::capture_logs(|| load_gltf(&path).expect("loads"));
     assert_eq!(scene.meshes[0].indices, vec![[0, 1, 2], [3, 4, 5]]);
     assert!(logs.contains("1 trailing index(es)"), "the seventh vertex is reported: {logs}");
 }
@@ -1255,7 +1228,7 @@ fn the_default_scene_is_loaded_and_without_one_the_first_with_a_warning() {
         )
     };
     let dir = temp_dir("scenes");
-    let (scene, logs) = capture_logs(|| {
+    let (scene, logs) = common::capture_logs(|| {
         load_gltf(&write(&dir, "default.gltf", &two_scenes(r#""scene":1,"#))).expect("loads")
     });
     let nodes: Vec<_> = scene.meshes.iter().map(|m| m.node_name.as_deref()).collect();
@@ -1263,7 +1236,7 @@ fn the_default_scene_is_loaded_and_without_one_the_first_with_a_warning() {
     assert!(!logs.contains("WARN"), "no warning when `scene` is given: {logs}");
 
     let (scene, logs) =
-        capture_logs(|| load_gltf(&write(&dir, "no-default.gltf", &two_scenes(""))).expect("loads"));
+        common::capture_logs(|| load_gltf(&write(&dir, "no-default.gltf", &two_scenes(""))).expect("loads"));
     let nodes: Vec<_> = scene.meshes.iter().map(|m| m.node_name.as_deref()).collect();
     assert_eq!(nodes, vec![Some("first")], "without `scene`, scenes[0]");
     assert!(
@@ -1339,7 +1312,7 @@ fn skins_animations_and_morph_targets_are_warned_about_once_each() {
         buffers = bin.json()
     );
     let path = write(&temp_dir("skins"), "rigged.gltf", &text);
-    let (scene, logs) = capture_logs(|| load_gltf(&path).expect("loads"));
+    let (scene, logs) = common::capture_logs(|| load_gltf(&path).expect("loads"));
     assert_eq!(scene.meshes.len(), 6, "skinned and morphed meshes are kept");
     let lines = |needle: &str| logs.lines().filter(|l| l.contains(needle)).count();
     assert_eq!(lines("skin(s) ignored"), 1, "one skin warning for three skinned meshes: {logs}");

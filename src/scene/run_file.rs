@@ -32,6 +32,10 @@ pub enum IntegratorKind {
 }
 
 impl IntegratorKind {
+    /// Every integrator.
+    pub const ALL: [IntegratorKind; 7] =
+        [Self::Pt, Self::PtNaive, Self::Pm, Self::Ppm, Self::Sppm, Self::Appm, Self::Cppm];
+
     /// Whether this integrator runs passes of photons into persistent hit points.
     pub fn is_progressive(self) -> bool {
         matches!(self, Self::Ppm | Self::Sppm | Self::Appm | Self::Cppm)

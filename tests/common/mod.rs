@@ -13,10 +13,22 @@ pub fn data(name: &str) -> PathBuf {
 
 /// Render a scene with the given run settings and return the image.
 pub fn render(scene: Scene, run: &RunFile) -> Image {
+    try_render(scene, run).expect("scene prepares")
+}
+
+/// Prepare and render with whichever driver the integrator needs; Err carries the error message.
+pub fn try_render(scene: Scene, run: &RunFile) -> Result<Image, String> {
     init_thread_pools(None);
-    let mut renderer = prepare(scene, run).expect("scene prepares");
-    renderer.run(|_| {});
-    renderer.image()
+    if run.render.integrator.is_progressive() {
+        let mut renderer =
+            caustica::systems::progressive::prepare_progressive(scene, run).map_err(|e| e.to_string())?;
+        renderer.run(None, |_, _| {});
+        Ok(renderer.image())
+    } else {
+        let mut renderer = prepare(scene, run).map_err(|e| e.to_string())?;
+        renderer.run(|_| {});
+        Ok(renderer.image())
+    }
 }
 
 /// Average 2×2 blocks: a box-filtered image at half resolution is exactly this of the full one.
