@@ -37,8 +37,15 @@ fn one_and_two_threads_give_bit_identical_images() {
         ("cornell-box.gltf", "cppm"),
         ("cornell-spheres.gltf", "pt-tree"),
         ("cornell-box.gltf", "pt-visibility"),
+        // The environment: a map sampled for NEE and emitting photons, and the default white one.
+        ("scenes/environment.toml", "pt-tree"),
+        ("scenes/environment.toml", "sppm"),
+        ("gltf-samples/BoxTextured.gltf", "pm"),
     ] {
-        let path = common::data(scene);
+        let path = match scene.strip_prefix("scenes/") {
+            Some(name) => std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name),
+            None => common::data(scene),
+        };
         let scene = path.to_str().unwrap();
         let (a, b) = (dir.join("t1.exr"), dir.join("t2.exr"));
         render_with_threads(1, &a, scene, integrator);

@@ -1279,6 +1279,13 @@ fn cameras_are_picked_by_camera_or_node_name() {
         ["'wide'", "'tele'", "'plan'"].iter().all(|c| message.contains(c)),
         "lists the cameras: {message}"
     );
+
+    // The command line's --camera reaches the loader: overrides apply before the file is read.
+    let cli =
+        <caustica::cli::Cli as clap::Parser>::parse_from(["caustica", "render", "x", "--camera", "tele"]);
+    let Some(caustica::cli::Command::Render(args)) = cli.command else { panic!("a render command") };
+    let (scene, _) = scene::load_with(&path, |run| args.apply(run)).expect("loads");
+    assert_eq!(scene.camera.expect("a camera").name, "tele");
 }
 
 #[test]
