@@ -140,6 +140,18 @@ const KEYS: &[(&str, &[(&str, Kind)])] = &[
         ],
     ),
     ("[motion]", &[("node", Kind::Word(&["short_block", "tall_block", "nope"])), ("translate", Kind::Vec3)]),
+    (
+        "environment",
+        &[
+            (
+                "file",
+                Kind::Word(&[concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/sky.exr"), "missing.exr", ""]),
+            ),
+            ("color", Kind::Vec3),
+            ("strength", Kind::Number),
+            ("rotation_degrees", Kind::Vec3),
+        ],
+    ),
 ];
 
 #[derive(Clone, Copy)]

@@ -120,6 +120,9 @@ impl EnvironmentSettings {
         if self.file.is_some() && self.color.is_some() {
             return Err("environment.file and environment.color are both set: choose one".into());
         }
+        if self.file.as_ref().is_some_and(|f| f.as_os_str().is_empty()) {
+            return Err("environment.file is empty: name an .exr or .hdr map".into());
+        }
         if let Some(c) = self.color
             && !c.iter().all(|v| v.is_finite() && *v >= 0.0)
         {
@@ -139,16 +142,30 @@ impl EnvironmentSettings {
     }
 
     /// The environment these settings describe, with `file` resolved against `base` (the run file's
-    /// directory); `None` when neither a file nor a colour is given.
-    pub fn load(&self, base: &Path) -> Result<Option<EnvironmentDesc>> {
+    /// directory); `None` when neither a file nor a colour is given. `origin` says where the settings
+    /// came from (the run file, or the command line), for messages.
+    pub fn load(&self, base: &Path, origin: &str) -> Result<Option<EnvironmentDesc>> {
         let mut desc = match (&self.file, self.color) {
             (Some(file), _) => {
+                // Say which setting named the map: the path alone hides whether a run file or a flag was wrong.
+                let named = |message: String| {
+                    format!("{message} (environment.file = \"{}\" in {origin})", file.display())
+                };
                 let resolved = base.join(file);
-                if let Err(e) = std::fs::metadata(&resolved) {
-                    let context = format!("{e} (environment map, environment.file = \"{}\")", file.display());
-                    return Err(Error::Io { path: resolved, source: std::io::Error::new(e.kind(), context) });
+                let loaded = std::fs::metadata(&resolved)
+                    .map_err(|source| Error::Io { path: resolved.clone(), source })
+                    .and_then(|_| EnvironmentDesc::from_file(&resolved));
+                match loaded {
+                    Ok(desc) => desc,
+                    Err(Error::Io { path, source }) => {
+                        let source = std::io::Error::new(source.kind(), named(source.to_string()));
+                        return Err(Error::Io { path, source });
+                    }
+                    Err(Error::Image { path, message }) => {
+                        return Err(Error::Image { path, message: named(message) });
+                    }
+                    Err(other) => return Err(other),
                 }
-                EnvironmentDesc::from_file(&resolved)?
             }
             (None, Some(color)) => EnvironmentDesc::constant(Vec3::from(color)),
             (None, None) => return Ok(None),
@@ -173,12 +190,12 @@ mod tests {
             rotation_degrees: Some([0.0, 90.0, 0.0]),
             ..Default::default()
         };
-        let desc = settings.load(Path::new(".")).unwrap().unwrap();
+        let desc = settings.load(Path::new("."), "a test").unwrap().unwrap();
         assert!((desc.rotation * Vec3::Z - Vec3::X).length() < 1e-6);
         // X first, then Y: a quarter turn about X takes +Y to +Z, one about Y takes +Z on to +X (the
         // other order would leave +Y at +Z).
         let settings = EnvironmentSettings { rotation_degrees: Some([90.0, 90.0, 0.0]), ..settings };
-        let desc = settings.load(Path::new(".")).unwrap().unwrap();
+        let desc = settings.load(Path::new("."), "a test").unwrap().unwrap();
         assert!((desc.rotation * Vec3::Y - Vec3::X).length() < 1e-6, "{}", desc.rotation * Vec3::Y);
     }
 

@@ -43,7 +43,7 @@ pub fn load_with(path: &Path, overrides: impl FnOnce(&mut RunFile)) -> Result<(S
             let mut scene = self::gltf::load_gltf_with_camera(path, run.camera.name.as_deref())?;
             // A bare glTF has no run file: environment paths come from the command line, relative
             // to the working directory.
-            scene.environment = run.environment.load(Path::new(""))?;
+            scene.environment = run.environment.load(Path::new(""), "the command line")?;
             scene
         }
     };

@@ -370,7 +370,8 @@ impl RunFile {
         };
         self.add_spheres(&mut scene);
         self.apply_motions(&mut scene, path)?;
-        scene.environment = self.environment.load(path.parent().unwrap_or(Path::new("")))?;
+        let origin = format!("{}, relative to its directory", path.display());
+        scene.environment = self.environment.load(path.parent().unwrap_or(Path::new("")), &origin)?;
         Ok(scene)
     }
 
