@@ -3,8 +3,9 @@
 //!
 //! A map is importance-sampled in proportion to luminance × sin θ over its (u, v) square, the sin θ
 //! undoing the equirectangular stretch towards the poles, by a 2-D piecewise-constant distribution:
-//! O(log width + log height) per sample. Radiance is looked up per texel (no filtering) so that the
-//! density is exactly proportional to what is sampled, wherever the map is not black.
+//! O(log width + log height) per sample. Radiance is interpolated bilinearly; each texel's share of
+//! the distribution is the mean of that interpolation over it, so the density is positive wherever
+//! the radiance is (unbiased), and proportional to it where the map is smooth.
 //!
 //! Photons leave from a disc of the scene's bounding-sphere radius R, facing the sampled direction
 //! from beyond the scene (pbrt-v4 `ImageInfiniteLight::SampleLe`), so the env's power is
@@ -49,35 +50,68 @@ impl EnvironmentMap {
     fn new(image: &crate::film::Image, strength: f32) -> Self {
         let (width, height) = (image.width, image.height);
         let texels: Vec<Vec3> = image.pixels.iter().map(|&p| p * strength).collect();
-        let func: Vec<f32> = texels
-            .iter()
-            .enumerate()
-            .map(|(i, &t)| {
-                let theta = PI * ((i as u32 / width) as f32 + 0.5) / height as f32;
-                luminance(t) * theta.sin()
+        let mut map = Self { width, height, texels, distribution: Distribution2D::default() };
+        // Each texel's share is the mean of the bilinear radiance over it, (1, 6, 1) / 8 along each
+        // axis, times sin θ: positive wherever the filtered radiance is, so nothing visible is
+        // left unsampled.
+        let (w, h) = (width as usize, height as usize);
+        let lum: Vec<f32> = map.texels.iter().map(|&t| luminance(t)).collect();
+        let across: Vec<f32> = (0..w * h)
+            .map(|i| {
+                let (x, y) = (i % w, i / w);
+                let at = |x: usize| lum[y * w + x];
+                (at((x + w - 1) % w) + 6.0 * at(x) + at((x + 1) % w)) / 8.0
             })
             .collect();
-        let distribution = Distribution2D::new(&func, width as usize, height as usize);
-        Self { width, height, texels, distribution }
+        let func: Vec<f32> = (0..w * h)
+            .map(|i| {
+                let (x, y) = (i % w, i / w);
+                let at = |y: usize| across[y * w + x];
+                let filtered = (at(y.saturating_sub(1)) + 6.0 * at(y) + at((y + 1).min(h - 1))) / 8.0;
+                let theta = PI * (y as f32 + 0.5) / h as f32;
+                filtered * theta.sin()
+            })
+            .collect();
+        map.distribution = Distribution2D::new(&func, w, h);
+        map
     }
 
+    /// Bilinear radiance at `uv`: texel centres at half-integers, wrapping in u, clamped in v.
     #[inline]
-    fn texel(&self, uv: Vec2) -> Vec3 {
+    fn radiance(&self, uv: Vec2) -> Vec3 {
+        let (w, h) = (self.width as i64, self.height as i64);
+        let x = uv.x * self.width as f32 - 0.5;
+        let y = uv.y * self.height as f32 - 0.5;
         // NaN (a degenerate direction) becomes texel 0 through the casts.
-        let x = ((uv.x * self.width as f32) as u32).min(self.width - 1);
-        let y = ((uv.y * self.height as f32) as u32).min(self.height - 1);
-        self.texels[(y * self.width + x) as usize]
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let texel = |x: i64, y: i64| self.texels[(y.clamp(0, h - 1) * w + x.rem_euclid(w)) as usize];
+        let top = texel(x0, y0).lerp(texel(x0 + 1, y0), fx);
+        let bottom = texel(x0, y0 + 1).lerp(texel(x0 + 1, y0 + 1), fx);
+        top.lerp(bottom, fy)
     }
 
-    /// ∫ luminance dω over the sphere: each texel's luminance times its exact solid angle.
+    /// ∫ luminance dω of the bilinear radiance. Along u the bilinear mean of a row is its texels'
+    /// mean, so what is left is a 1-D integral over v of the row means (linear between row centres,
+    /// flat above the first and below the last) times 2π² sin(πv), by the midpoint rule on 8 steps
+    /// per row.
     fn luminance_integral(&self) -> f64 {
         let (w, h) = (self.width as usize, self.height as usize);
-        (0..h)
+        let means: Vec<f64> = (0..h)
             .map(|y| {
-                let (top, bottom) = (PI * y as f32 / h as f32, PI * (y + 1) as f32 / h as f32);
-                let solid_angle = (2.0 * PI / w as f32) * (top.cos() - bottom.cos());
-                let row: f64 = self.texels[y * w..(y + 1) * w].iter().map(|&t| luminance(t) as f64).sum();
-                row * solid_angle as f64
+                self.texels[y * w..(y + 1) * w].iter().map(|&t| luminance(t) as f64).sum::<f64>() / w as f64
+            })
+            .collect();
+        const STEPS: usize = 8;
+        let dv = 1.0 / (h * STEPS) as f64;
+        (0..h * STEPS)
+            .map(|k| {
+                let v = (k as f64 + 0.5) * dv;
+                let y = (v * h as f64 - 0.5).clamp(0.0, (h - 1) as f64);
+                let (y0, f) = (y.floor() as usize, y.fract());
+                let mean = means[y0] * (1.0 - f) + means[(y0 + 1).min(h - 1)] * f;
+                mean * 2.0 * std::f64::consts::PI.powi(2) * (std::f64::consts::PI * v).sin() * dv
             })
             .sum()
     }
@@ -138,7 +172,7 @@ impl Environment {
     pub fn le(&self, d: Vec3) -> Vec3 {
         match &self.radiance {
             Radiance::Constant(c) => *c,
-            Radiance::Map(map) => map.texel(direction_to_uv(self.to_local * d.normalize())),
+            Radiance::Map(map) => map.radiance(direction_to_uv(self.to_local * d.normalize())),
         }
     }
 
@@ -181,8 +215,7 @@ impl Environment {
     }
 
     /// A direction by the environment's own distribution (no surface to favour), its density and the
-    /// radiance from it. A map's radiance comes from the sampled texel itself: recomputed from the
-    /// direction, rounding could land a sample on a texel's black neighbour.
+    /// radiance from it (read at the sampled uv, not recomputed from the direction).
     #[inline]
     fn sample_direction(&self, u: Vec2) -> Option<(Vec3, f32, Vec3)> {
         match &self.radiance {
@@ -194,7 +227,7 @@ impl Environment {
                     return None;
                 }
                 let pdf = pdf_uv / (2.0 * PI * PI * sin_theta);
-                Some((self.to_world * uv_to_direction(uv), pdf, map.texel(uv)))
+                Some((self.to_world * uv_to_direction(uv), pdf, map.radiance(uv)))
             }
         }
     }
@@ -281,8 +314,10 @@ mod tests {
         }
     }
 
+    /// The sampled texel's share is the mean of its filtered radiance, so a sample never lands where
+    /// the radiance is zero: the black band is reached only where its neighbours bleed into it.
     #[test]
-    fn black_band_and_its_radiance_are_never_sampled() {
+    fn samples_never_carry_zero_radiance() {
         let env = map_environment(Quat::IDENTITY);
         for i in 0..20_000 {
             let s = env.sample(Vec3::ZERO, Vec3::ZERO, Sampler::new(4, i, 0).get2d(0)).unwrap();
@@ -290,20 +325,35 @@ mod tests {
         }
     }
 
-    /// The density is proportional to the radiance's luminance: at texel centres (where the sin θ of
-    /// the distribution's rows is exact) pdf / luminance is one constant, 1 / ∫ L dω.
+    /// Where the map is linear (the gradient, away from the sun, the black band and the u seam) the
+    /// bilinear radiance at a texel centre is the texel's mean, so pdf / luminance is one constant
+    /// there, 1 / ∫ L dω up to the sin θ of the row centre against the exact one.
     #[test]
-    fn map_density_is_proportional_to_luminance() {
+    fn map_density_is_proportional_to_luminance_where_the_map_is_smooth() {
         let env = map_environment(Quat::IDENTITY);
         let integral = env.power() / (PI * 3.0);
-        for (x, y) in [(21, 4), (0, 0), (5, 7), (31, 15), (12, 10)] {
+        for (x, y) in [(5, 7), (12, 8), (28, 14), (9, 1)] {
             let uv = Vec2::new((x as f32 + 0.5) / 32.0, (y as f32 + 0.5) / 16.0);
             let d = uv_to_direction(uv);
             let ratio = env.pdf(Vec3::ZERO, d) * integral / luminance(env.le(d));
-            assert!((ratio - 1.0).abs() < 2e-3, "texel ({x}, {y}): pdf / L × ∫L = {ratio}");
+            assert!((ratio - 1.0).abs() < 5e-3, "texel ({x}, {y}): pdf / L × ∫L = {ratio}");
         }
-        let black = uv_to_direction(Vec2::new(0.5, 11.5 / 16.0));
-        assert_eq!(env.pdf(Vec3::ZERO, black), 0.0);
+    }
+
+    #[test]
+    fn radiance_is_bilinear_between_texel_centres_and_wraps_in_u() {
+        let env = map_environment(Quat::IDENTITY);
+        let Radiance::Map(map) = &env.radiance else { panic!("a map") };
+        let centre = |x: f32, y: f32| Vec2::new((x + 0.5) / 32.0, (y + 0.5) / 16.0);
+        assert_eq!(map.radiance(centre(21.0, 4.0)), Vec3::new(800.0, 600.0, 400.0), "strength 2 applied");
+        let halfway = map.radiance(centre(21.5, 4.0));
+        assert!(
+            (halfway - 0.5 * (map.radiance(centre(21.0, 4.0)) + map.radiance(centre(22.0, 4.0)))).length()
+                < 1e-3
+        );
+        let seam = map.radiance(Vec2::new(0.0, centre(0.0, 7.0).y));
+        let expected = 0.5 * (map.texels[7 * 32] + map.texels[7 * 32 + 31]);
+        assert!((seam - expected).length() < 1e-5, "{seam} vs {expected}");
     }
 
     /// ∫ pdf dω = 1, estimated by uniform directions.
