@@ -114,16 +114,16 @@ impl Camera {
     }
 
     /// A camera for a file that has none, as glTF viewers frame one: looking down −Z from the +Z side
-    /// (glTF's front) at the centre of the bounding box, 45° vertical field of view, just far enough
-    /// that the box's bounding sphere fits both the vertical and the horizontal field at `aspect`
-    /// (width / height). An empty or non-finite box is framed as the unit sphere.
-    pub fn framing(min: Vec3, max: Vec3, aspect: f32) -> CameraDesc {
+    /// (glTF's front) at the centre of the bounding box, with vertical field of view `yfov` (45°, as
+    /// viewers use, unless the user chose one), just far enough that the box's bounding sphere fits
+    /// both the vertical and the horizontal field at `aspect` (width / height). An empty or
+    /// non-finite box is framed as the unit sphere.
+    pub fn framing(min: Vec3, max: Vec3, aspect: f32, yfov: f32) -> CameraDesc {
         let (center, radius) = if (max - min).is_finite() && max.cmpge(min).all() {
             (0.5 * (min + max), (0.5 * (max - min).length()).max(1e-3))
         } else {
             (Vec3::ZERO, 1.0)
         };
-        let yfov = 45f32.to_radians();
         let xfov = 2.0 * (aspect.max(1e-3) * (0.5 * yfov).tan()).atan();
         let distance = radius / (0.5 * yfov.min(xfov)).sin();
         let eye = center + Vec3::new(0.0, 0.0, distance);

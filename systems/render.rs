@@ -84,7 +84,9 @@ pub fn scene_world(scene: Scene, run: &RunFile) -> Result<(World, SceneFeatures)
                     scene.source.display()
                 );
             }
-            Camera::framing(min, max, width as f32 / height as f32)
+            // Frame for the field of view the camera will have, so that a narrower one does not crop.
+            let yfov = run.camera.yfov_degrees.filter(|d| *d > 0.0 && *d < 180.0).unwrap_or(45.0);
+            Camera::framing(min, max, width as f32 / height as f32, yfov.to_radians())
         }
     };
     // Name the scene file: a bad camera override is the user's to fix there.

@@ -309,6 +309,17 @@ fn a_camera_less_file_is_framed_and_the_flags_override_the_framing() {
     let half_x = (0.5 * (22.5f32.to_radians().tan())).atan();
     assert!((eye.z - 3f32.sqrt() / half_x.sin()).abs() < 1e-3, "{eye}");
 
+    // A narrower field of view chosen by the user frames from further away instead of cropping.
+    run.film.width = Some(40);
+    run.film.height = Some(20);
+    run.camera.yfov_degrees = Some(20.0);
+    let (world, _) = caustica::systems::render::scene_world(scene.clone(), &run).unwrap();
+    let eye = world
+        .resource::<caustica::camera::Camera>()
+        .generate_ray(20, 10, glam::Vec2::splat(0.5), glam::Vec2::ZERO, 0.0)
+        .o;
+    assert!((eye.z - 3f32.sqrt() / 10f32.to_radians().sin()).abs() < 1e-3, "{eye}");
+
     run.camera.eye = Some([4.0, 0.0, 0.0]);
     run.camera.target = Some([0.0, 0.0, 0.0]);
     run.camera.yfov_degrees = Some(30.0);
@@ -316,8 +327,8 @@ fn a_camera_less_file_is_framed_and_the_flags_override_the_framing() {
     let (world, _) = result.expect("world");
     assert!(!logs.contains("no camera"), "eye and target given: no warning: {logs}");
     let ray = world.resource::<caustica::camera::Camera>().generate_ray(
-        10,
         20,
+        10,
         glam::Vec2::splat(0.5),
         glam::Vec2::ZERO,
         0.0,

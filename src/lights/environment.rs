@@ -79,10 +79,13 @@ impl EnvironmentMap {
     /// Bilinear radiance at `uv`: texel centres at half-integers, wrapping in u, clamped in v.
     #[inline]
     fn radiance(&self, uv: Vec2) -> Vec3 {
+        if !uv.is_finite() {
+            // A degenerate (zero or NaN) direction brings nothing back.
+            return Vec3::ZERO;
+        }
         let (w, h) = (self.width as i64, self.height as i64);
         let x = uv.x * self.width as f32 - 0.5;
         let y = uv.y * self.height as f32 - 0.5;
-        // NaN (a degenerate direction) becomes texel 0 through the casts.
         let (x0, y0) = (x.floor(), y.floor());
         let (fx, fy) = (x - x0, y - y0);
         let (x0, y0) = (x0 as i64, y0 as i64);

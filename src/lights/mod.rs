@@ -122,9 +122,11 @@ impl Lights {
         Some((env.le(d), pdf))
     }
 
-    /// Share of tree selections that go to the environment.
+    /// Share of tree selections that go to the environment (all of them when no area light has
+    /// power, so none made it into the tree).
     fn tree_environment_share(&self) -> f32 {
-        match (&self.environment, self.lights.is_empty()) {
+        let tree_is_empty = self.tree.as_ref().is_none_or(LightTree::is_empty);
+        match (&self.environment, tree_is_empty) {
             (None, _) => 0.0,
             (Some(_), true) => 1.0,
             (Some(_), false) => TREE_ENVIRONMENT_SHARE,
@@ -175,6 +177,7 @@ impl Lights {
     /// that light.
     #[inline]
     pub fn pdf(&self, index: u32, p_ref: Vec3, n_ref: Vec3, p: Vec3, n: Vec3, time: f32) -> f32 {
+        debug_assert!(index < self.environment_index(), "the environment's pdf is Lights::escaped's");
         self.pmf(index, p_ref, n_ref) * self.lights[index as usize].pdf(p_ref, p, n, time)
     }
 

@@ -72,19 +72,28 @@ impl Distribution1D {
         let width = self.cdf[i + 1] - self.cdf[i];
         let offset = if width > 0.0 { (u - self.cdf[i]) / width } else { 0.0 };
         let x = ((i as f32 + offset.clamp(0.0, 1.0)) / n as f32).min(ONE_MINUS_EPSILON);
-        (x, self.func[i] / self.integral, i)
+        (x, self.step_density(i), i)
     }
 
     /// Density at x in [0, 1).
     #[inline]
     pub fn pdf(&self, x: f32) -> f32 {
-        self.func[self.step(x)] / self.integral
+        self.step_density(self.step(x))
     }
 
     /// Probability of step `i` (the density integrated over it).
     #[inline]
     pub fn step_probability(&self, i: usize) -> f32 {
-        self.func[i] / (self.integral * self.func.len() as f32)
+        self.cdf[i + 1] - self.cdf[i]
+    }
+
+    /// The density over step `i`, from the width of its CDF interval: what sampling actually does.
+    /// `func / integral` would differ by the f32 rounding of the CDF, which for a dim step beside a
+    /// bright one (a row of sky next to the sun) is a large relative error, and a step whose mass
+    /// rounds away would claim a density it is never sampled with.
+    #[inline]
+    fn step_density(&self, i: usize) -> f32 {
+        self.step_probability(i) * self.func.len() as f32
     }
 
     /// The step that holds x (clamped into range).
