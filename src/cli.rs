@@ -72,6 +72,9 @@ pub struct BenchArgs {
     /// Sampler seed; overrides the run file (the rendered reference uses seed + 1).
     #[arg(long)]
     pub seed: Option<u64>,
+    /// The environment light.
+    #[command(flatten)]
+    pub environment: EnvironmentArgs,
 }
 
 /// Density estimators of `caustica density`.
@@ -165,18 +168,9 @@ pub struct RenderArgs {
     /// Vertical field of view in degrees.
     #[arg(long, value_name = "DEGREES")]
     pub yfov: Option<f32>,
-    /// Environment light: an equirectangular map (.exr or .hdr); overrides the run file.
-    #[arg(long, value_name = "FILE")]
-    pub environment: Option<PathBuf>,
-    /// Environment light of constant radiance R,G,B (linear); overrides the run file.
-    #[arg(long, value_name = "R,G,B", conflicts_with = "environment")]
-    pub environment_color: Option<Triple>,
-    /// Multiplies the environment's radiance.
-    #[arg(long)]
-    pub environment_strength: Option<f32>,
-    /// Rotation of the environment map about world X, then Y, then Z, in degrees.
-    #[arg(long, value_name = "X,Y,Z")]
-    pub environment_rotation: Option<Triple>,
+    /// The environment light.
+    #[command(flatten)]
+    pub environment: EnvironmentArgs,
     /// Output image(s), .exr (linear) or .png (sRGB); repeatable; overrides the run file.
     #[arg(short, long)]
     pub output: Vec<PathBuf>,
@@ -272,7 +266,30 @@ impl RenderArgs {
         c.target = self.target.map(|t| t.0).or(c.target);
         c.up = self.up.map(|t| t.0).or(c.up);
         c.yfov_degrees = self.yfov.or(c.yfov_degrees);
-        let e = &mut run.environment;
+        self.environment.apply(&mut run.environment);
+    }
+}
+
+/// The environment flags of `render` and `bench`.
+#[derive(Args, Debug, Default, Clone)]
+pub struct EnvironmentArgs {
+    /// Environment light: an equirectangular map (.exr or .hdr); overrides the run file.
+    #[arg(long, value_name = "FILE")]
+    pub environment: Option<PathBuf>,
+    /// Environment light of constant radiance R,G,B (linear); overrides the run file.
+    #[arg(long, value_name = "R,G,B", conflicts_with = "environment")]
+    pub environment_color: Option<Triple>,
+    /// Multiplies the environment's radiance.
+    #[arg(long)]
+    pub environment_strength: Option<f32>,
+    /// Rotation of the environment map about world X, then Y, then Z, in degrees.
+    #[arg(long, value_name = "X,Y,Z")]
+    pub environment_rotation: Option<Triple>,
+}
+
+impl EnvironmentArgs {
+    /// Apply the flags over a run file's `[environment]`.
+    pub fn apply(&self, e: &mut crate::scene::environment::EnvironmentSettings) {
         if let Some(file) = &self.environment {
             // Relative to where the command runs, not to the run file's directory.
             e.file = Some(std::path::absolute(file).unwrap_or_else(|_| file.clone()));

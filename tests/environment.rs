@@ -150,7 +150,9 @@ fn malformed_colour_and_conflicting_flags_are_refused_by_the_parser() {
     ] {
         assert!(Cli::try_parse_from(&args).is_err(), "{args:?} parsed");
     }
-    let args = RenderArgs { environment_strength: Some(-1.0), ..RenderArgs::default() };
+    let environment =
+        caustica::cli::EnvironmentArgs { environment_strength: Some(-1.0), ..Default::default() };
+    let args = RenderArgs { environment, ..RenderArgs::default() };
     let dir = temp_dir("negative-strength");
     let path = outdoor_run_file(&dir, "color = [1.0, 1.0, 1.0]");
     let error = scene::load_with(&path, |run| args.apply(run)).expect_err("negative strength");

@@ -11,7 +11,7 @@ use crate::error::{Error, Result};
 use crate::film::Image;
 use crate::film::compare::compare;
 use crate::film::output::{read_exr, write_image};
-use crate::scene::{IntegratorKind, LightSelection, RunFile, Scene, load};
+use crate::scene::{IntegratorKind, LightSelection, RunFile, Scene, load_with};
 use crate::systems::progressive::prepare_progressive;
 use crate::systems::render::prepare;
 use std::io::Write as _;
@@ -55,7 +55,7 @@ pub fn run(args: &BenchArgs) -> Result<BenchReport> {
     }
     std::fs::create_dir_all(&args.out_dir)
         .map_err(|source| Error::Io { path: args.out_dir.clone(), source })?;
-    let (scene, mut run) = load(&args.scene)?;
+    let (scene, mut run) = load_with(&args.scene, |run| args.environment.apply(&mut run.environment))?;
     run.render.seed = args.seed.unwrap_or(run.render.seed);
     run.film.width = args.width.or(run.film.width);
     run.film.height = args.height.or(run.film.height);
