@@ -4,28 +4,11 @@
 // criterion_group! generates an undocumented public fn.
 #![allow(missing_docs)]
 
-use caustica::lights::{Light, LightSelector, LightShape, LightTree};
+use caustica::lights::{Light, LightSelector, LightTree};
 use caustica::sampling::Sampler;
-use caustica::sampling::warp::{Frame, uniform_sphere};
+use caustica::sampling::warp::uniform_sphere;
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
-
-fn lights(n: u32) -> Vec<Light> {
-    (0..n)
-        .map(|i| {
-            let s = Sampler::new(5, i, 0);
-            let c = Vec3::new(s.get1d(0), s.get1d(1), s.get1d(2)) * 100.0;
-            let f = Frame::from_z(uniform_sphere(s.get2d(3)));
-            let le = Vec3::splat(1.0 + 100.0 * s.get1d(5));
-            Light {
-                shape: LightShape::triangle([c, c + f.x * 0.2, c + f.y * 0.2]),
-                le,
-                motion: Vec3::ZERO,
-                prim: i,
-            }
-        })
-        .collect()
-}
 
 fn bench_selection(c: &mut Criterion) {
     let mut group = c.benchmark_group("light_selection");
@@ -38,7 +21,7 @@ fn bench_selection(c: &mut Criterion) {
         .collect();
     group.throughput(Throughput::Elements(QUERIES as u64));
     for n in [10, 100, 1_000, 10_000, 100_000] {
-        let lights = lights(n);
+        let lights = caustica::test_scenes::scattered_lights(n, 100.0);
         let tree = LightTree::build(&lights);
         let power: Vec<f32> = lights.iter().map(Light::power).collect();
         let cdf = LightSelector::new(&power);

@@ -119,11 +119,9 @@ impl Camera {
     /// both the vertical and the horizontal field at `aspect` (width / height). An empty or
     /// non-finite box is framed as the unit sphere.
     pub fn framing(min: Vec3, max: Vec3, aspect: f32, yfov: f32) -> CameraDesc {
-        let (center, radius) = if (max - min).is_finite() && max.cmpge(min).all() {
-            (0.5 * (min + max), (0.5 * (max - min).length()).max(1e-3))
-        } else {
-            (Vec3::ZERO, 1.0)
-        };
+        let (center, radius) = crate::geometry::bounding_sphere(min, max);
+        // A single point still needs a camera some distance away.
+        let radius = radius.max(1e-3);
         let xfov = 2.0 * (aspect.max(1e-3) * (0.5 * yfov).tan()).atan();
         let distance = radius / (0.5 * yfov.min(xfov)).sin();
         let eye = center + Vec3::new(0.0, 0.0, distance);

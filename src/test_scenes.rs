@@ -89,3 +89,28 @@ pub fn environment_furnace(albedo: f32, le: f32) -> Scene {
         ..Scene::default()
     }
 }
+
+/// `n` lights of varied power, colour, size and orientation scattered through a cube of side
+/// `extent` (one in 17 a sphere, the rest one-sided triangles), for light-selection tests and
+/// benches. Deterministic.
+pub fn scattered_lights(n: u32, extent: f32) -> Vec<crate::lights::Light> {
+    use crate::lights::{Light, LightShape};
+    use crate::sampling::Sampler;
+    use crate::sampling::warp::{Frame, uniform_sphere};
+    let size = extent / 10.0;
+    (0..n)
+        .map(|i| {
+            let s = Sampler::new(5, i, 0);
+            let c = Vec3::new(s.get1d(0), s.get1d(1), s.get1d(2)) * extent;
+            let le = Vec3::new(s.get1d(3), s.get1d(4), s.get1d(5)) * (1.0 + 50.0 * s.get1d(6));
+            let shape = if i % 17 == 0 {
+                LightShape::Sphere { center: c, radius: size * (0.05 + 0.1 * s.get1d(7)) }
+            } else {
+                let f = Frame::from_z(uniform_sphere(s.get2d(8)));
+                let r = size * (0.05 + 0.2 * s.get1d(10));
+                LightShape::triangle([c, c + f.x * r, c + f.y * r])
+            };
+            Light { shape, le, motion: Vec3::ZERO, prim: i }
+        })
+        .collect()
+}

@@ -202,18 +202,9 @@ pub fn prepare_progressive(scene: Scene, run: &RunFile) -> Result<ProgressiveRen
     world.insert_resource(workload);
 
     let config = world.resource::<RenderConfig>().clone();
-    world.insert_resource(PhotonWork {
-        // Without light sampling at the hit points, photons carry direct light too.
-        kind: if nee { PhotonMapKind::Bounced } else { PhotonMapKind::Global },
-        total: settings.photons_per_pass,
-        next: 0,
-        seed: config.seed,
-        motion: features.motion,
-        time: None,
-        pass: 0,
-        max_depth: config.max_depth,
-        rr_depth: config.rr_depth,
-    });
+    // Without light sampling at the hit points, photons carry direct light too.
+    let stored = if nee { PhotonMapKind::Bounced } else { PhotonMapKind::Global };
+    world.insert_resource(PhotonWork::new(stored, settings.photons_per_pass, &config, features.motion));
     world.insert_resource(PhotonBuffer::default());
     world.insert_resource(PhotonStats::default());
     world.insert_resource(PassPhotons::default());

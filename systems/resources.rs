@@ -230,6 +230,24 @@ pub struct PhotonWork {
     pub rr_depth: u32,
 }
 
+impl PhotonWork {
+    /// A pass of `total` photons kept by `kind`, none handed out yet, with the path settings of
+    /// `config` (seed, depths); `motion` says whether photons draw a shutter time.
+    pub fn new(kind: PhotonMapKind, total: u32, config: &RenderConfig, motion: bool) -> Self {
+        Self {
+            kind,
+            total,
+            next: 0,
+            seed: config.seed,
+            motion,
+            time: None,
+            pass: 0,
+            max_depth: config.max_depth,
+            rr_depth: config.rr_depth,
+        }
+    }
+}
+
 /// Photons deposited by the running pass, in a thread-independent order.
 #[derive(Resource, Clone, Debug, Default)]
 pub struct PhotonBuffer {

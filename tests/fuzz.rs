@@ -7,7 +7,7 @@
 mod common;
 
 use caustica::film::Image;
-use caustica::scene::{IntegratorKind, RunFile, Scene, load, validate};
+use caustica::scene::{IntegratorKind, RunFile, load, validate};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, FileFailurePersistence, RngAlgorithm, TestRng, TestRunner};
 use std::path::{Path, PathBuf};
@@ -46,11 +46,6 @@ fn bound_settings(run: &mut RunFile) {
     run.photons.final_gather = run.photons.final_gather.min(1);
     run.progressive.passes = run.progressive.passes.min(2);
     run.progressive.photons_per_pass = run.progressive.photons_per_pass.min(2000);
-}
-
-/// Prepare and render; Err carries the error message.
-fn render(scene: Scene, run: &RunFile) -> Result<Image, String> {
-    common::try_render(scene, run)
 }
 
 fn check_image(image: &Image, what: &str) -> Result<(), TestCaseError> {
@@ -277,7 +272,7 @@ fn run_file_case(text: &str) -> Result<(), TestCaseError> {
         let mut scene = run.load_scene(&path).map_err(|e| e.to_string())?;
         validate(&mut scene, &path).map_err(|e| e.to_string())?;
         bound_settings(&mut run);
-        render(scene, &run)
+        common::try_render(scene, &run)
     })();
     let seconds = start.elapsed().as_secs_f64();
     count(&outcome);
@@ -501,7 +496,7 @@ fn gltf_case(seed: usize, edits: &[(u8, u32, u16)], integrator: usize) -> Result
     let outcome = load(&path).map_err(|e| e.to_string()).and_then(|(scene, mut run)| {
         run.render.integrator = INTEGRATORS[integrator % INTEGRATORS.len()];
         bound_settings(&mut run);
-        render(scene, &run)
+        common::try_render(scene, &run)
     });
     let seconds = start.elapsed().as_secs_f64();
     let _ = std::fs::remove_file(&path);
@@ -566,7 +561,7 @@ fn geometry_beyond_the_f32_range_is_an_error_and_up_to_it_renders() {
     let mut scene = run.load_scene(&path).unwrap();
     validate(&mut scene, &path).unwrap();
     bound_settings(&mut run);
-    let image = render(scene, &run).unwrap();
+    let image = common::try_render(scene, &run).unwrap();
     assert!(image.pixels.iter().all(|p| p.is_finite()));
 }
 

@@ -176,11 +176,6 @@ fn tiny_run(kind: IntegratorKind, size: u32) -> RunFile {
     run
 }
 
-/// Render with whichever driver the integrator needs.
-fn render_with(scene: Scene, run: &RunFile) -> Image {
-    common::render(scene, run)
-}
-
 fn assert_finite(image: &Image, what: &str) {
     for (i, p) in image.pixels.iter().enumerate() {
         assert!(p.is_finite() && p.min_element() >= 0.0, "{what}: pixel {i} is {p}");
@@ -272,10 +267,10 @@ fn a_furnace_has_the_same_radiance_from_a_millimetre_to_a_hundred_kilometres() {
     for kind in EVERY_INTEGRATOR {
         let run = tiny_run(kind, 16);
         let at_one =
-            assert_unit_furnace(kind, &render_with(scaled_furnace(1.0), &run), &format!("{kind:?}, 1 m"));
+            assert_unit_furnace(kind, &common::render(scaled_furnace(1.0), &run), &format!("{kind:?}, 1 m"));
         for scale in [1e-3f32, 1e-1, 1e2, 1e5] {
             let what = format!("{kind:?}, scale {scale} m");
-            let mean = assert_unit_furnace(kind, &render_with(scaled_furnace(scale), &run), &what);
+            let mean = assert_unit_furnace(kind, &common::render(scaled_furnace(scale), &run), &what);
             if matches!(kind, IntegratorKind::Pt | IntegratorKind::PtNaive) {
                 assert!((mean - at_one).abs() < 5e-3, "{what}: mean {mean} but {at_one} at 1 m");
             }
@@ -323,7 +318,7 @@ fn coplanar_splits_and_zero_area_triangles_keep_the_furnace_at_unit_radiance() {
     assert_eq!(summary.degenerate_triangles, zero_area, "validation dropped the wrong triangles");
     assert_eq!(summary.degenerate_emitter_triangles, zero_area);
     for kind in EVERY_INTEGRATOR {
-        let image = render_with(scene.clone(), &tiny_run(kind, 16));
+        let image = common::render(scene.clone(), &tiny_run(kind, 16));
         assert_unit_furnace(kind, &image, &format!("{kind:?}, coplanar + degenerate"));
     }
 }
@@ -343,7 +338,7 @@ fn unvalidated_zero_area_triangles_render_without_nan() {
         ..Mesh::default()
     });
     for kind in EVERY_INTEGRATOR {
-        let image = render_with(scene.clone(), &tiny_run(kind, 16));
+        let image = common::render(scene.clone(), &tiny_run(kind, 16));
         assert_unit_furnace(kind, &image, &format!("{kind:?}, unvalidated zero-area triangles"));
     }
 }
@@ -365,7 +360,7 @@ fn grazing_views_of_a_large_plane_see_exactly_its_emission() {
     assert!(scene.meshes[0].positions[1].cross(scene.meshes[0].positions[2]).y >= 0.0);
     let size = 32;
     for kind in EVERY_INTEGRATOR {
-        let image = render_with(scene.clone(), &tiny_run(kind, size));
+        let image = common::render(scene.clone(), &tiny_run(kind, size));
         let what = format!("{kind:?}, grazing plane");
         assert_finite(&image, &what);
         let v = grey(&image);
@@ -404,7 +399,7 @@ fn no_light_leaks_through_a_thin_wall() {
             ..Scene::default()
         };
         for kind in EVERY_INTEGRATOR {
-            let image = render_with(scene.clone(), &tiny_run(kind, 16));
+            let image = common::render(scene.clone(), &tiny_run(kind, 16));
             let what = format!("{kind:?}, wall {thickness} m thick");
             assert_finite(&image, &what);
             let lit = image.pixels.iter().filter(|p| p.max_element() > 0.0).count();
@@ -431,7 +426,7 @@ fn hard_scene(name: &str, kind: IntegratorKind) -> (Scene, RunFile) {
 fn a_light_inside_glass_gets_out_and_never_exceeds_its_emission() {
     for kind in EVERY_INTEGRATOR {
         let (scene, run) = hard_scene("light-in-glass.toml", kind);
-        let image = render_with(scene, &run);
+        let image = common::render(scene, &run);
         let what = format!("{kind:?}, light in glass");
         assert_finite(&image, &what);
         let v = grey(&image);
@@ -452,12 +447,12 @@ fn a_light_inside_glass_gets_out_and_never_exceeds_its_emission() {
 #[test]
 fn a_light_just_above_a_surface_lights_it_without_blowing_up() {
     let (scene, run) = hard_scene("light-above-surface.toml", IntegratorKind::Pt);
-    let reference = render_with(scene, &run);
+    let reference = common::render(scene, &run);
     let f = grey(&reference).iter().filter(|&&x| x >= 1.0 - 1e-6).count() as f64 / 256.0;
     let expected_max = f + 0.5 * (1.0 - f);
     for kind in EVERY_INTEGRATOR {
         let (scene, run) = hard_scene("light-above-surface.toml", kind);
-        let image = render_with(scene, &run);
+        let image = common::render(scene, &run);
         let what = format!("{kind:?}, light 1e-4 above a surface");
         assert_finite(&image, &what);
         let (mean, _) = mean_and_standard_error(&image);
@@ -476,7 +471,7 @@ fn images_scale_linearly_from_tiny_to_huge_radiance() {
     for kind in EVERY_INTEGRATOR {
         let (scene, _) = load(&common::data("cornell-box.gltf")).expect("test scene loads");
         let run = tiny_run(kind, 16);
-        let reference = render_with(scene.clone(), &run);
+        let reference = common::render(scene.clone(), &run);
         assert_finite(&reference, &format!("{kind:?}, cornell box"));
         let peak = reference.pixels.iter().map(|p| p.max_element()).fold(0.0, f32::max);
         for k in [1e-6f32, 1e6] {
@@ -484,7 +479,7 @@ fn images_scale_linearly_from_tiny_to_huge_radiance() {
             for m in &mut scaled.materials {
                 m.emission *= k;
             }
-            let image = render_with(scaled, &run);
+            let image = common::render(scaled, &run);
             let what = format!("{kind:?}, emission × {k}");
             assert_finite(&image, &what);
             for (i, (a, b)) in image.pixels.iter().zip(&reference.pixels).enumerate() {
@@ -530,7 +525,7 @@ fn big_mesh_renders_for_every_integrator(n: u32) {
         let start = Instant::now();
         let mut run = tiny_run(kind, 16);
         run.render.spp = 1;
-        let image = render_with(scene.clone(), &run);
+        let image = common::render(scene.clone(), &run);
         let what = format!("{kind:?}, {triangles} triangles");
         assert_finite(&image, &what);
         assert!(image.mean().max_element() > 0.0, "{what}: black image");

@@ -27,3 +27,14 @@ impl Default for Ray {
         Self { o: Vec3::ZERO, d: Vec3::Z, t_max: 0.0, time: 0.0 }
     }
 }
+
+/// Centre and radius of the sphere around the box [`min`, `max`]. An empty or non-finite box (a
+/// scene with no geometry) is taken as the unit sphere at the origin, so that what is framed or
+/// lit around it stays finite.
+pub fn bounding_sphere(min: Vec3, max: Vec3) -> (Vec3, f32) {
+    if (max - min).is_finite() && max.cmpge(min).all() {
+        (0.5 * (min + max), 0.5 * (max - min).length())
+    } else {
+        (Vec3::ZERO, 1.0)
+    }
+}

@@ -141,11 +141,9 @@ impl Environment {
     /// The environment `desc` around the bounding box [`min`, `max`] (an empty or non-finite box is
     /// taken as the unit sphere at the origin).
     pub fn new(desc: &EnvironmentDesc, min: Vec3, max: Vec3) -> Self {
-        let (center, radius) = if (max - min).is_finite() && max.cmpge(min).all() {
-            (0.5 * (min + max), (0.5 * (max - min).length()).max(1e-6))
-        } else {
-            (Vec3::ZERO, 1.0)
-        };
+        let (center, radius) = crate::geometry::bounding_sphere(min, max);
+        // A single point still needs a photon disc of some area.
+        let radius = radius.max(1e-6);
         let radiance = match &desc.radiance {
             EnvironmentRadiance::Constant(c) => Radiance::Constant(*c * desc.strength),
             EnvironmentRadiance::Map(image) => Radiance::Map(EnvironmentMap::new(image, desc.strength)),

@@ -1,52 +1,31 @@
 //! Discrete light selection by a cumulative distribution (uniform or by power).
 
+use crate::sampling::distribution::Distribution1D;
+
 /// Picks index i with probability w_i / Σw by binary search over the CDF: O(log n) per sample.
 #[derive(Clone, Debug, Default)]
 pub struct LightSelector {
-    cdf: Vec<f32>,
-    pmf: Vec<f32>,
+    /// `None` with no lights (a distribution always has at least one step).
+    cdf: Option<Distribution1D>,
 }
 
 impl LightSelector {
     /// A selector over non-negative weights; all-zero weights fall back to uniform.
     pub fn new(weights: &[f32]) -> Self {
-        let total: f64 = weights.iter().map(|&w| w.max(0.0) as f64).sum();
-        let n = weights.len();
-        let pmf: Vec<f32> = if total > 0.0 {
-            weights.iter().map(|&w| (w.max(0.0) as f64 / total) as f32).collect()
-        } else {
-            vec![1.0 / n.max(1) as f32; n]
-        };
-        let mut acc = 0.0f64;
-        let mut cdf: Vec<f32> = pmf
-            .iter()
-            .map(|&p| {
-                acc += p as f64;
-                acc as f32
-            })
-            .collect();
-        if let Some(last) = cdf.last_mut() {
-            *last = 1.0;
-        }
-        Self { cdf, pmf }
+        Self { cdf: (!weights.is_empty()).then(|| Distribution1D::new(weights)) }
     }
 
     /// The index for `u` in [0, 1) and its probability; `None` with no lights.
     #[inline]
     pub fn sample(&self, u: f32) -> Option<(u32, f32)> {
-        if self.cdf.is_empty() {
-            return None;
-        }
-        // First index whose CDF exceeds u; zero-probability entries are never chosen because their
-        // CDF equals the previous one.
-        let i = self.cdf.partition_point(|&c| c <= u).min(self.cdf.len() - 1);
-        Some((i as u32, self.pmf[i]))
+        let (i, pmf) = self.cdf.as_ref()?.sample_discrete(u);
+        Some((i as u32, pmf))
     }
 
     /// Probability of index `i`.
     #[inline]
     pub fn pmf(&self, i: u32) -> f32 {
-        self.pmf.get(i as usize).copied().unwrap_or(0.0)
+        self.cdf.as_ref().map_or(0.0, |d| d.step_probability(i as usize))
     }
 }
 

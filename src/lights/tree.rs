@@ -369,24 +369,8 @@ mod tests {
     use super::*;
     use crate::sampling::Sampler;
 
-    /// Lights of varied power, size and orientation in a 10 m cube (and two spheres).
     fn lights(n: u32) -> Vec<Light> {
-        (0..n)
-            .map(|i| {
-                let s = Sampler::new(5, i, 0);
-                let c = Vec3::new(s.get1d(0), s.get1d(1), s.get1d(2)) * 10.0;
-                let le = Vec3::new(s.get1d(3), s.get1d(4), s.get1d(5)) * (1.0 + 50.0 * s.get1d(6));
-                let shape = if i % 17 == 0 {
-                    LightShape::Sphere { center: c, radius: 0.05 + 0.1 * s.get1d(7) }
-                } else {
-                    let d = crate::sampling::warp::uniform_sphere(s.get2d(8));
-                    let f = crate::sampling::warp::Frame::from_z(d);
-                    let r = 0.05 + 0.2 * s.get1d(10);
-                    LightShape::triangle([c, c + f.x * r, c + f.y * r])
-                };
-                Light { shape, le, motion: Vec3::ZERO, prim: i }
-            })
-            .collect()
+        crate::test_scenes::scattered_lights(n, 10.0)
     }
 
     fn shading_points() -> impl Iterator<Item = (Vec3, Vec3)> {

@@ -171,25 +171,11 @@ impl VisibilityGrid {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::lights::{Light, LightShape};
+    use crate::lights::Light;
     use crate::sampling::Sampler;
 
     fn lights(n: u32) -> Vec<Light> {
-        (0..n)
-            .map(|i| {
-                let s = Sampler::new(5, i, 0);
-                let c = Vec3::new(s.get1d(0), s.get1d(1), s.get1d(2)) * 10.0;
-                let f =
-                    crate::sampling::warp::Frame::from_z(crate::sampling::warp::uniform_sphere(s.get2d(3)));
-                let le = Vec3::splat(1.0 + 20.0 * s.get1d(5));
-                Light {
-                    shape: LightShape::triangle([c, c + f.x * 0.3, c + f.y * 0.3]),
-                    le,
-                    motion: Vec3::ZERO,
-                    prim: i,
-                }
-            })
-            .collect()
+        crate::test_scenes::scattered_lights(n, 10.0)
     }
 
     /// A grid that learned arbitrary weights: every cluster in every cell gets a random share.

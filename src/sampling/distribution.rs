@@ -5,101 +5,94 @@
 use super::ONE_MINUS_EPSILON;
 use glam::Vec2;
 
-/// A step function on [0, 1) with `n` equal steps, normalised into a density.
+/// A step function on [0, 1) with `n` equal steps, normalised into a density. Only the CDF is
+/// kept: sampling, the pdf and the step probabilities all read the widths of its intervals, so they
+/// agree exactly (a step whose mass rounds away in f32 is never sampled and has density 0).
 #[derive(Clone, Debug, Default)]
 pub struct Distribution1D {
-    /// Step heights (non-negative).
-    func: Vec<f32>,
     /// CDF at the step boundaries: `cdf[0] = 0`, `cdf[n] = 1`.
     cdf: Vec<f32>,
-    /// ∫ func over [0, 1).
+    /// ∫ func over [0, 1) (0 for a function that is zero everywhere).
     integral: f32,
 }
 
 impl Distribution1D {
     /// The distribution proportional to `func` (negative values count as 0). A function that is zero
-    /// everywhere becomes uniform, so that sampling never fails where the caller has nothing better.
+    /// everywhere, or empty, becomes uniform (over one step when empty), so that sampling never fails
+    /// where the caller has nothing better.
     pub fn new(func: &[f32]) -> Self {
         let n = func.len().max(1);
-        let mut func: Vec<f32> = func.iter().map(|&f| if f > 0.0 { f } else { 0.0 }).collect();
-        if func.is_empty() {
-            func.push(0.0);
-        }
         // Accumulate in f64: a 4096-wide row of tiny values next to a sun would otherwise lose the
-        // small steps' mass to rounding.
-        let mut cdf = Vec::with_capacity(n + 1);
+        // small steps' mass to rounding before it is normalised.
         let mut acc = 0.0f64;
-        cdf.push(0.0f64);
-        for &f in &func {
-            acc += f as f64 / n as f64;
-            cdf.push(acc);
+        let mut cdf64 = Vec::with_capacity(n + 1);
+        cdf64.push(0.0f64);
+        for &f in func {
+            acc += f.max(0.0) as f64 / n as f64;
+            cdf64.push(acc);
         }
-        let integral = acc;
-        let cdf: Vec<f32> = if integral > 0.0 {
-            cdf.iter().map(|&c| (c / integral) as f32).collect()
+        let cdf: Vec<f32> = if acc > 0.0 {
+            cdf64.iter().map(|&c| (c / acc) as f32).collect()
         } else {
-            func.iter_mut().for_each(|f| *f = 1.0);
             (0..=n).map(|i| i as f32 / n as f32).collect()
         };
-        let integral = if integral > 0.0 { integral as f32 } else { 1.0 };
-        let mut cdf = cdf;
-        cdf[n] = 1.0;
-        Self { func, cdf, integral }
+        let mut dist = Self { cdf, integral: acc as f32 };
+        dist.cdf[n] = 1.0;
+        dist
     }
 
     /// Number of steps.
     pub fn len(&self) -> usize {
-        self.func.len()
+        self.cdf.len().saturating_sub(1)
     }
 
-    /// Whether there are no steps (never: an empty function has one zero step).
+    /// Whether there are no steps (only for `Default`: `new` always makes at least one).
     pub fn is_empty(&self) -> bool {
-        self.func.is_empty()
+        self.len() == 0
     }
 
-    /// ∫ func over [0, 1) (1 for a function that was zero everywhere).
+    /// ∫ func over [0, 1) of the function it was built from.
     pub fn integral(&self) -> f32 {
         self.integral
+    }
+
+    /// The step that holds `u` in [0, 1) when the steps are laid end to end by probability, and its
+    /// probability. Steps of zero mass have equal boundaries and are skipped over, never chosen.
+    #[inline]
+    pub fn sample_discrete(&self, u: f32) -> (usize, f32) {
+        let i = (self.cdf.partition_point(|&c| c <= u).max(1) - 1).min(self.len() - 1);
+        (i, self.step_probability(i))
     }
 
     /// A point x in [0, 1) for `u` in [0, 1), its density and its step.
     #[inline]
     pub fn sample(&self, u: f32) -> (f32, f32, usize) {
-        let n = self.func.len();
-        // The last boundary whose CDF is ≤ u: the step that holds u. Steps of zero mass have equal
-        // boundaries and are skipped over, so they are never chosen.
-        let i = (self.cdf.partition_point(|&c| c <= u).max(1) - 1).min(n - 1);
-        let width = self.cdf[i + 1] - self.cdf[i];
-        let offset = if width > 0.0 { (u - self.cdf[i]) / width } else { 0.0 };
-        let x = ((i as f32 + offset.clamp(0.0, 1.0)) / n as f32).min(ONE_MINUS_EPSILON);
-        (x, self.step_density(i), i)
+        let (i, probability) = self.sample_discrete(u);
+        let offset = if probability > 0.0 { (u - self.cdf[i]) / probability } else { 0.0 };
+        let n = self.len() as f32;
+        let x = ((i as f32 + offset.clamp(0.0, 1.0)) / n).min(ONE_MINUS_EPSILON);
+        (x, probability * n, i)
     }
 
     /// Density at x in [0, 1).
     #[inline]
     pub fn pdf(&self, x: f32) -> f32 {
-        self.step_density(self.step(x))
+        self.step_probability(self.step(x)) * self.len() as f32
     }
 
-    /// Probability of step `i` (the density integrated over it).
+    /// Probability of step `i` (the density integrated over it); 0 outside the steps.
     #[inline]
     pub fn step_probability(&self, i: usize) -> f32 {
-        self.cdf[i + 1] - self.cdf[i]
-    }
-
-    /// The density over step `i`, from the width of its CDF interval: what sampling actually does.
-    /// `func / integral` would differ by the f32 rounding of the CDF, which for a dim step beside a
-    /// bright one (a row of sky next to the sun) is a large relative error, and a step whose mass
-    /// rounds away would claim a density it is never sampled with.
-    #[inline]
-    fn step_density(&self, i: usize) -> f32 {
-        self.step_probability(i) * self.func.len() as f32
+        match (self.cdf.get(i), self.cdf.get(i + 1)) {
+            (Some(a), Some(b)) => b - a,
+            _ => 0.0,
+        }
     }
 
     /// The step that holds x (clamped into range).
     #[inline]
     pub fn step(&self, x: f32) -> usize {
-        let n = self.func.len();
+        let n = self.len();
         // NaN becomes 0 through the cast.
         ((x * n as f32) as usize).min(n - 1)
     }
@@ -119,10 +112,7 @@ impl Distribution2D {
         assert_eq!(func.len(), width * height, "function values must fill the grid");
         let rows: Vec<Distribution1D> = func.chunks(width).map(Distribution1D::new).collect();
         // A row that was all zero became uniform for its own sake; its marginal weight stays zero.
-        let row_mass: Vec<f32> = func
-            .chunks(width)
-            .map(|row| (row.iter().map(|&f| f.max(0.0) as f64).sum::<f64>() / width as f64) as f32)
-            .collect();
+        let row_mass: Vec<f32> = rows.iter().map(Distribution1D::integral).collect();
         let marginal = Distribution1D::new(&row_mass);
         Self { rows, marginal }
     }
@@ -169,6 +159,7 @@ mod tests {
     #[test]
     fn zero_function_becomes_uniform() {
         let dist = Distribution1D::new(&[0.0, 0.0]);
+        assert_eq!(dist.integral(), 0.0);
         assert_eq!(dist.pdf(0.3), 1.0);
         let (x, pdf, _) = dist.sample(0.75);
         assert!((x - 0.75).abs() < 1e-6 && pdf == 1.0);

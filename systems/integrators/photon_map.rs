@@ -106,17 +106,8 @@ pub fn run_photon_pass(
 ) -> (PhotonMap, PhotonPassReport) {
     let start = Instant::now();
     let wavefront = count.min(MAX_WAVEFRONT);
-    world.insert_resource(PhotonWork {
-        kind,
-        total: count,
-        next: wavefront,
-        seed: config.seed,
-        motion,
-        time: None,
-        pass: 0,
-        max_depth: config.max_depth,
-        rr_depth: config.rr_depth,
-    });
+    // The first wavefront's photons are handed out at spawn.
+    world.insert_resource(PhotonWork { next: wavefront, ..PhotonWork::new(kind, count, config, motion) });
     world.insert_resource(PhotonBuffer::default());
     world.insert_resource(PhotonStats::default());
     let entities = spawn_photon_wavefront(world, wavefront, PathStatus::NeedsCamera);
