@@ -13,7 +13,7 @@ use crate::scene::{CameraDesc, FilterKind};
 use glam::{Mat4, Vec2, Vec3};
 
 /// A perspective thin-lens camera.
-#[derive(bevy_ecs::resource::Resource, Clone, Debug)]
+#[derive(Clone, Debug)]
 pub struct Camera {
     /// Position of the lens centre.
     pub origin: Vec3,

@@ -5,15 +5,14 @@
 //! scene draws neither (the integrator picks the instance from `SceneFeatures`).
 
 use super::components::{PathRay, PathState, PathStatus};
-use super::resources::RenderConfig;
-use crate::camera::Camera;
+use super::resources::{RenderCamera, RenderConfig};
 use crate::sampling::Sampler;
 use bevy_ecs::prelude::*;
 use glam::{Vec2, Vec3};
 
 /// Generate camera rays for paths that need one. `LENS`: sample the aperture; `MOTION`: sample the shutter.
 pub fn emit_camera_paths<const LENS: bool, const MOTION: bool>(
-    camera: Res<Camera>,
+    camera: Res<RenderCamera>,
     config: Res<RenderConfig>,
     mut paths: Query<(&mut PathRay, &mut PathState)>,
 ) {

@@ -12,9 +12,8 @@
 
 use super::components::{AdaptiveStats, Chi2Cells, HitPoint, PathState, PathStatus, ShadowRay};
 use super::photon_estimate::NORMAL_COSINE;
-use super::resources::{PhotonBuffer, RenderStats, SceneGeometry, Workload};
+use super::resources::{PhotonBuffer, RenderFilm, RenderStats, SceneGeometry, Workload};
 use super::visible_points::hit_point_bsdf;
-use crate::film::Film;
 use crate::lights::area::luminance;
 use crate::materials::TransportMode;
 use crate::photon::progressive::{biweight_laplacian, chi2_cell};
@@ -24,7 +23,7 @@ use glam::Vec3;
 /// Splat finished paths, count rays and dropped samples, and advance each entity's work.
 pub fn splat_paths_to_film(
     mut workload: ResMut<Workload>,
-    mut film: ResMut<Film>,
+    mut film: ResMut<RenderFilm>,
     mut stats: ResMut<RenderStats>,
     mut paths: Query<&mut PathState>,
 ) {

@@ -13,10 +13,10 @@ use super::radius::CHI2_FIRST_TEST;
 use super::render::{MAX_WAVEFRONT, scene_world};
 use super::resources::{
     PhotonBuffer, PhotonMapKind, PhotonStats, PhotonWork, ProgressiveConfig, RadiusRule, RenderConfig,
-    RenderStats, SceneFeatures, SceneGeometry, Workload,
+    RenderFilm, RenderStats, SceneFeatures, SceneGeometry, Workload,
 };
 use crate::error::{Error, Result};
-use crate::film::{Film, Image};
+use crate::film::Image;
 use crate::photon::progressive::initial_radius;
 use crate::scene::schedule::Pass;
 use crate::scene::{IntegratorKind, ProgressiveSettings, RunFile, Scene};
@@ -314,7 +314,7 @@ impl ProgressiveRenderer {
     fn cap_initial_radius_by_footprint(&mut self) {
         /// A first estimate blurred over up to ten pixels is smooth enough and sharpens within passes.
         const FOOTPRINT_PIXELS: f32 = 10.0;
-        let camera = self.world.resource::<crate::camera::Camera>();
+        let camera = self.world.resource::<super::resources::RenderCamera>();
         let (cx, cy) = (camera.width / 2, camera.height / 2);
         let ray = |x| camera.generate_ray(x, cy, glam::Vec2::splat(0.5), glam::Vec2::splat(0.5), 0.0);
         let pixel_angle = ray(cx).d.normalize().angle_between(ray(cx + 1).d.normalize());
@@ -358,7 +358,7 @@ impl ProgressiveRenderer {
 
     /// The image so far: emission and direct light from the film, plus each pixel's photon estimate.
     pub fn image(&mut self) -> Image {
-        let mut image = self.world.resource::<Film>().image();
+        let mut image = self.world.resource::<RenderFilm>().image();
         let passes = self.passes.max(1) as f64;
         let rule = self.world.resource::<ProgressiveConfig>().rule;
         let mut hit_points = self.world.query::<(&PathState, &HitPoint)>();

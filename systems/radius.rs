@@ -120,12 +120,12 @@ fn clear_pass(hp: &mut HitPoint) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::systems::resources::RadiusRule;
+    use crate::resources::RadiusRule;
     use bevy_ecs::system::RunSystemOnce;
     use glam::DVec3;
 
     fn world(rule: RadiusRule) -> World {
-        crate::systems::render::init_thread_pools(None);
+        crate::render::init_thread_pools(None);
         let mut world = World::new();
         world.insert_resource(ProgressiveConfig {
             rule,

@@ -5,7 +5,7 @@
 
 use super::components::{PathHit, PathRay, PathState, PathStatus, ShadowRay};
 use super::integrators;
-use super::resources::{RenderConfig, RenderStats, SceneFeatures, SceneGeometry, Workload, scene_lights};
+use super::resources::{RenderCamera, RenderConfig, RenderFilm, RenderStats, SceneFeatures, SceneGeometry, Workload, scene_lights};
 use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::film::{Film, Image};
@@ -105,8 +105,8 @@ pub fn scene_world(scene: Scene, run: &RunFile) -> Result<(World, SceneFeatures)
         rr_depth: settings.rr_depth,
         pass_time: None,
     });
-    world.insert_resource(Film::new(width, height));
-    world.insert_resource(camera);
+    world.insert_resource(RenderFilm(Film::new(width, height)));
+    world.insert_resource(RenderCamera(camera));
     world.insert_resource(scene_geometry);
     world.insert_resource(RenderStats::default());
     Ok((world, features))
@@ -133,7 +133,7 @@ pub fn prepare(scene: Scene, run: &RunFile) -> Result<Renderer> {
     let order = run.schedule.stage_order().unwrap_or(crate::scene::schedule::CYCLE);
     let (mut world, features) = scene_world(scene, run)?;
     let pixels = {
-        let film = world.resource::<Film>();
+        let film = world.resource::<RenderFilm>();
         film.width * film.height
     };
     let wavefront = pixels.min(MAX_WAVEFRONT);
@@ -256,6 +256,6 @@ impl Renderer {
 
     /// The mean radiance per pixel so far.
     pub fn image(&self) -> Image {
-        self.world.resource::<Film>().image()
+        self.world.resource::<RenderFilm>().image()
     }
 }

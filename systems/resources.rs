@@ -1,11 +1,40 @@
 //! Resources shared by the systems: the scene, the settings of this render, the film and statistics.
 
 use crate::camera::Camera;
+use crate::film::Film;
 use crate::geometry::{Geometry, SurfaceHit};
 use crate::lights::Lights;
 use crate::materials::ShadingParams;
 use crate::scene::{IntegratorKind, MaterialDesc, Texture, TextureRef};
 use bevy_ecs::resource::Resource;
+
+/// The camera that `emit` generates rays from.
+#[derive(Resource, Clone, Debug)]
+pub struct RenderCamera(pub Camera);
+
+impl std::ops::Deref for RenderCamera {
+    type Target = Camera;
+    fn deref(&self) -> &Camera {
+        &self.0
+    }
+}
+
+/// The film that `gather` splats finished samples onto.
+#[derive(Resource, Clone, Debug)]
+pub struct RenderFilm(pub Film);
+
+impl std::ops::Deref for RenderFilm {
+    type Target = Film;
+    fn deref(&self) -> &Film {
+        &self.0
+    }
+}
+
+impl std::ops::DerefMut for RenderFilm {
+    fn deref_mut(&mut self) -> &mut Film {
+        &mut self.0
+    }
+}
 
 /// The scene as the systems see it: BVHs, lights, materials and textures.
 #[derive(Resource, Clone, Debug)]

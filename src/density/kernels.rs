@@ -5,12 +5,12 @@
 //! K = 1/π, that is Jensen's Σ f ΔΦ / (π r²); the others weigh near photons more, which sharpens
 //! caustic edges at the price of more noise (Silverman 1986, §4.3; Jensen 2001, §7.5).
 
-use clap::ValueEnum;
+use crate::choice::Choice;
 use serde::Deserialize;
 use std::f32::consts::PI;
 
 /// A density kernel.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, ValueEnum)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Kernel {
     /// Constant over the disc.
@@ -24,6 +24,16 @@ pub enum Kernel {
     Biweight,
     /// Gaussian truncated at the disc's rim (Jensen's β = 1.953), renormalized.
     Gaussian,
+}
+
+impl Choice for Kernel {
+    const CHOICES: &'static [(Self, &'static str, &'static str)] = &[
+        (Self::Uniform, "uniform", "constant over the disc"),
+        (Self::Cone, "cone", "linear fall-off, 1 - s"),
+        (Self::Epanechnikov, "epanechnikov", "1 - s^2, least asymptotic integrated squared error"),
+        (Self::Biweight, "biweight", "(1 - s^2)^2, Silverman's quartic"),
+        (Self::Gaussian, "gaussian", "Gaussian truncated at the rim, renormalized"),
+    ];
 }
 
 /// Jensen's Gaussian filter steepness.

@@ -7,7 +7,7 @@ use glam::{DVec3, Vec3};
 
 /// Accumulated radiance per pixel. Each pixel is written by one path entity in sample order, so the sum
 /// is the same whatever the thread count.
-#[derive(bevy_ecs::resource::Resource, Clone, Debug)]
+#[derive(Clone, Debug)]
 pub struct Film {
     /// Width in pixels.
     pub width: u32,

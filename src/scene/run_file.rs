@@ -2,13 +2,13 @@
 
 use super::{MaterialDesc, Scene, Sphere};
 use crate::error::{Error, Result};
-use clap::ValueEnum;
+use crate::choice::Choice;
 use glam::Vec3;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
 /// Which integrator renders the image (the name used in run files and on the command line).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, ValueEnum)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum IntegratorKind {
     /// Path tracing with next-event estimation and MIS (power heuristic).
@@ -43,7 +43,7 @@ impl IntegratorKind {
 }
 
 /// How next-event estimation picks a light.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, ValueEnum)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum LightSelection {
     /// Every light equally likely.
@@ -60,7 +60,7 @@ pub enum LightSelection {
 }
 
 /// Pixel reconstruction filter, sampled by importance (each sample lands in one pixel with weight 1).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, ValueEnum)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum FilterKind {
     /// Box of radius 0.5 pixel (the references' filter).
@@ -70,6 +70,35 @@ pub enum FilterKind {
     Tent,
     /// Gaussian with sigma 0.5 pixel, truncated at radius 1.5.
     Gaussian,
+}
+
+impl Choice for IntegratorKind {
+    const CHOICES: &'static [(Self, &'static str, &'static str)] = &[
+        (Self::Pt, "pt", "path tracing with next-event estimation and MIS"),
+        (Self::PtNaive, "pt-naive", "path tracing with BSDF sampling only"),
+        (Self::Pm, "pm", "photon mapping (Jensen): NEE, caustic map, global map or final gathering"),
+        (Self::Ppm, "ppm", "progressive photon mapping: hit points traced once, radii shrink"),
+        (Self::Sppm, "sppm", "stochastic progressive photon mapping: hit points re-traced every pass"),
+        (Self::Appm, "appm", "adaptive PPM: per-pixel radius from estimated variance and bias"),
+        (Self::Cppm, "cppm", "chi-squared PPM: the radius shrinks when photons are not uniform in the disc"),
+    ];
+}
+
+impl Choice for LightSelection {
+    const CHOICES: &'static [(Self, &'static str, &'static str)] = &[
+        (Self::Uniform, "uniform", "every light equally likely"),
+        (Self::Power, "power", "in proportion to emitted power"),
+        (Self::Tree, "tree", "a light tree: power, distance and orientation"),
+        (Self::Visibility, "visibility", "the light tree plus visibility learned from early shadow rays"),
+    ];
+}
+
+impl Choice for FilterKind {
+    const CHOICES: &'static [(Self, &'static str, &'static str)] = &[
+        (Self::Box, "box", "box of radius 0.5 pixel"),
+        (Self::Tent, "tent", "tent of radius 1 pixel"),
+        (Self::Gaussian, "gaussian", "Gaussian, sigma 0.5 pixel, truncated at 1.5"),
+    ];
 }
 
 /// The `[render]` table.

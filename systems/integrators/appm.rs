@@ -14,10 +14,10 @@
 //! instead of Hachisuka's flux correction, which assumes a radius that only shrinks.
 
 use super::ppm::{ProgressiveSchedules, add_camera_pass, add_photon_pass};
-use crate::systems::PassSystems;
-use crate::systems::gather::{build_pass_photon_map, gather_photons_with_laplacian};
-use crate::systems::radius::update_radii_adaptive;
-use crate::systems::resources::SceneFeatures;
+use crate::PassSystems;
+use crate::gather::{build_pass_photon_map, gather_photons_with_laplacian};
+use crate::radius::update_radii_adaptive;
+use crate::resources::SceneFeatures;
 use bevy_ecs::prelude::*;
 
 /// Wire `appm`: `sppm`'s passes with the Laplacian-estimating gather and the MSE-optimal radius.

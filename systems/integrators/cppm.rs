@@ -13,10 +13,10 @@
 //! k-NN parameter.
 
 use super::ppm::{ProgressiveSchedules, add_camera_pass, add_photon_pass};
-use crate::systems::PassSystems;
-use crate::systems::gather::{build_pass_photon_map, gather_photons_into_chi2_cells};
-use crate::systems::radius::update_radii_by_chi2;
-use crate::systems::resources::SceneFeatures;
+use crate::PassSystems;
+use crate::gather::{build_pass_photon_map, gather_photons_into_chi2_cells};
+use crate::radius::update_radii_by_chi2;
+use crate::resources::SceneFeatures;
 use bevy_ecs::prelude::*;
 
 /// Wire `cppm`: `sppm`'s passes with the cell-counting gather and the χ² radius rule.

@@ -8,7 +8,7 @@ pub mod ppm;
 pub mod sppm;
 
 use crate::scene::schedule::Stage;
-use crate::systems::PassSystems;
+use crate::PassSystems;
 use bevy_ecs::schedule::{IntoScheduleConfigs, Schedule};
 
 /// The stage set of a run-file stage name.

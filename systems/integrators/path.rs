@@ -13,12 +13,12 @@
 //! camera has an aperture or something moves, and `pt` drops light sampling when there is no light.
 
 use crate::scene::IntegratorKind;
-use crate::systems::PassSystems;
-use crate::systems::emit::emit_camera_paths_for;
-use crate::systems::gather::splat_paths_to_film;
-use crate::systems::resources::SceneFeatures;
-use crate::systems::scatter::scatter_paths;
-use crate::systems::trace::{trace_paths, trace_shadow_rays};
+use crate::PassSystems;
+use crate::emit::emit_camera_paths_for;
+use crate::gather::splat_paths_to_film;
+use crate::resources::SceneFeatures;
+use crate::scatter::scatter_paths;
+use crate::trace::{trace_paths, trace_shadow_rays};
 use bevy_ecs::prelude::*;
 
 /// Add the path tracer's systems to `schedule` (the host's or our own), in the default stage order.
@@ -41,7 +41,7 @@ pub fn build_ordered(
         schedule.add_systems(trace_shadow_rays.in_set(PassSystems::Shadow));
         if features.learns_visibility {
             schedule.add_systems(
-                crate::systems::gather::learn_light_visibility
+                crate::gather::learn_light_visibility
                     .before(splat_paths_to_film)
                     .in_set(PassSystems::Gather),
             );

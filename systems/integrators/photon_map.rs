@@ -16,20 +16,20 @@
 use crate::materials::Bsdf;
 use crate::photon::PhotonMap;
 use crate::scene::PhotonSettings;
-use crate::systems::PassSystems;
-use crate::systems::components::PathStatus;
-use crate::systems::emit::emit_camera_paths_for;
-use crate::systems::gather::splat_paths_to_film;
-use crate::systems::photon_estimate::scatter_photon_mapped;
-use crate::systems::photons::{
+use crate::PassSystems;
+use crate::components::PathStatus;
+use crate::emit::emit_camera_paths_for;
+use crate::gather::splat_paths_to_film;
+use crate::photon_estimate::scatter_photon_mapped;
+use crate::photons::{
     emit_photons, scatter_photons, spawn_photon_wavefront, store_photons, trace_photons,
 };
-use crate::systems::render::MAX_WAVEFRONT;
-use crate::systems::resources::{
+use crate::render::MAX_WAVEFRONT;
+use crate::resources::{
     PhotonBuffer, PhotonMapKind, PhotonMaps, PhotonStats, PhotonWork, RenderConfig, SceneFeatures,
     SceneGeometry,
 };
-use crate::systems::trace::{trace_paths, trace_shadow_rays};
+use crate::trace::{trace_paths, trace_shadow_rays};
 use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::SingleThreadedExecutor;
 use std::time::Instant;

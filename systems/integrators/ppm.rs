@@ -18,13 +18,13 @@
 //! `ppm` takes all light except directly seen emission from photons, as the paper does, so its
 //! photons are stored from their first hit on and the camera pass draws no light sample.
 
-use crate::systems::PassSystems;
-use crate::systems::emit::emit_camera_paths_for;
-use crate::systems::gather::{build_pass_photon_map, gather_photons_into_hit_points, splat_paths_to_film};
-use crate::systems::radius::update_hit_point_radii;
-use crate::systems::resources::SceneFeatures;
-use crate::systems::trace::{trace_paths, trace_shadow_rays};
-use crate::systems::visible_points::scatter_to_visible_points;
+use crate::PassSystems;
+use crate::emit::emit_camera_paths_for;
+use crate::gather::{build_pass_photon_map, gather_photons_into_hit_points, splat_paths_to_film};
+use crate::radius::update_hit_point_radii;
+use crate::resources::SceneFeatures;
+use crate::trace::{trace_paths, trace_shadow_rays};
+use crate::visible_points::scatter_to_visible_points;
 use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::{ScheduleLabel, SingleThreadedExecutor};
 
@@ -87,7 +87,7 @@ pub fn add_camera_pass(schedule: &mut Schedule, features: SceneFeatures, nee: bo
 
 /// The photon pass (the same systems as photon mapping's).
 pub fn add_photon_pass(schedule: &mut Schedule) {
-    use crate::systems::photons::{emit_photons, scatter_photons, store_photons, trace_photons};
+    use crate::photons::{emit_photons, scatter_photons, store_photons, trace_photons};
     schedule.add_systems(emit_photons.in_set(PassSystems::Emit));
     schedule.add_systems(trace_photons.in_set(PassSystems::Trace));
     schedule.add_systems(scatter_photons.in_set(PassSystems::Scatter));

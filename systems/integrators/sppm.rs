@@ -7,10 +7,10 @@
 //! light sample per pass into the film; photons are kept from their second hit on.
 
 use super::ppm::{ProgressiveSchedules, add_camera_pass, add_photon_pass};
-use crate::systems::PassSystems;
-use crate::systems::gather::{build_pass_photon_map, gather_photons_into_hit_points};
-use crate::systems::radius::update_hit_point_radii;
-use crate::systems::resources::SceneFeatures;
+use crate::PassSystems;
+use crate::gather::{build_pass_photon_map, gather_photons_into_hit_points};
+use crate::radius::update_hit_point_radii;
+use crate::resources::SceneFeatures;
 use bevy_ecs::prelude::*;
 
 /// Wire `sppm`: camera pass with light sampling, photon pass, gather, shrinking-radius update.

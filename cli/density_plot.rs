@@ -1,10 +1,11 @@
 //! `caustica density`: read numbers, estimate their density, and draw the estimate over the data (a
 //! rug of the points, and the bars for a histogram) as a PNG.
 
-use super::bandwidth::{least_squares_cv, silverman};
-use super::estimators::{Histogram, KernelEstimate, KnnEstimate, Sample, VariableKernel};
-use crate::cli::{DensityArgs, DensityMethod};
-use crate::error::{Error, Result};
+use crate::args::{DensityArgs, DensityMethod};
+use caustica::density::bandwidth::{least_squares_cv, silverman};
+use caustica::density::data::read_data;
+use caustica::density::{Histogram, KernelEstimate, KnnEstimate, Sample, VariableKernel};
+use caustica::{Error, Result};
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -26,34 +27,9 @@ pub struct DensitySummary {
     pub h_rule: &'static str,
 }
 
-/// Whitespace-separated numbers from `path`; an error names the line and the token that is not one.
-pub fn read_data(path: &Path) -> Result<Vec<f64>> {
-    let text = std::fs::read_to_string(path).map_err(|source| Error::Io { path: path.into(), source })?;
-    let mut data = Vec::new();
-    for (line_no, line) in text.lines().enumerate() {
-        for token in line.split(|c: char| c.is_whitespace() || c == ',').filter(|t| !t.is_empty()) {
-            let value: f64 = token.parse().map_err(|_| Error::Data {
-                path: path.into(),
-                message: format!("line {}: '{token}' is not a number", line_no + 1),
-            })?;
-            if !value.is_finite() {
-                return Err(Error::Data {
-                    path: path.into(),
-                    message: format!("line {}: '{token}' is not finite", line_no + 1),
-                });
-            }
-            data.push(value);
-        }
-    }
-    if data.len() < 2 {
-        return Err(Error::Data { path: path.into(), message: "needs at least two numbers".into() });
-    }
-    Ok(data)
-}
-
 /// Run `caustica density`: estimate and write the plot.
 pub fn run(args: &DensityArgs) -> Result<DensitySummary> {
-    crate::film::output::check_output_path(&args.output)?;
+    caustica::film::output::check_output_path(&args.output)?;
     let sample = Sample::new(&read_data(&args.data)?);
     let (h, h_rule) = match args.h.as_deref() {
         None | Some("silverman") => (silverman(&sample, args.kernel), "Silverman's rule"),

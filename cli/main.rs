@@ -1,17 +1,21 @@
 //! The `caustica` command: load a scene, render it, write the images, report.
 
 use anyhow::{Context, Result};
-use caustica::cli::{Cli, Command, RenderArgs};
+use args::{Cli, Command, RenderArgs};
 use caustica::film::{compare::compare, output};
-use caustica::profile::SystemProfile;
+use profile::SystemProfile;
 use caustica::scene;
-use caustica::systems::render::{init_thread_pools, prepare};
+use caustica::render::{init_thread_pools, prepare};
 use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 use tracing_subscriber::EnvFilter;
 
+mod args;
+mod bench;
+mod density_plot;
+mod profile;
 mod progressive;
 
 const DEFAULT_SCENE: &str = "scenes/default.toml";
@@ -37,11 +41,11 @@ fn main() -> Result<()> {
         }
         Some(Command::Bench(args)) => {
             init_thread_pools(None);
-            let report = caustica::bench::run(&args)?;
+            let report = bench::run(&args)?;
             if let Some(reference) = &report.rendered_reference {
                 println!(
                     "reference   none given: rendered one with {} for {:.0} s (seed + 1) -> {}",
-                    caustica::bench::integrator_name(args.reference_integrator),
+                    bench::integrator_name(args.reference_integrator),
                     args.reference_time.unwrap_or(4.0 * args.time),
                     reference.display()
                 );
@@ -49,7 +53,7 @@ fn main() -> Result<()> {
             for c in &report.checkpoints {
                 println!(
                     "{:<6} {:>9.3} s {:>10.1} spp|passes  relMSE {:.6}  RMSE {:.6}",
-                    caustica::bench::integrator_name(c.integrator),
+                    bench::integrator_name(c.integrator),
                     c.seconds,
                     c.samples_or_passes,
                     c.relmse,
@@ -62,7 +66,7 @@ fn main() -> Result<()> {
             Ok(())
         }
         Some(Command::Density(args)) => {
-            let summary = caustica::density::plot::run(&args)?;
+            let summary = density_plot::run(&args)?;
             println!(
                 "{} points, h = {:.4} ({}); wrote {}",
                 summary.n,
@@ -96,7 +100,7 @@ fn install_subscriber(
             let (layer, guard) = tracing_chrome::ChromeLayerBuilder::new()
                 .writer(std::io::BufWriter::new(file))
                 .name_fn(Box::new(|event_or_span| match event_or_span {
-                    tracing_chrome::EventOrSpan::Span(span) => caustica::profile::span_label(span),
+                    tracing_chrome::EventOrSpan::Span(span) => profile::span_label(span),
                     tracing_chrome::EventOrSpan::Event(event) => event.metadata().name().to_owned(),
                 }))
                 .build();
@@ -138,7 +142,7 @@ fn render(args: &RenderArgs) -> Result<()> {
     }
 
     let mut renderer = prepare(scene, &run).with_context(|| format!("preparing {}", scene_path.display()))?;
-    let total = renderer.world.resource::<caustica::systems::resources::Workload>().total_samples();
+    let total = renderer.world.resource::<caustica::resources::Workload>().total_samples();
     let bar = if args.quiet { ProgressBar::hidden() } else { ProgressBar::new(total) };
     bar.set_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} samples  {per_sec}  ETA {eta}")
@@ -166,7 +170,7 @@ fn render(args: &RenderArgs) -> Result<()> {
         s.rays,
         s.shadow_rays
     );
-    let wavefront = renderer.world.resource::<caustica::systems::resources::Workload>().wavefront;
+    let wavefront = renderer.world.resource::<caustica::resources::Workload>().wavefront;
     println!(
         "wavefront   {} paths, {} steps, {:.0}% busy",
         wavefront,
@@ -182,7 +186,7 @@ fn render(args: &RenderArgs) -> Result<()> {
         );
     }
     if let Some(report) =
-        renderer.world.get_resource::<caustica::systems::integrators::photon_map::PhotonReport>()
+        renderer.world.get_resource::<caustica::integrators::photon_map::PhotonReport>()
     {
         for pass in &report.passes {
             println!(

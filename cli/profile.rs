@@ -87,7 +87,7 @@ impl SystemProfile {
     }
 }
 
-/// `caustica::systems::trace::trace_paths` → `trace_paths`; generic arguments are kept
+/// `caustica::trace::trace_paths` → `trace_paths`; generic arguments are kept
 /// (`emit_camera_paths<false, false>`), since each instance is its own system.
 pub fn short_name(path: &str) -> &str {
     let head = path.find('<').unwrap_or(path.len());
@@ -165,9 +165,9 @@ mod tests {
 
     #[test]
     fn short_names_drop_the_module_path_but_keep_generics() {
-        assert_eq!(short_name("caustica::systems::trace::trace_paths"), "trace_paths");
+        assert_eq!(short_name("caustica::trace::trace_paths"), "trace_paths");
         assert_eq!(
-            short_name("caustica::systems::emit::emit_camera_paths<false, true>"),
+            short_name("caustica::emit::emit_camera_paths<false, true>"),
             "emit_camera_paths<false, true>"
         );
         assert_eq!(short_name("plain"), "plain");

@@ -4,8 +4,8 @@
 use anyhow::{Context, Result};
 use caustica::film::output;
 use caustica::scene::{RunFile, Scene};
-use caustica::systems::progressive::{BYTES_PER_PIXEL, prepare_progressive};
-use caustica::systems::resources::PhotonStats;
+use caustica::progressive::{BYTES_PER_PIXEL, prepare_progressive};
+use caustica::resources::PhotonStats;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -84,7 +84,7 @@ pub fn render(
     );
     println!(
         "NaN/Inf     {} samples, {} photon contributions dropped",
-        renderer.world.resource::<caustica::systems::resources::RenderStats>().nan_samples,
+        renderer.world.resource::<caustica::resources::RenderStats>().nan_samples,
         renderer.dropped_photons()
     );
     super::report_error_and_outputs(&image, reference, outputs)

@@ -6,14 +6,14 @@
 mod false_colour;
 mod plot;
 
-use crate::cli::BenchArgs;
-use crate::error::{Error, Result};
-use crate::film::Image;
-use crate::film::compare::compare;
-use crate::film::output::{read_exr, write_image};
-use crate::scene::{IntegratorKind, LightSelection, RunFile, Scene, load_with};
-use crate::systems::progressive::prepare_progressive;
-use crate::systems::render::prepare;
+use crate::args::BenchArgs;
+use caustica::{Choice, Error, Result};
+use caustica::film::Image;
+use caustica::film::compare::compare;
+use caustica::film::output::{read_exr, write_image};
+use caustica::scene::{IntegratorKind, LightSelection, RunFile, Scene, load_with};
+use caustica::progressive::prepare_progressive;
+use caustica::render::prepare;
 use std::io::Write as _;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -136,13 +136,12 @@ pub fn series_name(integrator: IntegratorKind, selection: LightSelection, with_s
 
 /// The name of a light selection as on the command line.
 pub fn selection_name(selection: LightSelection) -> String {
-    clap::ValueEnum::to_possible_value(&selection)
-        .map_or_else(|| format!("{selection:?}"), |v| v.get_name().to_owned())
+    selection.name().to_owned()
 }
 
 /// The name of an integrator as on the command line.
 pub fn integrator_name(kind: IntegratorKind) -> String {
-    clap::ValueEnum::to_possible_value(&kind).map_or_else(|| format!("{kind:?}"), |v| v.get_name().to_owned())
+    kind.name().to_owned()
 }
 
 /// Render `scene` with `integrator` for `budget` seconds, calling `measure(seconds, samples or
@@ -185,7 +184,7 @@ fn render_for(
         let summary = renderer.run_until(Some((budget - rendering).max(0.0)), |_| {});
         rendering += step.elapsed().as_secs_f64();
         let _ = summary;
-        let samples = renderer.world.resource::<crate::systems::resources::RenderStats>().samples as f64;
+        let samples = renderer.world.resource::<caustica::resources::RenderStats>().samples as f64;
         measure(rendering, samples / pixels, &renderer.image());
         if rendering >= budget {
             return Ok(renderer.image());

@@ -1,6 +1,8 @@
 //! Command-line arguments (clap derive: the doc comments are the help text).
 
-use crate::scene::{FilterKind, IntegratorKind, LightSelection, RunFile};
+use caustica::Choice;
+use caustica::density::Kernel;
+use caustica::scene::{FilterKind, IntegratorKind, LightSelection, RunFile};
 use clap::{Args, Parser, Subcommand};
 use std::path::PathBuf;
 
@@ -43,10 +45,10 @@ pub struct BenchArgs {
     #[arg(long)]
     pub reference: Option<PathBuf>,
     /// Integrators to compare, comma-separated.
-    #[arg(long, value_enum, value_delimiter = ',', default_value = "pt,pm,ppm,sppm")]
+    #[arg(long, value_parser = choice::<IntegratorKind>(), value_delimiter = ',', default_value = "pt,pm,ppm,sppm")]
     pub integrators: Vec<IntegratorKind>,
     /// Light selections to compare for each integrator, comma-separated (default: the run file's).
-    #[arg(long, value_enum, value_delimiter = ',')]
+    #[arg(long, value_parser = choice::<LightSelection>(), value_delimiter = ',')]
     pub light_selections: Vec<LightSelection>,
     /// Wall-clock budget per integrator, seconds.
     #[arg(long, default_value_t = 60.0)]
@@ -58,7 +60,7 @@ pub struct BenchArgs {
     #[arg(long)]
     pub spp_sweep: bool,
     /// Integrator of the reference rendered when none is given.
-    #[arg(long, value_enum, default_value = "sppm")]
+    #[arg(long, value_parser = choice::<IntegratorKind>(), default_value = "sppm")]
     pub reference_integrator: IntegratorKind,
     /// Budget of that reference, seconds (default: 4 × --time).
     #[arg(long)]
@@ -99,8 +101,8 @@ pub struct DensityArgs {
     #[arg(long, value_enum, default_value = "kernel")]
     pub method: DensityMethod,
     /// Kernel (kernel and variable methods).
-    #[arg(long, value_enum, default_value = "epanechnikov")]
-    pub kernel: crate::density::Kernel,
+    #[arg(long, value_parser = choice::<Kernel>(), default_value = "epanechnikov")]
+    pub kernel: Kernel,
     /// Bandwidth or bin width: a number, `silverman` (the default) or `cv` (least-squares cross-validation).
     #[arg(long)]
     pub h: Option<String>,
@@ -124,10 +126,10 @@ pub struct RenderArgs {
     #[arg(long)]
     pub spp: Option<u32>,
     /// Integrator; overrides the run file.
-    #[arg(long, value_enum)]
+    #[arg(long, value_parser = choice::<IntegratorKind>())]
     pub integrator: Option<IntegratorKind>,
     /// How next-event estimation picks a light; overrides the run file.
-    #[arg(long, value_enum)]
+    #[arg(long, value_parser = choice::<LightSelection>())]
     pub light_selection: Option<LightSelection>,
     /// Sampler seed; overrides the run file.
     #[arg(long)]
@@ -148,7 +150,7 @@ pub struct RenderArgs {
     #[arg(long)]
     pub rr_depth: Option<u32>,
     /// Pixel reconstruction filter; overrides the run file.
-    #[arg(long, value_enum)]
+    #[arg(long, value_parser = choice::<FilterKind>())]
     pub filter: Option<FilterKind>,
     /// PNG exposure in stops; overrides the run file.
     #[arg(long)]
@@ -187,8 +189,8 @@ pub struct RenderArgs {
     #[arg(long)]
     pub max_radius: Option<f32>,
     /// Photon mapping: density kernel over the gather disc.
-    #[arg(long, value_enum)]
-    pub kernel: Option<crate::density::kernels::Kernel>,
+    #[arg(long, value_parser = choice::<Kernel>())]
+    pub kernel: Option<Kernel>,
     /// Photon mapping: final-gather rays per pixel sample (0 = read the global map directly).
     #[arg(long)]
     pub final_gather: Option<u32>,
@@ -289,7 +291,7 @@ pub struct EnvironmentArgs {
 
 impl EnvironmentArgs {
     /// Apply the flags over a run file's `[environment]`.
-    pub fn apply(&self, e: &mut crate::scene::environment::EnvironmentSettings) {
+    pub fn apply(&self, e: &mut caustica::scene::environment::EnvironmentSettings) {
         if let Some(file) = &self.environment {
             // Relative to where the command runs, not to the run file's directory.
             e.file = Some(std::path::absolute(file).unwrap_or_else(|_| file.clone()));
@@ -302,6 +304,13 @@ impl EnvironmentArgs {
         e.strength = self.environment_strength.or(e.strength);
         e.rotation_degrees = self.environment_rotation.map(|t| t.0).or(e.rotation_degrees);
     }
+}
+
+/// A parser for an enum of the core, named as in run files, with each name's help.
+fn choice<T: Choice + Clone>() -> impl clap::builder::TypedValueParser<Value = T> {
+    use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
+    PossibleValuesParser::new(T::CHOICES.iter().map(|&(_, name, help)| PossibleValue::new(name).help(help)))
+        .map(|name| T::from_name(&name).expect("clap admits only the listed names"))
 }
 
 /// Three comma-separated numbers (`1,0.5,2`): a point, vector, colour or set of angles.

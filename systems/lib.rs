@@ -1,3 +1,36 @@
+//! # Caustica
+//!
+//! A physically based offline renderer whose paths are entities of a bevy_ecs World, advanced one
+//! bounce per Schedule run by staged systems:
+//!
+//! ```text
+//! scene (glTF + run file) ─load─▶ resources: SceneGeometry (obvhs BVH, lights, materials), Camera, Film
+//!   Schedule: Emit ─▶ Trace ─▶ Scatter (emission, NEE, BSDF sample, Russian roulette) ─▶ Shadow ─▶ Gather
+//!   entities: one wavefront of paths (PathRay, PathHit, PathState, ShadowRay), reused until done
+//! ```
+//!
+//! `src/` holds the physics as plain data and pure functions; `systems/` is the ECS layer.
+//!
+//! ## Embedding in a host World and Schedule
+//! ```
+//! use caustica::scene::{load, RunFile};
+//! use caustica::systems::render::{init_thread_pools, prepare};
+//!
+//! init_thread_pools(Some(1));
+//! let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.gltf");
+//! let (scene, mut run): (_, RunFile) = load(std::path::Path::new(path)).unwrap();
+//! run.render.spp = 1;
+//! run.film.width = Some(16);
+//! run.film.height = Some(16);
+//! let mut renderer = prepare(scene, &run).unwrap();
+//! // The host owns the loop: each run advances every path by one bounce.
+//! while {
+//!     renderer.schedule.run(&mut renderer.world);
+//!     renderer.world.resource::<caustica::systems::resources::RenderStats>().active_paths > 0
+//! } {}
+//! assert!(renderer.image().mean().is_finite());
+//! ```
+//!
 //! The ECS layer: components, resources and the staged systems that move paths through a frame.
 //!
 //! One run of the schedule advances every path of the wavefront by one bounce:
@@ -19,6 +52,12 @@
 //! Paths are entities of a wavefront spawned once; a path that ends takes the next work item (pixel, sample)
 //! (Laine, Karras & Aila 2013), and its state lives in component fields, so no entity
 //! changes archetype while rendering.
+
+// The physics, re-exported so that a host needs one crate: `caustica::scene::load`, `caustica::film::Image`.
+pub use caustica_core::{
+    Choice, Error, Result, camera, choice, density, error, film, geometry, lights, materials, photon, sampling,
+    scene, test_scenes,
+};
 
 pub mod components;
 pub mod emit;

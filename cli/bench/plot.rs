@@ -1,8 +1,8 @@
 //! The log-log plot of relMSE against time (or samples) for `caustica bench`, PNG and SVG.
 
 use super::Checkpoint;
-use crate::error::{Error, Result};
-use crate::scene::{IntegratorKind, LightSelection};
+use caustica::{Error, Result};
+use caustica::scene::{IntegratorKind, LightSelection};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
@@ -20,7 +20,7 @@ pub fn write_plot(
     by_samples: bool,
 ) -> Result<()> {
     let fail = |e: String| Error::Output { path: path.into(), message: format!("plotting failed: {e}") };
-    let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, crate::density::plot::FONT);
+    let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, crate::density_plot::FONT);
     if path.extension().is_some_and(|e| e == "svg") {
         let root = SVGBackend::new(path, SIZE).into_drawing_area();
         draw(&root, checkpoints, series, by_samples).map_err(fail)?;
