@@ -209,6 +209,10 @@ pub struct RenderArgs {
     /// Progressive photon mapping: memory budget for hit points and photons, MiB; overrides the run file.
     #[arg(long)]
     pub memory_budget_mib: Option<u64>,
+    /// Progressive photon mapping: hit points per pixel, a square number (1, 4, 9, 16, …), stratified
+    /// over the pixel filter (default 16 for ppm, 1 for the others); overrides the run file.
+    #[arg(long)]
+    pub hit_points_per_pixel: Option<u32>,
     /// Stop after this many seconds of rendering (every integrator; the sample or pass count still
     /// applies); overrides the run file.
     #[arg(long)]
@@ -247,6 +251,7 @@ impl RenderArgs {
         g.alpha = self.alpha.unwrap_or(g.alpha);
         g.initial_radius = self.initial_radius.or(g.initial_radius);
         g.memory_budget_mib = self.memory_budget_mib.or(g.memory_budget_mib);
+        g.hit_points_per_pixel = self.hit_points_per_pixel.or(g.hit_points_per_pixel);
         run.output.write_every = self.write_every.or(run.output.write_every);
         let p = &mut run.photons;
         p.photons = self.photons.unwrap_or(p.photons);

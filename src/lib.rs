@@ -15,9 +15,11 @@ pub mod density;
 pub mod error;
 pub mod film;
 pub mod geometry;
+pub mod kernel;
 pub mod lights;
 pub mod materials;
 pub mod photon;
+pub mod render_scene;
 pub mod sampling;
 pub mod scene;
 
@@ -26,3 +28,4 @@ pub mod test_scenes;
 
 pub use choice::Choice;
 pub use error::{Error, Result};
+pub use render_scene::RenderScene;

@@ -1,6 +1,15 @@
-//! Path components, split by who reads them: `trace` touches only `PathRay`/`PathHit`.
+//! Components of the three kinds of entities: camera paths, photons and progressive hit points,
+//! split by who reads them (`trace` touches only the rays and hits).
 
 use crate::geometry::{Ray, bvh::Hit};
+use crate::kernel::{CameraPath, Vertex};
+use crate::materials::Bsdf;
+use crate::photon::estimate::GatherPoint;
+use crate::photon::record::{decode_octahedral, encode_octahedral};
+use crate::render_scene::RenderScene;
+use crate::sampling::warp::Frame;
+use crate::kernel::photon::PhotonPath;
+use crate::photon::progressive::AdaptiveStatistics;
 use bevy_ecs::component::Component;
 use glam::Vec3;
 
@@ -37,6 +46,18 @@ pub struct ShadowRay {
     pub visible: bool,
 }
 
+impl ShadowRay {
+    /// Queue a light sample for the shadow stage.
+    #[inline]
+    pub fn queue(&mut self, sample: crate::kernel::ShadowSample) {
+        self.ray = sample.ray;
+        self.contribution = sample.contribution;
+        self.light = sample.light;
+        self.normal = sample.normal;
+        self.pending = true;
+    }
+}
+
 /// Where a path is in its life.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum PathStatus {
@@ -51,32 +72,16 @@ pub enum PathStatus {
     Idle,
 }
 
-/// Per-path state read by `scatter` and `gather` (cold for `trace`).
-///
-/// Names follow pbrt-v4: `beta` is the path throughput, `l` the radiance gathered so far,
-/// `eta_scale` the product of squared relative IORs crossed (for Russian roulette).
+/// Per-path state read by `scatter` and `gather` (cold for `trace`): which sample the path renders,
+/// its physics ([`CameraPath`], the kernel's), and its life cycle and counters.
 #[derive(Component, Clone, Copy, Debug)]
 pub struct PathState {
     /// Pixel index (row-major from top-left).
     pub pixel: u32,
     /// Sample index within the pixel.
     pub sample: u32,
-    /// Bounces so far.
-    pub depth: u32,
-    /// Throughput.
-    pub beta: Vec3,
-    /// Radiance so far.
-    pub l: Vec3,
-    /// Product of squared relative IORs along the path.
-    pub eta_scale: f32,
-    /// BSDF pdf of the last bounce (for MIS when the next hit is an emitter).
-    pub prev_pdf: f32,
-    /// Position of the last scattering vertex.
-    pub prev_p: Vec3,
-    /// Shading normal there (the light tree's selection depends on it, and MIS must see the same).
-    pub prev_n: Vec3,
-    /// Whether the last bounce was a delta lobe (no MIS, emission counted fully).
-    pub specular_bounce: bool,
+    /// Throughput, radiance so far, and what MIS and Russian roulette remember.
+    pub path: CameraPath,
     /// Photon mapping: the path is a final-gather ray that ends at the next diffuse hit.
     pub gathering: bool,
     /// Life-cycle state.
@@ -95,14 +100,7 @@ impl PathState {
         Self {
             pixel,
             sample,
-            depth: 0,
-            beta: Vec3::ONE,
-            l: Vec3::ZERO,
-            eta_scale: 1.0,
-            prev_pdf: 0.0,
-            prev_p: Vec3::ZERO,
-            prev_n: Vec3::ZERO,
-            specular_bounce: false,
+            path: CameraPath::START,
             gathering: false,
             status: PathStatus::NeedsCamera,
             rays: 0,
@@ -131,12 +129,8 @@ impl Default for PhotonHit {
 pub struct PhotonState {
     /// Photon number within its pass (selects its random numbers).
     pub index: u32,
-    /// Power carried, per channel.
-    pub power: Vec3,
-    /// Bounces so far.
-    pub depth: u32,
-    /// Whether every bounce so far was specular (a caustic path L S* while it lasts).
-    pub specular_only: bool,
+    /// Power, bounces, and whether it is still a caustic path (the kernel's).
+    pub path: PhotonPath,
     /// Life-cycle state.
     pub status: PathStatus,
     /// A photon left at this bounce's hit, waiting for `store_photons`.
@@ -209,6 +203,33 @@ impl HitPoint {
     pub fn is_valid(&self) -> bool {
         self.beta != Vec3::ZERO
     }
+
+    /// Make vertex `v`, seen from direction `wo` (world, towards the camera) by a path of throughput
+    /// `beta`, this pass's visible point; the statistics stay.
+    pub fn record(&mut self, v: &Vertex, wo: Vec3, beta: Vec3) {
+        let unorm = |x: f32| (x.clamp(0.0, 1.0) * 65535.0).round() as u16;
+        self.p = v.si.p;
+        self.wo = encode_octahedral(wo, 16);
+        self.ns = encode_octahedral(v.si.ns, 16);
+        self.beta = beta;
+        self.material = v.si.material as u16;
+        self.base_color = v.params.base_color.to_array().map(unorm);
+        self.metallic_roughness = [unorm(v.params.metallic), unorm(v.params.roughness)];
+    }
+
+    /// The visible point as the gather sees it: its BSDF rebuilt from the stored parameters.
+    pub fn gather_point(&self, scene: &RenderScene) -> GatherPoint {
+        let from_unorm = |x: u16| x as f32 / 65535.0;
+        let m = &scene.materials[self.material as usize];
+        let params = m.shading_params(
+            Vec3::from_array(self.base_color.map(from_unorm)),
+            from_unorm(self.metallic_roughness[0]),
+            from_unorm(self.metallic_roughness[1]),
+        );
+        let frame = Frame::from_z(decode_octahedral(self.ns, 16));
+        let wo = frame.to_local(decode_octahedral(self.wo, 16));
+        GatherPoint { p: self.p, beta: self.beta, bsdf: Bsdf::new(&params), frame, wo, transmits: m.transmission > 0.0 }
+    }
 }
 
 /// Per-hit-point photon counts over the rings × sectors of the gather disc, for `cppm`'s χ² test
@@ -223,13 +244,4 @@ pub struct Chi2Cells {
 
 /// Per-hit-point estimates behind `appm`'s radius (Kaplanyan & Dachsbacher 2013).
 #[derive(Component, Clone, Copy, Debug, Default)]
-pub struct AdaptiveStats {
-    /// Σ over passes of the luminance Laplacian estimate ΔL_i.
-    pub laplacian_sum: f64,
-    /// Σ over passes of (L_i − L̄)² r_i²: the per-pass variance times r², which is radius-free.
-    pub variance_sum: f64,
-    /// Passes that contributed to the sums.
-    pub passes: u32,
-    /// This pass's Laplacian estimate (luminance), cleared by the update.
-    pub laplacian: f32,
-}
+pub struct AdaptiveStats(pub AdaptiveStatistics);

@@ -1,18 +1,23 @@
-//! Emit: start a camera path for the next sample wherever a path ended.
+//! Emit: start a camera path for the next sample wherever a path ended, and a photon on a light
+//! wherever a photon entity needs one.
 //!
-//! Reads: `Camera`, `RenderConfig`, `Workload`. Writes: `PathRay`, `PathState` (reset for the new
-//! sample). The lens and time dimensions are compile-time switches, so a pinhole camera in a static
-//! scene draws neither (the integrator picks the instance from `SceneFeatures`).
+//! `emit_camera_paths` reads `CameraResource`, `RenderConfig`; writes `PathRay`, `PathState` (reset
+//! for the new sample). The lens and time dimensions are compile-time switches, so a pinhole camera
+//! in a static scene draws neither (the integrator picks the instance from `SceneFeatures`).
+//! `emit_photons` reads `SceneResource` (lights), `PhotonWork`; writes `PhotonRay`, `PhotonState`.
 
-use super::components::{PathRay, PathState, PathStatus};
-use super::resources::{RenderCamera, RenderConfig};
+use super::components::{PathRay, PathState, PathStatus, PhotonRay, PhotonState};
+use super::resources::{CameraResource, PhotonWork, RenderConfig, SceneFeatures, SceneResource};
+use crate::kernel::CameraPath;
+use crate::kernel::dimensions::{camera as dim, photon_sampler};
+use crate::kernel::photon::{emit_photon, photon_time};
 use crate::sampling::Sampler;
 use bevy_ecs::prelude::*;
-use glam::{Vec2, Vec3};
+use glam::Vec2;
 
 /// Generate camera rays for paths that need one. `LENS`: sample the aperture; `MOTION`: sample the shutter.
 pub fn emit_camera_paths<const LENS: bool, const MOTION: bool>(
-    camera: Res<RenderCamera>,
+    camera: Res<CameraResource>,
     config: Res<RenderConfig>,
     mut paths: Query<(&mut PathRay, &mut PathState)>,
 ) {
@@ -24,31 +29,85 @@ pub fn emit_camera_paths<const LENS: bool, const MOTION: bool>(
             let sampler = Sampler::new(config.seed, state.pixel, state.sample);
             let x = state.pixel % camera.width;
             let y = state.pixel / camera.width;
-            let u_lens = if LENS { sampler.get2d(2) } else { Vec2::splat(0.5) };
-            let time = if MOTION { config.pass_time.unwrap_or_else(|| sampler.get1d(4)) } else { 0.0 };
-            ray.0 = camera.generate_ray(x, y, sampler.get2d(0), u_lens, time);
-            let s = &mut *state;
-            s.depth = 0;
-            s.beta = Vec3::ONE;
-            s.l = Vec3::ZERO;
-            s.eta_scale = 1.0;
-            s.prev_pdf = 0.0;
-            s.specular_bounce = false;
-            s.gathering = false;
-            s.status = PathStatus::Active;
+            let u_filter = stratified(sampler.get2d(dim::FILTER), state.sample, config.strata);
+            let u_lens = if LENS { sampler.get2d(dim::LENS) } else { Vec2::splat(0.5) };
+            let time = if MOTION { config.pass_time.unwrap_or_else(|| sampler.get1d(dim::TIME)) } else { 0.0 };
+            ray.0 = camera.generate_ray(x, y, u_filter, u_lens, time);
+            state.path = CameraPath::START;
+            state.gathering = false;
+            state.status = PathStatus::Active;
         },
     );
+}
+
+/// `u` moved into cell `sample mod strata` of a √strata × √strata grid over the unit square, so that
+/// the camera samples of a pixel that share a pass (its hit points) cover the pixel filter evenly.
+#[inline]
+fn stratified(u: Vec2, sample: u32, strata: u32) -> Vec2 {
+    if strata <= 1 {
+        return u;
+    }
+    let side = strata.isqrt();
+    let cell = sample % strata;
+    (Vec2::new((cell % side) as f32, (cell / side) as f32) + u) / side as f32
 }
 
 /// The `emit_camera_paths` instance for a scene: lens and time sampling only when the scene has an
 /// aperture or motion.
 pub fn emit_camera_paths_for(
-    features: super::resources::SceneFeatures,
+    features: SceneFeatures,
 ) -> bevy_ecs::schedule::ScheduleConfigs<bevy_ecs::system::ScheduleSystem> {
     match (features.lens, features.motion) {
         (false, false) => emit_camera_paths::<false, false>.into_configs(),
         (true, false) => emit_camera_paths::<true, false>.into_configs(),
         (false, true) => emit_camera_paths::<false, true>.into_configs(),
         (true, true) => emit_camera_paths::<true, true>.into_configs(),
+    }
+}
+
+/// Start photons on lights wherever an entity needs one.
+pub fn emit_photons(
+    scene: Res<SceneResource>,
+    work: Res<PhotonWork>,
+    mut photons: Query<(&mut PhotonRay, &mut PhotonState)>,
+) {
+    photons.par_iter_mut().batching_strategy(super::resources::wavefront_batching()).for_each(
+        |(mut ray, mut state)| {
+            if state.status != PathStatus::NeedsCamera {
+                return;
+            }
+            let sampler = photon_sampler(work.seed, work.pass, work.settings.kind as u32, state.index);
+            let time = photon_time(work.time, work.motion, &sampler);
+            state.deposit = None;
+            match emit_photon(&scene, &work.settings, &sampler, time) {
+                Some((first, path)) => {
+                    ray.0 = first;
+                    state.path = path;
+                    state.status = PathStatus::Active;
+                }
+                None => state.status = PathStatus::Finished,
+            }
+        },
+    );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::stratified;
+    use glam::Vec2;
+
+    #[test]
+    fn strata_tile_the_pixel_once_each() {
+        for strata in [4u32, 9, 16] {
+            let side = strata.isqrt();
+            let mut seen = vec![0u32; strata as usize];
+            for sample in 0..strata {
+                let u = stratified(Vec2::splat(0.5), sample, strata);
+                assert!(u.cmpge(Vec2::ZERO).all() && u.cmplt(Vec2::ONE).all());
+                seen[((u.y * side as f32) as u32 * side + (u.x * side as f32) as u32) as usize] += 1;
+            }
+            assert!(seen.iter().all(|&n| n == 1), "{strata}: {seen:?}");
+        }
+        assert_eq!(stratified(Vec2::new(0.3, 0.7), 5, 1), Vec2::new(0.3, 0.7));
     }
 }

@@ -1,84 +1,115 @@
 //! # Caustica
 //!
-//! A physically based offline renderer whose paths are entities of a bevy_ecs World, advanced one
-//! bounce per Schedule run by staged systems:
+//! A physically based offline renderer whose light paths are entities of a bevy_ecs World, advanced
+//! a bounce at a time by staged systems:
 //!
 //! ```text
-//! scene (glTF + run file) ─load─▶ resources: SceneGeometry (obvhs BVH, lights, materials), Camera, Film
-//!   Schedule: Emit ─▶ Trace ─▶ Scatter (emission, NEE, BSDF sample, Russian roulette) ─▶ Shadow ─▶ Gather
-//!   entities: one wavefront of paths (PathRay, PathHit, PathState, ShadowRay), reused until done
+//! scene (glTF + run file) ─load─▶ World resources: SceneResource (BVH, lights, materials), camera, film
+//!   integrator = a Plan: phases of a pass, each a Schedule of the stages below, run once or until idle
+//!   Emit ─▶ Trace ─▶ Scatter (kernel: emission, NEE, BSDF continuation, Russian roulette) ─▶ Shadow ─▶ Gather ─▶ Update
+//!   entities: camera paths, photons, progressive hit points, spawned once and reused
 //! ```
 //!
-//! `src/` holds the physics as plain data and pure functions; `systems/` is the ECS layer.
+//! The physics is `caustica-core` (`src/`), re-exported here so that a host needs one crate; this
+//! crate (`systems/`) is the ECS layer and the driver; the `caustica` command (`cli/`) parses and
+//! prints. Neither library names the command, and the core names neither.
 //!
-//! ## Embedding in a host World and Schedule
+//! ## Running any integrator
 //! ```
-//! use caustica::scene::{load, RunFile};
-//! use caustica::systems::render::{init_thread_pools, prepare};
+//! use caustica::Renderer;
+//! use caustica::scene::load;
 //!
-//! init_thread_pools(Some(1));
+//! caustica::driver::init_thread_pools(Some(1));
 //! let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.gltf");
-//! let (scene, mut run): (_, RunFile) = load(std::path::Path::new(path)).unwrap();
-//! run.render.spp = 1;
-//! run.film.width = Some(16);
-//! run.film.height = Some(16);
-//! let mut renderer = prepare(scene, &run).unwrap();
-//! // The host owns the loop: each run advances every path by one bounce.
-//! while {
-//!     renderer.schedule.run(&mut renderer.world);
-//!     renderer.world.resource::<caustica::systems::resources::RenderStats>().active_paths > 0
-//! } {}
+//! let (scene, mut run) = load(std::path::Path::new(path)).unwrap();
+//! run.render.integrator = caustica::scene::IntegratorKind::Sppm;
+//! (run.progressive.passes, run.progressive.photons_per_pass) = (2, 1000);
+//! (run.film.width, run.film.height) = (Some(16), Some(16));
+//! let mut renderer = Renderer::new(scene, &run).unwrap();
+//! let report = renderer.run(None, |_| {});
+//! assert_eq!(report.done, 2.0);
 //! assert!(renderer.image().mean().is_finite());
 //! ```
 //!
-//! The ECS layer: components, resources and the staged systems that move paths through a frame.
+//! ## Embedding in a host's World and Schedule
+//! The World is the host's to extend: its resources go in `renderer.world`, its systems into a
+//! phase of the plan, where they run with Caustica's (see `examples/simulation.rs`, which also moves
+//! an object between frames).
+//! ```
+//! use bevy_ecs::prelude::*;
+//! use caustica::{PassSystems, Renderer, resources::RenderStats};
 //!
-//! One run of the schedule advances every path of the wavefront by one bounce:
+//! #[derive(Resource, Default)]
+//! struct Bounces(u32);
 //!
-//! | `PassSystems::` | file | systems | reads | writes |
-//! |---|---|---|---|---|
-//! | `Emit` | `emit.rs` | `emit_camera_paths` | `Camera`, `RenderConfig` | `PathRay`, `PathState` (new sample) |
-//! | `Trace` | `trace.rs` | `trace_paths` | `SceneGeometry`, `PathRay` | `PathHit` |
-//! | `Scatter` | `scatter.rs` | `scatter_paths` | `PathHit`, `SceneGeometry` | `PathRay`, `PathState`, `ShadowRay` |
-//! | `Shadow` | `trace.rs` | `trace_shadow_rays` | `ShadowRay` | `PathState::l` |
-//! | `Gather` | `gather.rs` | `splat_paths_to_film` | finished `PathState`s | `Film`, `RenderStats` |
-//! | `Gather` | `gather.rs` | `build_pass_photon_map`, `gather_photons_into_hit_points` | `PhotonBuffer`, `HitPoint` | `PassPhotons`, `HitPoint::m`, `phi` |
-//! | `Update` | `radius.rs` | `update_hit_point_radii` (and the `appm`/`cppm` rules) | `HitPoint` | `HitPoint::n`, `r2`, `tau` |
+//! fn count(mut bounces: ResMut<Bounces>, stats: Res<RenderStats>) {
+//!     bounces.0 += (stats.active_paths > 0) as u32;
+//! }
 //!
-//! Photon passes (`photons.rs`) and the camera pass of progressive photon mapping
-//! (`visible_points.rs`) use the same stages over their own entities; `progressive.rs` drives the
-//! passes of `ppm`, `sppm`, `appm` and `cppm`.
+//! caustica::driver::init_thread_pools(Some(1));
+//! let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-box.gltf");
+//! let (scene, mut run) = caustica::scene::load(std::path::Path::new(path)).unwrap();
+//! (run.render.spp, run.film.width, run.film.height) = (1, Some(16), Some(16));
+//! let mut renderer = Renderer::new(scene, &run).unwrap();
+//! renderer.world.insert_resource(Bounces::default());
+//! renderer.plan.phase_mut("bounce").unwrap().schedule.add_systems(count.after(PassSystems::Gather));
+//! renderer.run(None, |_| {});
+//! assert!(renderer.world.resource::<Bounces>().0 > 0);
+//! ```
 //!
-//! Paths are entities of a wavefront spawned once; a path that ends takes the next work item (pixel, sample)
-//! (Laine, Karras & Aila 2013), and its state lives in component fields, so no entity
-//! changes archetype while rendering.
-
-// The physics, re-exported so that a host needs one crate: `caustica::scene::load`, `caustica::film::Image`.
-pub use caustica_core::{
-    Choice, Error, Result, camera, choice, density, error, film, geometry, lights, materials, photon, sampling,
-    scene, test_scenes,
-};
+//! ## Systems
+//! Every system, by stage (one file per stage; the kernel functions they call are in
+//! `caustica_core::kernel`):
+//!
+//! | stage | file | system | entities | reads | writes |
+//! |---|---|---|---|---|---|
+//! | `Emit` | `emit.rs` | `emit_camera_paths<LENS, MOTION>` | camera paths | `CameraResource`, `RenderConfig` | `PathRay`, `PathState` |
+//! | `Emit` | `emit.rs` | `emit_photons` | photons | `SceneResource`, `PhotonWork` | `PhotonRay`, `PhotonState` |
+//! | `Trace` | `trace.rs` | `trace_paths` | camera paths | `SceneResource`, `PathRay` | `PathHit` |
+//! | `Trace` | `trace.rs` | `trace_photons` | photons | `SceneResource`, `PhotonRay` | `PhotonHit` |
+//! | `Scatter` | `scatter.rs` | `scatter_paths<NEE>` (`pt`, `pt-naive`) | camera paths | `PathHit`, `SceneResource` | `PathRay`, `PathState`, `ShadowRay` |
+//! | `Scatter` | `scatter.rs` | `scatter_photon_mapped` (`pm`) | camera paths | `PathHit`, `PhotonMaps` | `PathRay`, `PathState`, `ShadowRay` |
+//! | `Scatter` | `scatter.rs` | `scatter_to_visible_points<NEE>` (`ppm`…) | hit points | `PathHit` | `HitPoint`, `PathRay`, `PathState`, `ShadowRay` |
+//! | `Scatter` | `scatter.rs` | `scatter_photons` | photons | `PhotonHit`, `PhotonWork` | `PhotonRay`, `PhotonState` |
+//! | `Shadow` | `trace.rs` | `trace_shadow_rays` | camera paths | `ShadowRay` | `PathState` |
+//! | `Gather` | `gather.rs` | `splat_paths_to_film` | camera paths | `PathState`, `PassRange` | `FilmResource`, `RenderStats`, `Workload` |
+//! | `Gather` | `gather.rs` | `learn_light_visibility` (visibility selection) | camera paths | `ShadowRay` | `SceneResource` |
+//! | `Gather` | `gather.rs` | `store_photons` | photons | `PhotonState` | `PhotonBuffer`, `PhotonStats`, `PhotonWork` |
+//! | `Gather` | `gather.rs` | `build_pass_photon_map` | | `PhotonBuffer` | `PassPhotons` |
+//! | `Gather` | `gather.rs` | `gather_photons_into_hit_points` (`_into_chi2_cells`, `_with_laplacian`) | hit points | `PassPhotons` | `HitPoint` (`Chi2Cells`, `AdaptiveStats`) |
+//! | `Update` | `update.rs` | `update_hit_point_radii`, `update_radii_by_chi2`, `update_radii_adaptive` | hit points | `ProgressiveConfig` | `HitPoint` |
+//! | pass edges | `passes.rs` | `hand_out_samples`, `finish_light_learning`, `begin_progressive_pass`, `begin_camera_pass`, `cap_initial_radius`, `begin_photon_pass`, `begin_photon_map`, `finish_photon_map` | | `PassRange` | see the file |
+//!
+//! Entities are spawned once and reused: a camera path that ends takes the next work item (pixel,
+//! sample) (Laine, Karras & Aila 2013), and state lives in component fields, so no entity changes
+//! archetype while rendering.
 
 pub mod components;
+pub mod driver;
 pub mod emit;
 pub mod gather;
 pub mod integrators;
-pub mod photon_estimate;
-pub mod photons;
-pub mod progressive;
-pub mod radius;
-pub mod render;
+pub mod passes;
 pub mod resources;
 pub mod scatter;
 pub mod trace;
-pub mod visible_points;
+pub mod update;
+
+// The physics, re-exported so that a host needs one crate: `caustica::scene::load`, `caustica::film::Image`.
+pub use caustica_core::{
+    Choice, Error, RenderScene, Result, camera, choice, density, error, film, geometry, kernel, lights,
+    materials, photon, render_scene, sampling, scene, test_scenes,
+};
+pub use driver::report::Report;
+pub use driver::{Progress, Renderer};
 
 use bevy_ecs::schedule::SystemSet;
 
-/// The stages of one bounce, in order. Integrators place their systems into these sets.
+/// The stages of one bounce, in order, and the update that closes a progressive pass. Integrators
+/// place their systems into these sets.
 #[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum PassSystems {
-    /// Start new camera paths where the previous ones ended.
+    /// Start new camera paths (or photons) where the previous ones ended.
     Emit,
     /// Closest-hit queries for every active path.
     Trace,

@@ -1,130 +1,66 @@
-//! Resources shared by the systems: the scene, the settings of this render, the film and statistics.
+//! Resources shared by the systems: the scene, the settings of this render, the film, the work to
+//! hand out, and the counters.
 
 use crate::camera::Camera;
 use crate::film::Film;
-use crate::geometry::{Geometry, SurfaceHit};
-use crate::lights::Lights;
-use crate::materials::ShadingParams;
-use crate::scene::{IntegratorKind, MaterialDesc, Texture, TextureRef};
+use crate::kernel::PathLimits;
+use crate::kernel::photon::PhotonPassSettings;
+use crate::photon::progressive::RadiusRule;
+use crate::photon::{PhotonMap, PhotonMapKind};
+use crate::render_scene::RenderScene;
+use crate::scene::IntegratorKind;
 use bevy_ecs::resource::Resource;
+use std::sync::atomic::AtomicU64;
 
-/// The camera that `emit` generates rays from.
-#[derive(Resource, Clone, Debug)]
-pub struct RenderCamera(pub Camera);
+/// A core type as a resource, read through `Deref` (the core names no ECS).
+macro_rules! resource_of {
+    ($(#[$doc:meta])* $name:ident($inner:ty)) => {
+        $(#[$doc])*
+        #[derive(Resource, Clone, Debug)]
+        pub struct $name(pub $inner);
 
-impl std::ops::Deref for RenderCamera {
-    type Target = Camera;
-    fn deref(&self) -> &Camera {
-        &self.0
-    }
-}
-
-/// The film that `gather` splats finished samples onto.
-#[derive(Resource, Clone, Debug)]
-pub struct RenderFilm(pub Film);
-
-impl std::ops::Deref for RenderFilm {
-    type Target = Film;
-    fn deref(&self) -> &Film {
-        &self.0
-    }
-}
-
-impl std::ops::DerefMut for RenderFilm {
-    fn deref_mut(&mut self) -> &mut Film {
-        &mut self.0
-    }
-}
-
-/// The scene as the systems see it: BVHs, lights, materials and textures.
-#[derive(Resource, Clone, Debug)]
-pub struct SceneGeometry {
-    /// Primitives and their BVHs.
-    pub geometry: Geometry,
-    /// Emitters and light selection.
-    pub lights: Lights,
-    /// Materials by index.
-    pub materials: Vec<MaterialDesc>,
-    /// Textures by index.
-    pub textures: Vec<Texture>,
-}
-
-impl SceneGeometry {
-    /// BVHs, lights and materials of `scene`, as `render::scene_world` builds them: what a host
-    /// that moves objects between frames re-inserts after editing its `Scene`.
-    pub fn build(scene: &crate::scene::Scene, light_selection: crate::scene::LightSelection) -> Self {
-        let mut geometry = Geometry::build(scene);
-        let lights = scene_lights(&mut geometry, scene, light_selection);
-        Self { geometry, lights, materials: scene.materials.clone(), textures: scene.textures.clone() }
-    }
-
-    /// Resolve the material at a hit: textures looked up, vertex colour applied.
-    #[inline]
-    pub fn shading_params(&self, hit: &SurfaceHit) -> ShadingParams {
-        let m = &self.materials[hit.material as usize];
-        let lookup = |t: &TextureRef| {
-            let mut uv = hit.uv[(t.tex_coord as usize).min(1)];
-            if let Some([x, y, o]) = t.transform {
-                uv = x * uv.x + y * uv.y + o;
+        impl std::ops::Deref for $name {
+            type Target = $inner;
+            fn deref(&self) -> &$inner {
+                &self.0
             }
-            self.textures[t.texture as usize].sample(uv)
-        };
-        let mut base_color = m.base_color * hit.color;
-        if let Some(t) = &m.base_color_texture {
-            base_color *= lookup(t).truncate();
         }
-        let (mut metallic, mut roughness) = (m.metallic, m.roughness);
-        if let Some(t) = &m.metallic_roughness_texture {
-            let texel = lookup(t);
-            roughness *= texel.y;
-            metallic *= texel.z;
+
+        impl std::ops::DerefMut for $name {
+            fn deref_mut(&mut self) -> &mut $inner {
+                &mut self.0
+            }
         }
-        ShadingParams {
-            base_color,
-            metallic,
-            roughness,
-            transmission: m.transmission,
-            ior: m.ior,
-            specular: m.specular,
-            specular_color: m.specular_color,
-        }
-    }
+    };
 }
 
-/// The lights of `scene` over its built `geometry`. A scene with no emitter and no environment is lit
-/// by a uniform white environment (radiance 1), as glTF viewers light files made for them, with a
-/// warning: a black image helps nobody.
-pub fn scene_lights(
-    geometry: &mut Geometry,
-    scene: &crate::scene::Scene,
-    light_selection: crate::scene::LightSelection,
-) -> Lights {
-    let lights = Lights::build(geometry, &scene.materials, scene.environment.as_ref(), light_selection);
-    if !lights.is_empty() {
-        return lights;
-    }
-    tracing::warn!(
-        "{}: no emitters and no environment: lighting the scene with a uniform white environment \
-         (radiance 1); choose one with [environment] or --environment / --environment-color",
-        scene.source.display()
-    );
-    let white = crate::scene::environment::EnvironmentDesc::constant(glam::Vec3::ONE);
-    Lights::build(geometry, &scene.materials, Some(&white), light_selection)
-}
+resource_of!(
+    /// The scene the systems trace and shade: BVHs, lights, materials, textures.
+    SceneResource(RenderScene)
+);
+resource_of!(
+    /// The camera that `emit` generates rays from.
+    CameraResource(Camera)
+);
+resource_of!(
+    /// The film that `gather` splats finished samples onto.
+    FilmResource(Film)
+);
 
-/// Settings of the path integrators.
+/// Settings of the camera paths.
 #[derive(Resource, Clone, Debug)]
 pub struct RenderConfig {
-    /// `pt` or `pt-naive`.
+    /// Which integrator (for messages).
     pub integrator: IntegratorKind,
     /// Sampler seed.
     pub seed: u64,
-    /// Maximum bounces (`u32::MAX` = unbounded).
-    pub max_depth: u32,
-    /// Depth from which Russian roulette may end paths.
-    pub rr_depth: u32,
+    /// Maximum depth and Russian roulette.
+    pub limits: PathLimits,
     /// One shutter time for every camera ray of this pass (stochastic PPM), instead of one per sample.
     pub pass_time: Option<f32>,
+    /// Camera samples of a pixel that share one pass (several hit points per pixel): the pixel filter
+    /// is stratified over them, sample `s` taking cell `s mod strata` of a √strata × √strata grid.
+    pub strata: u32,
 }
 
 /// Which pixels and samples this render covers, and how the wavefront is laid over them.
@@ -170,6 +106,20 @@ impl Workload {
     }
 }
 
+/// What the driver tells the systems about the pass that is running.
+#[derive(Resource, Clone, Copy, Debug, Default)]
+pub struct PassRange {
+    /// Passes before this one.
+    pub index: u32,
+    /// Progress at its start: samples per pixel, or passes.
+    pub begin: u32,
+    /// Progress when it ends.
+    pub end: u32,
+    /// Set once a time limit or an interrupt has passed: systems that hand out work stop doing so,
+    /// and what is in flight finishes.
+    pub stop: bool,
+}
+
 /// Counters, summed in `gather` (no atomics in the hot systems).
 #[derive(Resource, Clone, Copy, Debug, Default)]
 pub struct RenderStats {
@@ -189,7 +139,7 @@ pub struct RenderStats {
     pub steps: u64,
 }
 
-/// Whether the camera needs lens and time samples (decided from the scene, once).
+/// What the scene uses (decided once; it picks the systems of the schedule).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct SceneFeatures {
     /// The camera has an aperture.
@@ -200,16 +150,19 @@ pub struct SceneFeatures {
     pub lights: bool,
     /// Light selection learns visibility from shadow rays (then a learning system runs).
     pub learns_visibility: bool,
+    /// Some surface is a pure delta (mirror, smooth glass): only then can caustics form.
+    pub specular: bool,
 }
 
 impl SceneFeatures {
     /// Features of a camera and scene.
-    pub fn of(camera: &Camera, scene: &SceneGeometry) -> Self {
+    pub fn of(camera: &Camera, scene: &RenderScene) -> Self {
         Self {
             lens: camera.has_lens(),
             motion: scene.geometry.has_motion(),
             lights: !scene.lights.is_empty(),
             learns_visibility: scene.lights.is_learning(),
+            specular: scene.has_specular(),
         }
     }
 }
@@ -221,28 +174,11 @@ pub fn wavefront_batching() -> bevy_ecs::batching::BatchingStrategy {
     bevy_ecs::batching::BatchingStrategy::new().batches_per_thread(16)
 }
 
-/// Which photons a pass keeps (Jensen 2001, §7.2, in path notation from the light).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum PhotonMapKind {
-    /// Every photon at a non-specular surface, L(S|D)*D: looked up by final-gather rays.
-    Global,
-    /// Photons after at least one diffuse bounce, L(S|D)*D(S|D)*D minus caustics: looked up directly
-    /// at the first diffuse camera hit, where direct light and caustics come from elsewhere.
-    Indirect,
-    /// L S+ D: caustics, looked up directly at every diffuse camera hit.
-    Caustic,
-    /// Every photon after its first bounce, L(S|D)+D: progressive photon mapping with next-event
-    /// estimation, where direct light comes from light sampling instead.
-    Bounced,
-}
-
 /// The photons of the pass that is running and how they are handed out.
 #[derive(Resource, Clone, Copy, Debug)]
 pub struct PhotonWork {
-    /// Which photons are stored.
-    pub kind: PhotonMapKind,
-    /// Photons to emit.
-    pub total: u32,
+    /// Which photons are kept, how many are emitted, and their limits.
+    pub settings: PhotonPassSettings,
     /// Next photon to hand out.
     pub next: u32,
     /// Sampler seed.
@@ -253,27 +189,19 @@ pub struct PhotonWork {
     pub time: Option<f32>,
     /// Photon pass number (progressive photon mapping): selects the pass's random numbers.
     pub pass: u32,
-    /// Maximum bounces.
-    pub max_depth: u32,
-    /// Bounce from which Russian roulette is capped below one.
-    pub rr_depth: u32,
 }
 
 impl PhotonWork {
     /// A pass of `total` photons kept by `kind`, none handed out yet, with the path settings of
     /// `config` (seed, depths); `motion` says whether photons draw a shutter time.
     pub fn new(kind: PhotonMapKind, total: u32, config: &RenderConfig, motion: bool) -> Self {
-        Self {
+        let settings = PhotonPassSettings {
             kind,
             total,
-            next: 0,
-            seed: config.seed,
-            motion,
-            time: None,
-            pass: 0,
-            max_depth: config.max_depth,
-            rr_depth: config.rr_depth,
-        }
+            max_depth: config.limits.max_depth,
+            rr_depth: config.limits.rr_depth,
+        };
+        Self { settings, next: 0, seed: config.seed, motion, time: None, pass: 0 }
     }
 }
 
@@ -284,9 +212,13 @@ pub struct PhotonBuffer {
     pub photons: Vec<crate::photon::Photon>,
 }
 
-/// Counters of the photon pass.
+/// Counters of the photon passes.
 #[derive(Resource, Clone, Copy, Debug, Default)]
 pub struct PhotonStats {
+    /// Photons emitted, all passes.
+    pub emitted: u64,
+    /// Photons stored, all passes.
+    pub stored: u64,
     /// Photon rays traced.
     pub traced: u64,
     /// Photons ended by Russian roulette.
@@ -297,15 +229,28 @@ pub struct PhotonStats {
     pub steps: u64,
 }
 
+/// One photon map of a `pm` render, as the report shows it.
+#[derive(Clone, Copy, Debug)]
+pub struct PhotonMapSummary {
+    /// Which map.
+    pub kind: PhotonMapKind,
+    /// Photons emitted for it.
+    pub emitted: u32,
+    /// Photons it holds.
+    pub stored: usize,
+    /// Bytes it holds.
+    pub bytes: usize,
+}
+
 /// The photon maps a `pm` render looks up, and how it looks them up.
-#[derive(Resource, Debug)]
+#[derive(Resource, Debug, Default)]
 pub struct PhotonMaps {
     /// Every photon at a non-specular hit (for final gathering), when final gathering is on.
-    pub global: Option<crate::photon::PhotonMap>,
+    pub global: Option<PhotonMap>,
     /// Photons after a diffuse bounce (looked up directly), when final gathering is off.
-    pub indirect: Option<crate::photon::PhotonMap>,
+    pub indirect: Option<PhotonMap>,
     /// L S+ D photons; absent when the scene has no specular surface.
-    pub caustic: Option<crate::photon::PhotonMap>,
+    pub caustic: Option<PhotonMap>,
     /// Photons per estimate.
     pub k: usize,
     /// Largest squared gather radius.
@@ -314,19 +259,8 @@ pub struct PhotonMaps {
     pub kernel: crate::density::kernels::Kernel,
     /// Whether the first diffuse hit shoots a final-gather ray.
     pub final_gather: bool,
-}
-
-/// How a progressive integrator turns a hit point's statistics into radiance and a new radius.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum RadiusRule {
-    /// Hachisuka, Ogaki & Jensen 2008: flux-corrected shrinking with α; L = τ / (π r² passes).
-    Shrinking,
-    /// Kaplanyan & Dachsbacher 2013: per-pass estimates averaged, radius from estimated bias and
-    /// variance; L = τ / (π passes) with τ = Σ Φ_i / r_i².
-    Adaptive,
-    /// Lin et al. 2020: per-pass estimates averaged, radius kept while the χ² test finds the photons
-    /// uniform in the disc; L as for `Adaptive`.
-    ChiSquare,
+    /// The maps built, in order.
+    pub built: Vec<PhotonMapSummary>,
 }
 
 /// Settings and progress of a progressive photon-mapping render, read by the gather and update stages.
@@ -338,8 +272,22 @@ pub struct ProgressiveConfig {
     pub alpha: f32,
     /// Starting radius.
     pub r0: f32,
+    /// Whether the user gave the starting radius (else the first pass may shrink it).
+    pub r0_given: bool,
     /// Photons emitted per pass.
     pub photons_per_pass: u32,
+    /// Hit points per pixel.
+    pub hit_points_per_pixel: u32,
     /// The running pass (0-based); after the update, the number of passes done minus one.
     pub pass: u32,
+}
+
+/// The photons of the running progressive pass, as a kd-tree for the hit points' radius queries.
+#[derive(Resource, Debug, Default)]
+pub struct PassPhotons {
+    /// This pass's photons.
+    pub map: PhotonMap,
+    /// Photon contributions that were NaN or infinite, dropped before they reached a hit point (all
+    /// passes). Incremented only on that rare event, so the atomic costs nothing in the gather loop.
+    pub dropped: AtomicU64,
 }

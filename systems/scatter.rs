@@ -1,193 +1,254 @@
-//! Scatter: shade each hit, add emission, sample a light (NEE), sample the BSDF, Russian roulette.
+//! Scatter: what each integrator does where a ray landed, as thin queries over the kernel
+//! (`caustica_core::kernel`).
 //!
-//! Reads: `PathHit`, `SceneGeometry`, `RenderConfig`. Writes: `PathRay` (the continuation),
-//! `PathState` (β, L, depth, status), `ShadowRay` (NEE segment and its contribution).
-//! Follows pbrt-v4's `PathIntegrator::Li`: emission found by BSDF sampling and light found by NEE are
-//! combined with the power heuristic (Veach & Guibas 1995), so each is weighted where it is better.
+//! | system | integrator | reads | writes |
+//! |---|---|---|---|
+//! | `scatter_paths::<true>` | `pt` | `PathHit`, `SceneResource`, `RenderConfig` | `PathRay`, `PathState`, `ShadowRay` |
+//! | `scatter_paths::<false>` | `pt-naive` | as above | `PathRay`, `PathState` |
+//! | `scatter_photon_mapped` | `pm` | as above, `PhotonMaps` | `PathRay`, `PathState`, `ShadowRay` |
+//! | `scatter_to_visible_points::<NEE>` | `ppm`, `sppm`, `appm`, `cppm` | as `pt` | `HitPoint`, `PathRay`, `PathState`, `ShadowRay` |
+//! | `scatter_photons` | photon passes | `PhotonHit`, `SceneResource`, `PhotonWork` | `PhotonRay`, `PhotonState` |
+//!
+//! `pt` follows pbrt-v4's `PathIntegrator::Li`: emission found by BSDF sampling and light found by
+//! NEE are combined with the power heuristic (Veach & Guibas 1995). The photon mappers count only
+//! emission seen directly or through specular bounces; light sampling (unweighted) and photons carry
+//! the rest.
 
-use super::components::{PathHit, PathRay, PathState, PathStatus, ShadowRay};
-use super::resources::{RenderConfig, SceneGeometry};
-use crate::geometry::bvh::{Hit, NO_LIGHT};
-use crate::geometry::offset::{SHADOW_EPSILON, offset_ray_origin};
-use crate::geometry::{Ray, SurfaceHit};
-use crate::materials::{Bsdf, TransportMode};
+use super::components::{HitPoint, PathHit, PathRay, PathState, PathStatus, PhotonHit, PhotonRay, PhotonState, ShadowRay};
+use super::resources::{PhotonMaps, PhotonWork, RenderConfig, SceneResource, wavefront_batching};
+use crate::geometry::Ray;
+use crate::geometry::bvh::Hit;
+use crate::kernel::dimensions::photon_sampler;
+use crate::kernel::emission::{add_escaped_radiance, add_surface_emission};
+use crate::kernel::photon::scatter_photon;
+use crate::kernel::{EmissionWeight, Vertex, VertexSampler, continue_path, sample_light};
+use crate::photon::estimate::radiance_estimate;
+use crate::photon::{Neighbors, PhotonMap};
+use crate::render_scene::RenderScene;
 use crate::sampling::Sampler;
-use crate::sampling::warp::Frame;
 use bevy_ecs::prelude::*;
-use glam::Vec3;
-
-/// Sampler dimensions within one bounce (see `sampling::rng`).
-mod dim {
-    pub const LIGHT_SELECT: u32 = 0;
-    pub const LIGHT_POINT: u32 = 1;
-    pub const BSDF_LOBE: u32 = 3;
-    pub const BSDF_DIRECTION: u32 = 4;
-    pub const ROULETTE: u32 = 6;
-}
-
-/// Highest Russian-roulette survival probability: bounds the expected length of any path.
-const MAX_SURVIVAL: f32 = 0.95;
-
-/// The power heuristic with β = 2 for one sample from each of two strategies.
-#[inline]
-pub fn power_heuristic(pdf_a: f32, pdf_b: f32) -> f32 {
-    let (a, b) = (pdf_a * pdf_a, pdf_b * pdf_b);
-    if a.is_infinite() {
-        1.0
-    } else if a + b == 0.0 {
-        0.0
-    } else {
-        a / (a + b)
-    }
-}
 
 /// Scatter every active path. `NEE` selects `pt` (light sampling + MIS) over `pt-naive`.
 pub fn scatter_paths<const NEE: bool>(
-    scene: Res<SceneGeometry>,
+    scene: Res<SceneResource>,
     config: Res<RenderConfig>,
     mut paths: Query<(&PathHit, &mut PathRay, &mut PathState, &mut ShadowRay)>,
 ) {
-    paths.par_iter_mut().batching_strategy(super::resources::wavefront_batching()).for_each(
-        |(hit, mut ray, mut state, mut shadow)| {
-            if state.status != PathStatus::Active {
-                return;
-            }
-            state.rays += 1;
-            scatter_one::<NEE>(&scene, &config, &hit.0, &mut ray.0, &mut state, &mut shadow);
-        },
-    );
+    paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each(|(hit, mut ray, mut state, mut shadow)| {
+        if state.status != PathStatus::Active {
+            return;
+        }
+        state.rays += 1;
+        if !path_vertex::<NEE>(&scene, &config, &hit.0, &mut ray.0, &mut state, &mut shadow) {
+            state.status = PathStatus::Finished;
+        }
+    });
 }
 
+/// One vertex of `pt` or `pt-naive`; false when the path ends.
 #[inline]
-fn scatter_one<const NEE: bool>(
-    scene: &SceneGeometry,
+fn path_vertex<const NEE: bool>(
+    scene: &RenderScene,
     config: &RenderConfig,
     hit: &Hit,
     ray: &mut Ray,
     state: &mut PathState,
     shadow: &mut ShadowRay,
-) {
-    // A path that leaves the scene brings back the environment, weighted against light sampling as
-    // emission found on a surface is.
+) -> bool {
+    let rule = if NEE { EmissionWeight::Mis } else { EmissionWeight::One };
+    let path = &mut state.path;
     if !hit.is_hit() {
-        if let Some((le, light_pdf)) = scene.lights.escaped(ray.d, state.prev_p, state.prev_n) {
-            let weight = if !NEE || state.depth == 0 || state.specular_bounce {
-                1.0
-            } else {
-                power_heuristic(state.prev_pdf, light_pdf)
-            };
-            state.l += state.beta * le * weight;
+        add_escaped_radiance(scene, rule, path, ray.d);
+        return false;
+    }
+    let si = scene.geometry.surface_hit(ray, hit);
+    add_surface_emission(scene, rule, path, &si, -ray.d, ray.time);
+    // pbrt-v4 counts emission at the last vertex, then stops before sampling anything there.
+    if path.depth >= config.limits.max_depth {
+        return false;
+    }
+    let v = Vertex::new(scene, ray, si);
+    let u = VertexSampler::new(Sampler::new(config.seed, state.pixel, state.sample), path.depth);
+    if NEE
+        && !v.bsdf.is_delta()
+        && let Some(sample) = sample_light(scene, &v, path.beta, ray.time, &u, true)
+    {
+        shadow.queue(sample);
+    }
+    continue_from(ray, continue_path(path, &v, ray.time, &u, config.limits))
+}
+
+/// Store the continuation's ray; false when there is none.
+#[inline]
+fn continue_from(ray: &mut Ray, next: Option<Ray>) -> bool {
+    match next {
+        Some(next) => {
+            *ray = next;
+            true
         }
-        state.status = PathStatus::Finished;
-        return;
-    }
-    let si: SurfaceHit = scene.geometry.surface_hit(ray, hit);
-    let wo_world = -ray.d;
-
-    // Add emission where the path hits a light's front side, weighted against light sampling.
-    if si.light != NO_LIGHT && si.ng.dot(wo_world) > 0.0 {
-        let le = scene.materials[si.material as usize].emission;
-        let weight = if !NEE || state.depth == 0 || state.specular_bounce {
-            1.0
-        } else {
-            let light_pdf = scene.lights.pdf(si.light, state.prev_p, state.prev_n, si.p, si.ng, ray.time);
-            power_heuristic(state.prev_pdf, light_pdf)
-        };
-        state.l += state.beta * le * weight;
-    }
-
-    // End the path at the maximum depth (pbrt-v4 counts emission at that vertex first).
-    if state.depth >= config.max_depth {
-        state.status = PathStatus::Finished;
-        return;
-    }
-
-    let bsdf = Bsdf::new(&scene.shading_params(&si));
-    let frame = Frame::from_z(si.ns);
-    let wo = frame.to_local(wo_world);
-    // The shading normal on the side the path arrived from: light selection's view of this point.
-    let n_side = if wo.z >= 0.0 { si.ns } else { -si.ns };
-    let sampler = Sampler::new(config.seed, state.pixel, state.sample);
-    let base = Sampler::bounce_dimension(state.depth);
-
-    // Sample a light (next-event estimation) unless every lobe is a delta.
-    if NEE && !bsdf.is_delta() {
-        let u_select = sampler.get1d(base + dim::LIGHT_SELECT);
-        let u_light = sampler.get2d(base + dim::LIGHT_POINT);
-        if let Some((light, ls)) = scene.lights.sample(si.p, n_side, ray.time, u_select, u_light) {
-            let to_light = ls.p - si.p;
-            let wi_world = to_light.normalize();
-            let wi = frame.to_local(wi_world);
-            let f = bsdf.eval(wo, wi, TransportMode::Radiance) * wi.z.abs();
-            if f.max_element() > 0.0 && ls.pdf > 0.0 {
-                let bsdf_pdf = bsdf.pdf(wo, wi);
-                let weight = power_heuristic(ls.pdf, bsdf_pdf);
-                let origin = offset_ray_origin(si.p, si.p_error, si.ng, wi_world);
-                shadow.ray = Ray { o: origin, d: ls.p - origin, t_max: 1.0 - SHADOW_EPSILON, time: ray.time };
-                shadow.contribution = state.beta * f * ls.le * (weight / ls.pdf);
-                shadow.pending = true;
-                shadow.light = light;
-                shadow.normal = n_side;
-            }
-        }
-    }
-
-    // Sample the BSDF for the continuation.
-    let u_lobe = sampler.get1d(base + dim::BSDF_LOBE);
-    let u_dir = sampler.get2d(base + dim::BSDF_DIRECTION);
-    let Some(bs) = bsdf.sample(wo, u_lobe, u_dir, TransportMode::Radiance) else {
-        state.status = PathStatus::Finished;
-        return;
-    };
-    if bs.pdf <= 0.0 || bs.f.max_element() <= 0.0 {
-        state.status = PathStatus::Finished;
-        return;
-    }
-    let wi_world = frame.to_world(bs.wi);
-    state.beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
-    state.prev_pdf = bs.pdf;
-    state.specular_bounce = bs.is_specular;
-    state.prev_p = si.p;
-    state.prev_n = n_side;
-    if bs.is_transmission {
-        state.eta_scale *= bs.eta * bs.eta;
-    }
-    state.depth += 1;
-    *ray = Ray {
-        o: offset_ray_origin(si.p, si.p_error, si.ng, wi_world),
-        d: wi_world,
-        t_max: f32::INFINITY,
-        time: ray.time,
-    };
-
-    // Russian roulette. The throughput is divided by the squared relative IOR first so that light
-    // refracted into a dense medium is not killed for being "bright" only because radiance is
-    // compressed there (pbrt-v4 `etaScale`). Survival is capped at 0.95 (as Mitsuba does): a path
-    // trapped by total internal reflection keeps β = 1 forever, and without the cap it would never end.
-    if state.depth >= config.rr_depth {
-        let survive = (state.beta * state.eta_scale).max_element().min(MAX_SURVIVAL);
-        if sampler.get1d(base + dim::ROULETTE) >= survive {
-            state.status = PathStatus::Finished;
-            return;
-        }
-        state.beta /= survive;
-    }
-    if !state.beta.is_finite() {
-        // Keep the broken path's radiance so far; gather counts and drops non-finite samples.
-        state.l = Vec3::NAN;
-        state.status = PathStatus::Finished;
+        None => false,
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::power_heuristic;
+/// Shade every active camera path with the photon maps (`pm`, Jensen 2001 §9): at the first
+/// non-specular hit, direct light by NEE, caustics from the caustic map, and indirect light from the
+/// indirect map or, with final gathering, from the global map one BSDF-sampled bounce further.
+pub fn scatter_photon_mapped(
+    scene: Res<SceneResource>,
+    config: Res<RenderConfig>,
+    maps: Res<PhotonMaps>,
+    mut paths: Query<(&PathHit, &mut PathRay, &mut PathState, &mut ShadowRay)>,
+) {
+    paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each_init(
+        || Neighbors::with_capacity(maps.k),
+        |neighbors, (hit, mut ray, mut state, mut shadow)| {
+            if state.status != PathStatus::Active {
+                return;
+            }
+            state.rays += 1;
+            if !photon_mapped_vertex(&scene, &config, &maps, neighbors, &hit.0, &mut ray.0, &mut state, &mut shadow) {
+                state.status = PathStatus::Finished;
+            }
+        },
+    );
+}
 
-    #[test]
-    fn power_heuristic_weights_sum_to_one() {
-        for (a, b) in [(1.0, 2.0), (0.3, 0.0), (5.0, 5.0)] {
-            assert!((power_heuristic(a, b) + power_heuristic(b, a) - 1.0).abs() < 1e-6);
+/// One vertex of a `pm` camera path; false when the path ends.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn photon_mapped_vertex(
+    scene: &RenderScene,
+    config: &RenderConfig,
+    maps: &PhotonMaps,
+    neighbors: &mut Neighbors,
+    hit: &Hit,
+    ray: &mut Ray,
+    state: &mut PathState,
+    shadow: &mut ShadowRay,
+) -> bool {
+    // A final-gather ray only reads the global map: light it reaches is in there already.
+    let counts_emission = !state.gathering;
+    let rule = EmissionWeight::SeenDirectly;
+    if !hit.is_hit() {
+        if counts_emission {
+            add_escaped_radiance(scene, rule, &mut state.path, ray.d);
         }
-        assert_eq!(power_heuristic(f32::INFINITY, 1.0), 1.0);
+        return false;
     }
+    let si = scene.geometry.surface_hit(ray, hit);
+    if counts_emission {
+        add_surface_emission(scene, rule, &mut state.path, &si, -ray.d, ray.time);
+    }
+    let v = Vertex::new(scene, ray, si);
+    let mut estimate = |map: &PhotonMap, lookups: &mut u32| {
+        *lookups += 1;
+        radiance_estimate(map, &v.si, &v.frame, &v.bsdf, v.wo, maps.k, maps.max_radius2, maps.kernel, neighbors)
+    };
+    if !v.bsdf.is_delta() {
+        if state.gathering {
+            // The end of a final-gather ray: everything the global map knows.
+            if let Some(global) = &maps.global {
+                state.path.l += state.path.beta * estimate(global, &mut state.lookups);
+            }
+            return false;
+        }
+        let u = VertexSampler::new(Sampler::new(config.seed, state.pixel, state.sample), state.path.depth);
+        if let Some(sample) = sample_light(scene, &v, state.path.beta, ray.time, &u, false) {
+            shadow.queue(sample);
+        }
+        if let Some(caustic) = &maps.caustic {
+            state.path.l += state.path.beta * estimate(caustic, &mut state.lookups);
+        }
+        match (&maps.indirect, maps.final_gather) {
+            (Some(indirect), false) => {
+                state.path.l += state.path.beta * estimate(indirect, &mut state.lookups);
+                return false;
+            }
+            (_, true) => state.gathering = true,
+            (None, false) => return false,
+        }
+    }
+    let u = VertexSampler::new(Sampler::new(config.seed, state.pixel, state.sample), state.path.depth);
+    continue_from(ray, continue_path(&mut state.path, &v, ray.time, &u, config.limits))
+}
+
+/// Advance every active camera path of a progressive pass by one bounce, recording its hit point at
+/// the first non-specular surface. `NEE` adds a light sample there (`sppm`, `appm`, `cppm`,
+/// Hachisuka & Jensen 2009 §4); without it (`ppm`) direct light comes from photons like the rest.
+/// Glossy surfaces are gathered on, not bounced through: as the radius shrinks their estimate
+/// converges too, only more slowly than a diffuse one.
+pub fn scatter_to_visible_points<const NEE: bool>(
+    scene: Res<SceneResource>,
+    config: Res<RenderConfig>,
+    mut paths: Query<(&PathHit, &mut PathRay, &mut PathState, &mut ShadowRay, &mut HitPoint)>,
+) {
+    paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each(
+        |(hit, mut ray, mut state, mut shadow, mut hit_point)| {
+            if state.status != PathStatus::Active {
+                return;
+            }
+            state.rays += 1;
+            if !visible_point_vertex::<NEE>(&scene, &config, &hit.0, &mut ray.0, &mut state, &mut shadow, &mut hit_point)
+            {
+                state.status = PathStatus::Finished;
+            }
+        },
+    );
+}
+
+/// One bounce of a progressive camera path; false when the path is done (with or without a hit point).
+#[inline]
+fn visible_point_vertex<const NEE: bool>(
+    scene: &RenderScene,
+    config: &RenderConfig,
+    hit: &Hit,
+    ray: &mut Ray,
+    state: &mut PathState,
+    shadow: &mut ShadowRay,
+    hit_point: &mut HitPoint,
+) -> bool {
+    if state.path.depth == 0 {
+        // Until this pass finds a surface, the hit point gathers nothing.
+        hit_point.beta = glam::Vec3::ZERO;
+    }
+    let rule = EmissionWeight::SeenDirectly;
+    if !hit.is_hit() {
+        add_escaped_radiance(scene, rule, &mut state.path, ray.d);
+        return false;
+    }
+    let si = scene.geometry.surface_hit(ray, hit);
+    add_surface_emission(scene, rule, &mut state.path, &si, -ray.d, ray.time);
+    let v = Vertex::new(scene, ray, si);
+    let u = VertexSampler::new(Sampler::new(config.seed, state.pixel, state.sample), state.path.depth);
+    if v.bsdf.is_delta() {
+        return continue_from(ray, continue_path(&mut state.path, &v, ray.time, &u, config.limits));
+    }
+    if NEE && let Some(sample) = sample_light(scene, &v, state.path.beta, ray.time, &u, false) {
+        shadow.queue(sample);
+    }
+    hit_point.record(&v, -ray.d, state.path.beta);
+    false
+}
+
+/// Deposit each photon where its map wants it, then continue it by BSDF sampling or end it by
+/// Russian roulette.
+pub fn scatter_photons(
+    scene: Res<SceneResource>,
+    work: Res<PhotonWork>,
+    mut photons: Query<(&PhotonHit, &mut PhotonRay, &mut PhotonState)>,
+) {
+    photons.par_iter_mut().batching_strategy(wavefront_batching()).for_each(|(hit, mut ray, mut state)| {
+        if state.status != PathStatus::Active {
+            return;
+        }
+        state.bounces += 1;
+        let sampler = photon_sampler(work.seed, work.pass, work.settings.kind as u32, state.index);
+        let bounce = scatter_photon(&scene, &work.settings, &mut state.path, &ray.0, &hit.0, &sampler);
+        state.deposit = bounce.deposit;
+        state.roulette_kills += bounce.roulette_kill as u32;
+        match bounce.next {
+            Some(next) => ray.0 = next,
+            None => state.status = PathStatus::Finished,
+        }
+    });
 }

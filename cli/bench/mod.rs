@@ -12,8 +12,7 @@ use caustica::film::Image;
 use caustica::film::compare::compare;
 use caustica::film::output::{read_exr, write_image};
 use caustica::scene::{IntegratorKind, LightSelection, RunFile, Scene, load_with};
-use caustica::progressive::prepare_progressive;
-use caustica::render::prepare;
+use caustica::Renderer;
 use std::io::Write as _;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -128,20 +127,10 @@ pub fn run(args: &BenchArgs) -> Result<BenchReport> {
 /// A series' name: the integrator, and the light selection when several are compared (`pt-tree`).
 pub fn series_name(integrator: IntegratorKind, selection: LightSelection, with_selection: bool) -> String {
     if with_selection {
-        format!("{}-{}", integrator_name(integrator), selection_name(selection))
+        format!("{}-{}", integrator.name(), selection.name())
     } else {
-        integrator_name(integrator)
+        integrator.name().to_owned()
     }
-}
-
-/// The name of a light selection as on the command line.
-pub fn selection_name(selection: LightSelection) -> String {
-    selection.name().to_owned()
-}
-
-/// The name of an integrator as on the command line.
-pub fn integrator_name(kind: IntegratorKind) -> String {
-    kind.name().to_owned()
 }
 
 /// Render `scene` with `integrator` for `budget` seconds, calling `measure(seconds, samples or
@@ -155,42 +144,47 @@ fn render_for(
 ) -> Result<Image> {
     let mut run = run.clone();
     run.render.integrator = integrator;
+    (run.render.spp, run.progressive.passes) = (1, 1);
     let start = Instant::now();
-    if integrator.is_progressive() {
-        run.progressive.passes = u32::MAX;
-        let mut renderer = prepare_progressive(scene.clone(), &run)?;
-        let (mut rendering, mut next) = (start.elapsed().as_secs_f64(), 1);
-        loop {
-            let pass_start = Instant::now();
-            renderer.run_pass();
-            rendering += pass_start.elapsed().as_secs_f64();
-            let done = rendering >= budget;
-            if renderer.passes >= next || done {
-                measure(rendering, renderer.passes as f64, &renderer.image());
-                next = renderer.passes * 2;
-            }
-            if done {
-                return Ok(renderer.image());
-            }
-        }
-    }
-    run.render.spp = 1;
-    let mut renderer = prepare(scene.clone(), &run)?;
+    let mut renderer = Renderer::new(scene.clone(), &run)?;
     let mut rendering = start.elapsed().as_secs_f64();
-    let pixels = (renderer.image().pixels.len() as f64).max(1.0);
-    let mut spp = 1;
+    let mut target = 1;
     loop {
         let step = Instant::now();
-        let summary = renderer.run_until(Some((budget - rendering).max(0.0)), |_| {});
+        renderer.set_target(target);
+        renderer.run(Some((budget - rendering).max(0.0)), |_| {});
         rendering += step.elapsed().as_secs_f64();
-        let _ = summary;
-        let samples = renderer.world.resource::<caustica::resources::RenderStats>().samples as f64;
-        measure(rendering, samples / pixels, &renderer.image());
+        let image = renderer.image();
+        measure(rendering, renderer.progress().done, &image);
         if rendering >= budget {
-            return Ok(renderer.image());
+            return Ok(image);
         }
-        spp *= 2;
-        renderer.extend_samples(spp);
+        target *= 2;
+    }
+}
+
+/// Print what a bench run measured and wrote.
+pub fn print(args: &BenchArgs, report: &BenchReport) {
+    if let Some(reference) = &report.rendered_reference {
+        println!(
+            "reference   none given: rendered one with {} for {:.0} s (seed + 1) -> {}",
+            args.reference_integrator.name(),
+            args.reference_time.unwrap_or(4.0 * args.time),
+            reference.display()
+        );
+    }
+    for c in &report.checkpoints {
+        println!(
+            "{:<6} {:>9.3} s {:>10.1} spp|passes  relMSE {:.6}  RMSE {:.6}",
+            c.integrator.name(),
+            c.seconds,
+            c.samples_or_passes,
+            c.relmse,
+            c.rmse
+        );
+    }
+    for path in &report.files {
+        println!("wrote       {}", path.display());
     }
 }
 
@@ -202,13 +196,13 @@ fn write_csv(path: &std::path::Path, checkpoints: &[Checkpoint]) -> Result<()> {
         writeln!(
             file,
             "{},{:.6},{:.4},{:.8},{:.8},{:.8},{}",
-            integrator_name(c.integrator),
+            c.integrator.name(),
             c.seconds,
             c.samples_or_passes,
             c.rmse,
             c.relmse,
             c.mae,
-            selection_name(c.light_selection)
+            c.light_selection.name()
         )
         .map_err(io)?;
     }

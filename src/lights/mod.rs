@@ -118,8 +118,16 @@ impl Lights {
     #[inline]
     pub fn escaped(&self, d: Vec3, p_ref: Vec3, n_ref: Vec3) -> Option<(Vec3, f32)> {
         let env = self.environment.as_ref()?;
-        let pdf = self.pmf(self.environment_index(), p_ref, n_ref) * env.pdf(n_ref, d);
-        Some((env.le(d), pdf))
+        Some((env.le(d), self.environment_pdf(d, p_ref, n_ref)))
+    }
+
+    /// Solid-angle pdf (selection included) with which [`Lights::sample`] picks direction `d` on the
+    /// environment from `p_ref` (normal `n_ref`); 0 without an environment.
+    #[inline]
+    pub fn environment_pdf(&self, d: Vec3, p_ref: Vec3, n_ref: Vec3) -> f32 {
+        self.environment
+            .as_ref()
+            .map_or(0.0, |env| self.pmf(self.environment_index(), p_ref, n_ref) * env.pdf(n_ref, d))
     }
 
     /// Share of tree selections that go to the environment (all of them when no area light has

@@ -1,8 +1,47 @@
 //! The statistics of progressive photon mapping, as pure functions: the radius and flux update of
 //! Hachisuka, Ogaki & Jensen 2008, the χ² uniformity test of Lin et al. 2020, and the MSE-optimal
-//! radius of Kaplanyan & Dachsbacher 2013. The systems in `systems/radius.rs` apply them per hit point.
+//! radius of Kaplanyan & Dachsbacher 2013, and how each rule turns a hit point's statistics into
+//! radiance. The update systems in `systems/` apply them per hit point.
 
-use glam::{DVec3, Vec2};
+use glam::{DVec3, Vec2, Vec3};
+
+/// How a progressive integrator turns a hit point's statistics into radiance and a new radius.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RadiusRule {
+    /// Hachisuka, Ogaki & Jensen 2008: flux-corrected shrinking with α; L = τ / (π r² passes).
+    Shrinking,
+    /// Kaplanyan & Dachsbacher 2013: per-pass estimates averaged, radius from estimated bias and
+    /// variance; L = τ / (π passes) with τ = Σ Φ_i / r_i².
+    Adaptive,
+    /// Lin et al. 2020: per-pass estimates averaged, radius kept while the χ² test finds the photons
+    /// uniform in the disc; L as for `Adaptive`.
+    ChiSquare,
+}
+
+impl RadiusRule {
+    /// The radiance of a hit point with accumulated flux `tau` and squared radius `r2` after `passes`
+    /// photon passes (photon powers are already divided by the photons per pass): L = τ / (π r²
+    /// passes) for the shrinking rule, τ / (π passes) for the averaging rules, whose τ is per unit
+    /// area already. Before the first pass τ is zero, and so is L.
+    #[inline]
+    pub fn radiance(self, tau: DVec3, r2: f32, passes: u32) -> DVec3 {
+        let area = match self {
+            Self::Shrinking => std::f64::consts::PI * r2 as f64,
+            Self::Adaptive | Self::ChiSquare => std::f64::consts::PI,
+        };
+        tau / (area * passes.max(1) as f64)
+    }
+}
+
+/// The accumulation of the rules that average per-pass estimates: τ += Φ_i / r_i², N += M, for a
+/// pass in which `m` photons with flux `phi` landed within √`r2`. Returns (τ', N').
+#[inline]
+pub fn add_pass_estimate(tau: DVec3, n: f64, m: u32, phi: Vec3, r2: f32) -> (DVec3, f64) {
+    if m == 0 {
+        return (tau, n);
+    }
+    (tau + phi.as_dvec3() / r2 as f64, n + m as f64)
+}
 
 /// Hachisuka, Ogaki & Jensen 2008, §4.2, after a pass in which `m` photons with reflected flux `phi`
 /// landed within radius √`r2` of a hit point that had accumulated `n` photons and flux `tau`:
@@ -103,6 +142,78 @@ pub fn chi2_verdict(counts: &[u32; CHI2_CELLS]) -> Chi2Verdict {
     }
 }
 
+/// Photons the χ² cells must hold before the first test: about five per cell, the usual floor for
+/// Pearson's statistic to follow its χ² law.
+pub const CHI2_FIRST_TEST: f32 = 64.0;
+/// After each rejection the next test waits for this many times more photons (Lin et al.'s β = 1.25²:
+/// the disc's area shrinks by about that much, so the evidence per unit area stays comparable).
+pub const CHI2_PATIENCE: f32 = 1.5625;
+/// Shrink factor of r² when even the inner ring is not uniform (Lin et al.'s k = 0.8).
+pub const CHI2_FALLBACK_SHRINK: f32 = 0.8;
+
+/// `cppm`'s radius rule (Lin et al. 2020, following the authors' `cppm1.cpp`): once the cells hold
+/// `min_photons`, test them and keep the radius, shrink it to the inner ring (r²/2), or shrink r² by
+/// the fallback factor. Returns the new r² and the photons the next test waits for when the radius
+/// shrinks (the counts then restart), None when it stays.
+pub fn chi2_shrink(counts: &[u32; CHI2_CELLS], min_photons: f32, r2: f32) -> Option<(f32, f32)> {
+    let total: u32 = counts.iter().sum();
+    if (total as f32) < min_photons {
+        return None;
+    }
+    let factor = match chi2_verdict(counts) {
+        Chi2Verdict::Keep => return None,
+        Chi2Verdict::ShrinkToInner => 0.5,
+        Chi2Verdict::Shrink => CHI2_FALLBACK_SHRINK,
+    };
+    Some((r2 * factor, min_photons * CHI2_PATIENCE))
+}
+
+/// Passes of statistics `appm` collects before it trusts its variance and Laplacian estimates.
+pub const ADAPTIVE_WARM_UP: u32 = 4;
+/// `appm`'s radius stays within these factors of the global PPM radius of the same pass: the
+/// estimates are noisy, and the band keeps one bad estimate from blurring or starving a pixel.
+pub const ADAPTIVE_BAND: (f32, f32) = (0.25, 2.0);
+
+/// What `appm` keeps per hit point to choose its radius (Kaplanyan & Dachsbacher 2013).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct AdaptiveStatistics {
+    /// Σ over passes of the luminance Laplacian estimate ΔL_i.
+    pub laplacian_sum: f64,
+    /// Σ over passes of (L_i − L̄)² r_i²: the per-pass variance times r², which is radius-free.
+    pub variance_sum: f64,
+    /// Passes that contributed to the sums.
+    pub passes: u32,
+    /// This pass's Laplacian estimate (luminance), cleared by the update.
+    pub laplacian: f32,
+}
+
+impl AdaptiveStatistics {
+    /// Fold pass `pass` (0-based) into the statistics — its estimate of luminance `estimate` at
+    /// squared radius `r2`, against the mean `previous_mean` of the passes before — and return the
+    /// squared radius for the next pass: the MSE-optimal one, r⁶ = 2C / (μ₂² ΔL² i) (Kaplanyan &
+    /// Dachsbacher 2013, eq. 12), within [`ADAPTIVE_BAND`] of the global PPM radius `global2` and
+    /// below the initial radius `r0`; `global2` itself until the estimates have warmed up.
+    pub fn update(&mut self, pass: u32, estimate: f64, previous_mean: f64, r2: f32, global2: f32, r0: f32) -> f32 {
+        let (lo, hi) = (ADAPTIVE_BAND.0 * ADAPTIVE_BAND.0 * global2, ADAPTIVE_BAND.1 * ADAPTIVE_BAND.1 * global2);
+        let hi = hi.min(r0 * r0);
+        if pass > 0 {
+            self.variance_sum += (estimate - previous_mean).powi(2) * r2 as f64;
+        }
+        self.laplacian_sum += self.laplacian as f64;
+        self.passes += 1;
+        self.laplacian = 0.0;
+        let chosen = (self.passes >= ADAPTIVE_WARM_UP)
+            .then(|| {
+                let c = self.variance_sum / (self.passes - 1) as f64;
+                let laplacian = self.laplacian_sum / self.passes as f64;
+                mse_optimal_radius(c, laplacian, pass + 2)
+            })
+            .flatten()
+            .map_or(global2, |r| r * r);
+        chosen.clamp(lo, hi)
+    }
+}
+
 /// Second moment μ₂ = ∫ x₁² K(x) dx of the uniform disc kernel of unit radius: the bias of the disc
 /// estimate is (r²/2) μ₂ ΔL = r² ΔL / 8 (Silverman 1986, §4.3.1, in 2-D).
 pub const DISC_MU2: f32 = 0.25;
@@ -140,6 +251,57 @@ mod tests {
         assert!((n - 14.0).abs() < 1e-12);
         assert!((r2 as f64 - 4.0 * ratio).abs() < 1e-6);
         assert!((tau - DVec3::splat(3.0 * ratio)).abs().max_element() < 1e-12);
+    }
+
+    #[test]
+    fn each_rule_turns_its_statistics_into_radiance() {
+        // Shrinking: τ / (π r² passes); averaging rules: τ / (π passes), τ being per unit area already.
+        let tau = DVec3::new(2.0, 4.0, 6.0);
+        let l = RadiusRule::Shrinking.radiance(tau, 0.5, 4);
+        assert!((l - tau / (std::f64::consts::PI * 0.5 * 4.0)).abs().max_element() < 1e-12);
+        for rule in [RadiusRule::Adaptive, RadiusRule::ChiSquare] {
+            let l = rule.radiance(tau, 0.5, 4);
+            assert!((l - tau / (std::f64::consts::PI * 4.0)).abs().max_element() < 1e-12);
+        }
+        assert_eq!(RadiusRule::Shrinking.radiance(tau, 0.5, 0), RadiusRule::Shrinking.radiance(tau, 0.5, 1));
+    }
+
+    #[test]
+    fn averaging_rules_add_flux_per_area_and_skip_empty_passes() {
+        let (tau, n) = add_pass_estimate(DVec3::ONE, 10.0, 4, Vec3::splat(0.5), 0.25);
+        assert_eq!((tau, n), (DVec3::splat(3.0), 14.0));
+        assert_eq!(add_pass_estimate(DVec3::ONE, 10.0, 0, Vec3::ZERO, 0.25), (DVec3::ONE, 10.0));
+    }
+
+    #[test]
+    fn chi2_rule_waits_for_photons_then_shrinks_by_its_verdict() {
+        let mut inner = [0u32; CHI2_CELLS];
+        inner[..CHI2_SECTORS].fill(40);
+        // 240 photons, short of a threshold of 300: no test yet.
+        assert_eq!(chi2_shrink(&inner, 300.0, 0.01), None);
+        let (r2, next) = chi2_shrink(&inner, CHI2_FIRST_TEST, 0.01).unwrap();
+        assert!((r2 - 0.005).abs() < 1e-9 && (next - CHI2_FIRST_TEST * CHI2_PATIENCE).abs() < 1e-6);
+        assert_eq!(chi2_shrink(&[50; CHI2_CELLS], CHI2_FIRST_TEST, 0.01), None);
+    }
+
+    #[test]
+    fn adaptive_radius_uses_the_global_radius_until_warm_then_stays_in_its_band() {
+        let mut stats = AdaptiveStatistics::default();
+        let (global2, r0) = (0.01f32, 1.0f32);
+        for pass in 0..ADAPTIVE_WARM_UP - 1 {
+            stats.laplacian = 5.0;
+            let r2 = stats.update(pass, 1.0 + pass as f64 * 0.1, 1.0, 0.01, global2, r0);
+            assert_eq!(r2, global2, "pass {pass}: not warmed up");
+        }
+        stats.laplacian = 5.0;
+        let r2 = stats.update(ADAPTIVE_WARM_UP - 1, 1.3, 1.0, 0.01, global2, r0);
+        assert_eq!(stats.passes, ADAPTIVE_WARM_UP);
+        assert_eq!(stats.laplacian, 0.0, "the pass's Laplacian is folded in and cleared");
+        let (lo, hi) = (0.0625 * global2, 4.0 * global2);
+        assert!((lo..=hi).contains(&r2) && r2 != global2, "r² = {r2}");
+        // A huge variance asks for a huge radius: the band's top, and never above r0².
+        stats.variance_sum = 1e9;
+        assert_eq!(stats.update(ADAPTIVE_WARM_UP, 1.0, 1.0, 0.01, global2, 0.15), 0.15 * 0.15);
     }
 
     #[test]

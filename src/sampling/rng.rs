@@ -1,14 +1,11 @@
 //! Counter-based random numbers: a stateless hash of (seed, pixel, sample, dimension).
 //!
+//! Which dimension feeds what is `kernel::dimensions`.
+//!
 //! A counter-based generator needs no per-path state beyond the counters the path already carries, so a
 //! path can be suspended, moved between threads or regenerated without changing its numbers.
 
 use glam::Vec2;
-
-/// Dimensions reserved for the camera's 5D sample (filter x/y, lens u/v, time).
-pub const CAMERA_DIMENSIONS: u32 = 5;
-/// Dimensions consumed by one path vertex (light choice, light point 2, BSDF lobe, BSDF direction 2, RR).
-pub const DIMENSIONS_PER_BOUNCE: u32 = 8;
 
 /// An independent sampler: each call hashes its coordinates; nothing is stored between calls.
 ///
@@ -38,12 +35,6 @@ impl Sampler {
     #[inline]
     pub fn get2d(&self, dim: u32) -> Vec2 {
         Vec2::new(self.get1d(dim), self.get1d(dim + 1))
-    }
-
-    /// The first dimension of bounce `depth` (camera dimensions come first).
-    #[inline]
-    pub fn bounce_dimension(depth: u32) -> u32 {
-        CAMERA_DIMENSIONS + depth * DIMENSIONS_PER_BOUNCE
     }
 }
 

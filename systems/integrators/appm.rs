@@ -1,6 +1,6 @@
 //! Adaptive progressive photon mapping, `appm` (Kaplanyan & Dachsbacher 2013).
 //!
-//! Parameters: the `[progressive]` table of `ppm`. The camera and photon passes are `sppm`'s. What
+//! Parameters: the `[progressive]` table (see `integrators::progressive`). The camera and photon passes are `sppm`'s. What
 //! differs is the radius: each hit point estimates the per-pass variance of its estimate (times r²,
 //! which makes it radius-free) and the Laplacian of its radiance (biweight-kernel Laplacian over the
 //! pass's photons), and takes the radius that minimises the asymptotic MSE of the average of the
@@ -13,20 +13,27 @@
 //! size, and the band keeps that in check. Per-pass estimates are averaged (each with its own radius)
 //! instead of Hachisuka's flux correction, which assumes a radius that only shrinks.
 
-use super::ppm::{ProgressiveSchedules, add_camera_pass, add_photon_pass};
+use super::progressive::{Variant, plan as progressive_plan};
 use crate::PassSystems;
+use crate::driver::plan::{Plan, When};
+use crate::error::Result;
 use crate::gather::{build_pass_photon_map, gather_photons_with_laplacian};
-use crate::radius::update_radii_adaptive;
+use crate::photon::progressive::RadiusRule;
 use crate::resources::SceneFeatures;
+use crate::scene::RunFile;
+use crate::update::update_radii_adaptive;
 use bevy_ecs::prelude::*;
 
-/// Wire `appm`: `sppm`'s passes with the Laplacian-estimating gather and the MSE-optimal radius.
-/// `nee`: light sampling at the hit points (default); without it photons carry direct light too.
-pub fn build(schedules: &mut ProgressiveSchedules, features: SceneFeatures, nee: bool) {
-    add_camera_pass(&mut schedules.camera, features, nee);
-    add_photon_pass(&mut schedules.photons);
-    schedules.statistics.add_systems(
-        (build_pass_photon_map, gather_photons_with_laplacian).chain().in_set(PassSystems::Gather),
-    );
-    schedules.statistics.add_systems(update_radii_adaptive.in_set(PassSystems::Update));
+/// The plan of `appm`: `sppm`'s passes with the Laplacian-estimating gather and the MSE-optimal radius.
+pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
+    let variant = Variant {
+        rule: RadiusRule::Adaptive,
+        nee: run.schedule.nee_for(run.render.integrator),
+        camera: When::EveryPass,
+        statistics: |schedule| {
+            schedule.add_systems((build_pass_photon_map, gather_photons_with_laplacian).chain().in_set(PassSystems::Gather));
+            schedule.add_systems(update_radii_adaptive.in_set(PassSystems::Update));
+        },
+    };
+    progressive_plan(world, run, features, variant)
 }

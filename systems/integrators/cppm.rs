@@ -1,6 +1,6 @@
 //! Chi-squared progressive photon mapping, `cppm` (Lin et al. 2020).
 //!
-//! Parameters: the `[progressive]` table of `ppm` (`alpha` is not used). The camera and photon passes
+//! Parameters: the `[progressive]` table (see `integrators::progressive`) (`alpha` is not used). The camera and photon passes
 //! are `sppm`'s. Each hit point counts its photons in 2 equal-area rings × 6 sectors of the gather
 //! disc, accumulated over passes. Once the counts hold enough photons (64 at first), Pearson's χ²
 //! test for uniformity at the 95% level decides: uniform, keep the radius and keep counting; not
@@ -12,20 +12,27 @@
 //! shrink factors and patience); the count threshold starts at 64 photons here instead of their
 //! k-NN parameter.
 
-use super::ppm::{ProgressiveSchedules, add_camera_pass, add_photon_pass};
+use super::progressive::{Variant, plan as progressive_plan};
 use crate::PassSystems;
+use crate::driver::plan::{Plan, When};
+use crate::error::Result;
 use crate::gather::{build_pass_photon_map, gather_photons_into_chi2_cells};
-use crate::radius::update_radii_by_chi2;
+use crate::photon::progressive::RadiusRule;
 use crate::resources::SceneFeatures;
+use crate::scene::RunFile;
+use crate::update::update_radii_by_chi2;
 use bevy_ecs::prelude::*;
 
-/// Wire `cppm`: `sppm`'s passes with the cell-counting gather and the χ² radius rule.
-/// `nee`: light sampling at the hit points (default); without it photons carry direct light too.
-pub fn build(schedules: &mut ProgressiveSchedules, features: SceneFeatures, nee: bool) {
-    add_camera_pass(&mut schedules.camera, features, nee);
-    add_photon_pass(&mut schedules.photons);
-    schedules.statistics.add_systems(
-        (build_pass_photon_map, gather_photons_into_chi2_cells).chain().in_set(PassSystems::Gather),
-    );
-    schedules.statistics.add_systems(update_radii_by_chi2.in_set(PassSystems::Update));
+/// The plan of `cppm`: `sppm`'s passes with the cell-counting gather and the χ² radius rule.
+pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
+    let variant = Variant {
+        rule: RadiusRule::ChiSquare,
+        nee: run.schedule.nee_for(run.render.integrator),
+        camera: When::EveryPass,
+        statistics: |schedule| {
+            schedule.add_systems((build_pass_photon_map, gather_photons_into_chi2_cells).chain().in_set(PassSystems::Gather));
+            schedule.add_systems(update_radii_by_chi2.in_set(PassSystems::Update));
+        },
+    };
+    progressive_plan(world, run, features, variant)
 }

@@ -1,15 +1,56 @@
-//! Integrators as schedule builders: each only places systems into the `PassSystems` stages.
+//! Integrators as plans: each file builds what its integrator is — the checks on its settings, the
+//! entities and resources it puts into the World, and the phases of its passes (schedules of the
+//! `PassSystems` stages) — and [`plan`] picks the one the run asks for. The driver runs any plan.
 
 pub mod appm;
 pub mod cppm;
 pub mod path;
 pub mod photon_map;
 pub mod ppm;
+pub mod progressive;
 pub mod sppm;
 
-use crate::scene::schedule::Stage;
 use crate::PassSystems;
-use bevy_ecs::schedule::{IntoScheduleConfigs, Schedule};
+use crate::driver::plan::Plan;
+use crate::error::{Error, Result};
+use crate::resources::SceneFeatures;
+use crate::scene::schedule::{CYCLE, Stage};
+use crate::scene::{IntegratorKind, RunFile, Scene};
+use bevy_ecs::prelude::*;
+use bevy_ecs::schedule::IntoScheduleConfigs;
+
+/// Check the run's settings for its integrator before anything is built: `pixels` is the image
+/// size the run asks for (budgets are checked before anything that big is allocated).
+pub fn check(pixels: u64, scene: &Scene, run: &RunFile) -> Result<()> {
+    let kind = run.render.integrator;
+    run.schedule.check(kind).map_err(|problem| Error::Setting { name: "schedule".into(), problem })?;
+    if kind.is_progressive() {
+        progressive::check(pixels, scene, run)
+    } else if run.render.spp == 0 {
+        Err(Error::Setting { name: "spp".into(), problem: "must be at least 1".into() })
+    } else {
+        Ok(())
+    }
+}
+
+/// Build the integrator the run asks for in `world` (which holds the scene's resources, as
+/// `driver::scene_world` makes them): its entities, resources and phases.
+pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
+    match run.render.integrator {
+        IntegratorKind::Pt | IntegratorKind::PtNaive => path::plan(world, run, features),
+        IntegratorKind::Pm => photon_map::plan(world, run, features),
+        IntegratorKind::Ppm => ppm::plan(world, run, features),
+        IntegratorKind::Sppm => sppm::plan(world, run, features),
+        IntegratorKind::Appm => appm::plan(world, run, features),
+        IntegratorKind::Cppm => cppm::plan(world, run, features),
+    }
+}
+
+/// Camera samples per pixel that one sample of progress stands for: `pm` shoots each final-gather
+/// ray with a camera sample of its own.
+pub fn camera_samples_per_unit(run: &RunFile) -> u32 {
+    if run.render.integrator == IntegratorKind::Pm { run.photons.final_gather.max(1) } else { 1 }
+}
 
 /// The stage set of a run-file stage name.
 pub fn stage_set(stage: Stage) -> PassSystems {
@@ -26,4 +67,64 @@ pub fn stage_set(stage: Stage) -> PassSystems {
 pub fn configure_stages(schedule: &mut Schedule, order: [Stage; 5]) {
     let [a, b, c, d, e] = order.map(stage_set);
     schedule.configure_sets((a, b, c, d, e).chain());
+}
+
+/// The run's stage order (checked by [`check`]).
+pub fn stage_order(run: &RunFile) -> [Stage; 5] {
+    run.schedule.stage_order().unwrap_or(CYCLE)
+}
+
+/// Visibility-aware selection learns only in `pt` with light sampling: elsewhere, warn and use the
+/// light tree it is built on.
+pub fn without_visibility_learning(world: &mut World, features: SceneFeatures, why: &str) -> SceneFeatures {
+    if features.learns_visibility {
+        tracing::warn!("visibility-aware light selection learns only in pt with light sampling; {why}");
+        world.resource_mut::<crate::resources::SceneResource>().lights.finish_learning();
+    }
+    SceneFeatures { learns_visibility: false, ..features }
+}
+
+/// Whether any path still works.
+pub fn paths_busy(world: &World) -> bool {
+    world.resource::<crate::resources::RenderStats>().active_paths > 0
+}
+
+/// Whether any photon is still in flight.
+pub fn photons_busy(world: &World) -> bool {
+    world.resource::<crate::resources::PhotonStats>().active > 0
+}
+
+/// The photon pass's systems, one bounce of every photon per run (Emit → Trace → Scatter → Gather),
+/// in `order`.
+pub fn add_photon_systems(schedule: &mut Schedule, order: [Stage; 5]) {
+    use crate::emit::emit_photons;
+    use crate::gather::store_photons;
+    use crate::scatter::scatter_photons;
+    use crate::trace::trace_photons;
+    configure_stages(schedule, order);
+    schedule.add_systems(emit_photons.in_set(PassSystems::Emit));
+    schedule.add_systems(trace_photons.in_set(PassSystems::Trace));
+    schedule.add_systems(scatter_photons.in_set(PassSystems::Scatter));
+    schedule.add_systems(store_photons.in_set(PassSystems::Gather));
+}
+
+/// The film's mean per pixel: the image of the integrators whose every sample goes to the film.
+pub fn film_image(world: &World, _passes: u32) -> crate::film::Image {
+    world.resource::<crate::resources::FilmResource>().image()
+}
+
+/// Spawn `count` camera-path entities, idle until a pass hands them samples.
+pub fn spawn_paths(world: &mut World, count: u32) {
+    use crate::components::{PathHit, PathRay, PathState, PathStatus, ShadowRay};
+    let idle = PathState { status: PathStatus::Idle, ..PathState::new(0, 0) };
+    world.spawn_batch((0..count).map(|_| (PathRay::default(), PathHit::default(), idle, ShadowRay::default())));
+}
+
+/// Spawn `count` photon entities, idle until a photon pass hands them photons.
+pub fn spawn_photons(world: &mut World, count: u32) {
+    use crate::components::{PathStatus, PhotonHit, PhotonRay, PhotonState};
+    world.spawn_batch((0..count).map(|index| {
+        let state = PhotonState { index, status: PathStatus::Idle, ..Default::default() };
+        (PhotonRay::default(), PhotonHit::default(), state)
+    }));
 }

@@ -6,45 +6,84 @@
 //! | `spp` | u32 | 64 | samples per pixel |
 //! | `max_depth` | u32 or none | none | maximum bounces; none = unbounded, Russian roulette ends paths |
 //! | `rr_depth` | u32 | 5 | first bounce at which Russian roulette may end a path |
-//! | `light_selection` | `uniform` \| `power` | `power` | how NEE picks a light |
+//! | `light_selection` | `uniform` \| `power` \| `tree` \| `visibility` | `power` | how NEE picks a light |
 //! | `seed` | u64 | 0 | sampler seed |
 //!
-//! The schedule is built from the scene: the camera system draws lens and time samples only when the
-//! camera has an aperture or something moves, and `pt` drops light sampling when there is no light.
+//! One pass hands out all the samples; the bounce schedule (Emit → Trace → Scatter → Shadow →
+//! Gather) runs until every path is idle. With visibility-aware selection the first pass renders a
+//! sixteenth of the samples while the light selection learns, and the second the rest with what it
+//! learned. The schedule is built from the scene: the camera system draws lens and time samples only
+//! when the camera has an aperture or something moves, and `pt` drops light sampling when there is
+//! no light.
 
-use crate::scene::IntegratorKind;
+use super::{configure_stages, film_image, paths_busy, spawn_paths, stage_order};
 use crate::PassSystems;
+use crate::driver::MAX_WAVEFRONT;
+use crate::driver::plan::{Phase, Plan, Repeat, Unit, When};
 use crate::emit::emit_camera_paths_for;
-use crate::gather::splat_paths_to_film;
-use crate::resources::SceneFeatures;
+use crate::error::Result;
+use crate::gather::{learn_light_visibility, splat_paths_to_film};
+use crate::passes::{finish_light_learning, hand_out_samples};
+use crate::resources::{FilmResource, SceneFeatures, Workload};
 use crate::scatter::scatter_paths;
+use crate::scene::schedule::Stage;
+use crate::scene::{IntegratorKind, RunFile};
 use crate::trace::{trace_paths, trace_shadow_rays};
 use bevy_ecs::prelude::*;
 
-/// Add the path tracer's systems to `schedule` (the host's or our own), in the default stage order.
-pub fn build(schedule: &mut Schedule, features: SceneFeatures, kind: IntegratorKind) {
-    build_ordered(schedule, features, crate::scene::schedule::CYCLE, kind == IntegratorKind::Pt);
+/// The plan of `pt` or `pt-naive` for the scene in `world`.
+pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
+    let kind = run.render.integrator;
+    let nee = run.schedule.nee_for(kind);
+    let features = if kind == IntegratorKind::Pt && nee {
+        features
+    } else {
+        super::without_visibility_learning(world, features, "using the light tree")
+    };
+    let pixels = {
+        let film = world.resource::<FilmResource>();
+        film.width * film.height
+    };
+    let wavefront = pixels.min(MAX_WAVEFRONT);
+    world.insert_resource(Workload::new(pixels, 0, 0, wavefront));
+    spawn_paths(world, wavefront);
+
+    let mut phases = Vec::new();
+    if features.learns_visibility {
+        phases.push(Phase::once("learning", When::LaterPasses, finish_light_learning));
+    }
+    phases.push(Phase::once("bounce", When::EveryPass, hand_out_samples(1)));
+    let mut bounce = Phase::new("bounce", When::EveryPass, Repeat::WhileBusy(paths_busy));
+    add_bounce_systems(&mut bounce.schedule, features, stage_order(run), nee);
+    phases.push(bounce);
+    let pass_end: crate::driver::plan::PassEnd = if features.learns_visibility {
+        // Learn from the shadow rays of the first sixteenth of the samples (at least one per pixel).
+        Box::new(|done, target| if done == 0 { (target / 16).clamp(1, target) } else { target })
+    } else {
+        Plan::all_at_once()
+    };
+    Ok(Plan {
+        kind,
+        unit: Unit::Samples,
+        phases,
+        pass_end,
+        image: film_image,
+        report: |_, _| {},
+        reset: |_| {},
+    })
 }
 
-/// As [`build`], with the stages in `order` (a rotation of the cycle) and light sampling on or off.
-pub fn build_ordered(
-    schedule: &mut Schedule,
-    features: SceneFeatures,
-    order: [crate::scene::schedule::Stage; 5],
-    nee: bool,
-) {
-    super::configure_stages(schedule, order);
+/// Add one bounce of path tracing to `schedule` (the plan's, or a host's own): the stages in `order`
+/// (a rotation of the cycle), light sampling with MIS when `nee` and the scene has lights.
+pub fn add_bounce_systems(schedule: &mut Schedule, features: SceneFeatures, order: [Stage; 5], nee: bool) {
+    configure_stages(schedule, order);
     schedule.add_systems(emit_camera_paths_for(features).in_set(PassSystems::Emit));
     schedule.add_systems(trace_paths.in_set(PassSystems::Trace));
     if nee && features.lights {
         schedule.add_systems(scatter_paths::<true>.in_set(PassSystems::Scatter));
         schedule.add_systems(trace_shadow_rays.in_set(PassSystems::Shadow));
         if features.learns_visibility {
-            schedule.add_systems(
-                crate::gather::learn_light_visibility
-                    .before(splat_paths_to_film)
-                    .in_set(PassSystems::Gather),
-            );
+            schedule.add_systems(learn_light_visibility.before(splat_paths_to_film).in_set(PassSystems::Gather));
         }
     } else {
         schedule.add_systems(scatter_paths::<false>.in_set(PassSystems::Scatter));

@@ -1,25 +1,33 @@
 //! Stochastic progressive photon mapping, `sppm` (Hachisuka & Jensen 2009).
 //!
-//! Parameters: the `[progressive]` table of `ppm` (see `integrators::ppm`). Each pass re-traces every
+//! Parameters: the `[progressive]` table (see `integrators::progressive`). Each pass re-traces every
 //! pixel's camera path with a new camera sample (filter, lens, and one shutter time per pass shared
 //! with that pass's photons), so depth of field, motion blur, antialiasing and glossy surfaces converge.
 //! The hit point's statistics (N, R, τ) persist per pixel across passes. Direct light comes from one
 //! light sample per pass into the film; photons are kept from their second hit on.
 
-use super::ppm::{ProgressiveSchedules, add_camera_pass, add_photon_pass};
+use super::progressive::{Variant, plan as progressive_plan};
 use crate::PassSystems;
+use crate::driver::plan::{Plan, When};
+use crate::error::Result;
 use crate::gather::{build_pass_photon_map, gather_photons_into_hit_points};
-use crate::radius::update_hit_point_radii;
+use crate::photon::progressive::RadiusRule;
 use crate::resources::SceneFeatures;
+use crate::scene::RunFile;
+use crate::update::update_hit_point_radii;
 use bevy_ecs::prelude::*;
 
-/// Wire `sppm`: camera pass with light sampling, photon pass, gather, shrinking-radius update.
-/// `nee`: light sampling at the hit points (default); without it photons carry direct light too.
-pub fn build(schedules: &mut ProgressiveSchedules, features: SceneFeatures, nee: bool) {
-    add_camera_pass(&mut schedules.camera, features, nee);
-    add_photon_pass(&mut schedules.photons);
-    schedules.statistics.add_systems(
-        (build_pass_photon_map, gather_photons_into_hit_points).chain().in_set(PassSystems::Gather),
-    );
-    schedules.statistics.add_systems(update_hit_point_radii.in_set(PassSystems::Update));
+/// The plan of `sppm`: camera pass with light sampling (without it, `[schedule] nee = false`, photons
+/// carry direct light too), photon pass, gather, shrinking-radius update.
+pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
+    let variant = Variant {
+        rule: RadiusRule::Shrinking,
+        nee: run.schedule.nee_for(run.render.integrator),
+        camera: When::EveryPass,
+        statistics: |schedule| {
+            schedule.add_systems((build_pass_photon_map, gather_photons_into_hit_points).chain().in_set(PassSystems::Gather));
+            schedule.add_systems(update_hit_point_radii.in_set(PassSystems::Update));
+        },
+    };
+    progressive_plan(world, run, features, variant)
 }

@@ -1,0 +1,29 @@
+//! `caustica compare`: the error of one image against another.
+
+use anyhow::{Context, Result};
+use caustica::film::{compare::compare, output};
+use std::path::Path;
+
+/// Print RMSE, relMSE and MAE of `image` against `reference`, over `window` (X0,Y0,X1,Y1) if given.
+pub fn compare_files(image: &Path, reference: &Path, window: Option<&[u32]>) -> Result<()> {
+    let mut a = output::read_exr(image)?;
+    let mut b = output::read_exr(reference)?;
+    match window {
+        Some(&[x0, y0, x1, y1]) => (a, b) = (a.crop(x0, y0, x1, y1), b.crop(x0, y0, x1, y1)),
+        Some(w) => anyhow::bail!("--window takes X0,Y0,X1,Y1 (four numbers), got {} numbers", w.len()),
+        None => {}
+    }
+    let e = compare(&a, &b).with_context(|| {
+        format!(
+            "{} is {}x{} but {} is {}x{}",
+            image.display(),
+            a.width,
+            a.height,
+            reference.display(),
+            b.width,
+            b.height
+        )
+    })?;
+    println!("RMSE {:.6}\nrelMSE {:.6}\nMAE {:.6}", e.rmse, e.relmse, e.mae);
+    Ok(())
+}

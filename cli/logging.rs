@@ -1,0 +1,42 @@
+//! Where the command's tracing goes: log lines to stderr, and the per-system profile and the Chrome
+//! trace when asked for.
+
+use crate::profile::{SystemProfile, span_label};
+use anyhow::{Context, Result};
+use std::path::Path;
+use tracing_subscriber::EnvFilter;
+
+/// Log to stderr (RUST_LOG, default warn), plus the profile and Chrome-trace layers when asked for.
+/// The log filter applies to the log layer only, so the others see every system span.
+pub fn install_subscriber(
+    profile: Option<&SystemProfile>,
+    chrome: Option<&Path>,
+) -> Result<Option<tracing_chrome::FlushGuard>> {
+    use tracing_subscriber::prelude::*;
+    let log_filter = EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new("warn"));
+    if profile.is_none() && chrome.is_none() {
+        // A global filter disables the per-system spans at their call sites: no cost at all.
+        tracing_subscriber::fmt().with_env_filter(log_filter).with_writer(std::io::stderr).init();
+        return Ok(None);
+    }
+    let log = tracing_subscriber::fmt::layer().with_writer(std::io::stderr).with_filter(log_filter);
+    let (chrome_layer, guard) = match chrome {
+        Some(path) => {
+            let file = std::fs::File::create(path)
+                .with_context(|| format!("{}: cannot create the Chrome trace", path.display()))?;
+            let (layer, guard) = tracing_chrome::ChromeLayerBuilder::new()
+                .writer(std::io::BufWriter::new(file))
+                .name_fn(Box::new(|event_or_span| match event_or_span {
+                    tracing_chrome::EventOrSpan::Span(span) => span_label(span),
+                    tracing_chrome::EventOrSpan::Event(event) => event.metadata().name().to_owned(),
+                }))
+                .build();
+            (Some(layer), Some(guard))
+        }
+        None => (None, None),
+    };
+    // The profile layer records span names that the Chrome layer's labels read, so it goes first.
+    let names = profile.cloned().unwrap_or_default().layer();
+    tracing_subscriber::registry().with(names).with(chrome_layer).with(log).init();
+    Ok(guard)
+}

@@ -1,0 +1,87 @@
+//! The end-of-run report, printed the same way for every integrator: what is there is shown.
+
+use caustica::Choice;
+use caustica::Report;
+use caustica::driver::plan::Unit;
+use std::path::Path;
+
+/// Print `report` of a render of `scene` that took `total_seconds` with loading.
+pub fn print_report(scene: &Path, report: &Report, total_seconds: f64) {
+    let seconds = report.seconds.max(1e-9);
+    println!("scene       {}", scene.display());
+    println!(
+        "integrator  {}, {} {}{}, {}x{}",
+        report.integrator.name(),
+        format_progress(report.done),
+        report.unit.name(),
+        if report.done < report.target as f64 { format!(" of {}", report.target) } else { String::new() },
+        report.width,
+        report.height
+    );
+    println!("time        {total_seconds:.3} s total, {:.3} s rendering", report.seconds);
+    println!("phases      {}", phases(report));
+    let paths = &report.paths;
+    println!("samples/s   {:.3} M", report.samples_per_second() / 1e6);
+    println!(
+        "rays/s      {:.3} M ({} rays, {} shadow rays)",
+        report.rays_per_second() / 1e6,
+        paths.rays,
+        paths.shadow_rays
+    );
+    if report.unit == Unit::Samples {
+        println!(
+            "wavefront   {} paths, {} steps, {:.0}% busy",
+            report.wavefront,
+            paths.steps,
+            100.0 * paths.rays as f64 / (paths.steps as f64 * report.wavefront as f64).max(1.0)
+        );
+    }
+    if paths.lookups > 0 {
+        println!("lookups     {} k-nearest queries, {:.3} M/s", paths.lookups, paths.lookups as f64 / seconds / 1e6);
+    }
+    if let Some(photons) = &report.photons {
+        let photon_seconds = report.phase_seconds("photons").max(1e-9);
+        println!(
+            "photons     {} emitted, {} stored, {} traced, {} ended by roulette; {:.2} M photons/s",
+            photons.emitted,
+            photons.stored,
+            photons.traced,
+            photons.roulette_kills,
+            photons.emitted as f64 / photon_seconds / 1e6
+        );
+        for map in &photons.maps {
+            println!(
+                "photon map  {}: {} emitted, {} stored ({:.1} MB)",
+                Report::map_name(map.kind),
+                map.emitted,
+                map.stored,
+                map.bytes as f64 / 1e6
+            );
+        }
+    }
+    if let Some(hp) = &report.hit_points {
+        println!(
+            "hit points  {} ({} per pixel, {} bytes each with their camera path), mean radius {:.4e} (initial {:.4e})",
+            hp.count, hp.per_pixel, hp.bytes_each, hp.mean_radius, hp.initial_radius
+        );
+    }
+    let dropped_photons = report.photons.as_ref().map_or(0, |p| p.dropped);
+    println!("NaN/Inf     {} samples, {dropped_photons} photon contributions dropped", paths.nan_samples);
+}
+
+/// Whole numbers without decimals, fractions (a time limit cut the pass) with two.
+fn format_progress(done: f64) -> String {
+    if done.fract() == 0.0 { format!("{done:.0}") } else { format!("{done:.2}") }
+}
+
+/// The phases' times, phases of the same name summed, in the order they first ran.
+fn phases(report: &Report) -> String {
+    let mut merged: Vec<(&str, f64)> = Vec::new();
+    for phase in report.phases.iter().filter(|p| p.runs > 0) {
+        match merged.iter_mut().find(|(name, _)| *name == phase.name) {
+            Some((_, seconds)) => *seconds += phase.seconds,
+            None => merged.push((phase.name, phase.seconds)),
+        }
+    }
+    merged.iter().map(|(name, seconds)| format!("{name} {seconds:.3} s")).collect::<Vec<_>>().join(", ")
+}

@@ -1,0 +1,130 @@
+//! The sampler's dimension layout: which random number feeds which decision, for camera paths and
+//! for photons. Every integrator draws through these, so two integrators that make the same decision
+//! at the same vertex use the same number.
+
+use crate::sampling::Sampler;
+use glam::Vec2;
+
+/// The camera's 5-D sample: pixel filter (2), lens (2), shutter time (1).
+pub mod camera {
+    /// Position within the pixel filter (2-D).
+    pub const FILTER: u32 = 0;
+    /// Position on the lens (2-D).
+    pub const LENS: u32 = 2;
+    /// Shutter time.
+    pub const TIME: u32 = 4;
+    /// Dimensions the camera uses; the first bounce starts after them.
+    pub const DIMENSIONS: u32 = 5;
+}
+
+/// Dimensions of one camera-path vertex, from [`bounce_dimension`] on.
+pub mod bounce {
+    /// Which light next-event estimation picks.
+    pub const LIGHT_SELECT: u32 = 0;
+    /// The point on that light (2-D).
+    pub const LIGHT_POINT: u32 = 1;
+    /// Which BSDF lobe continues the path.
+    pub const BSDF_LOBE: u32 = 3;
+    /// The direction within the lobe (2-D).
+    pub const BSDF_DIRECTION: u32 = 4;
+    /// Russian roulette.
+    pub const ROULETTE: u32 = 6;
+    /// Dimensions per vertex (one spare).
+    pub const DIMENSIONS: u32 = 8;
+}
+
+/// The first dimension of the vertex at `depth` bounces (the camera's come first).
+#[inline]
+pub fn bounce_dimension(depth: u32) -> u32 {
+    camera::DIMENSIONS + depth * bounce::DIMENSIONS
+}
+
+/// The random numbers of one camera-path vertex, drawn as they are needed.
+#[derive(Clone, Copy, Debug)]
+pub struct VertexSampler {
+    sampler: Sampler,
+    base: u32,
+}
+
+impl VertexSampler {
+    /// The numbers of the vertex at `depth` of the path that `sampler` (its pixel and sample) drives.
+    #[inline]
+    pub fn new(sampler: Sampler, depth: u32) -> Self {
+        Self { sampler, base: bounce_dimension(depth) }
+    }
+
+    /// Light selection.
+    #[inline]
+    pub fn light_select(&self) -> f32 {
+        self.sampler.get1d(self.base + bounce::LIGHT_SELECT)
+    }
+
+    /// The point on the selected light.
+    #[inline]
+    pub fn light_point(&self) -> Vec2 {
+        self.sampler.get2d(self.base + bounce::LIGHT_POINT)
+    }
+
+    /// The BSDF lobe.
+    #[inline]
+    pub fn bsdf_lobe(&self) -> f32 {
+        self.sampler.get1d(self.base + bounce::BSDF_LOBE)
+    }
+
+    /// The direction within the lobe.
+    #[inline]
+    pub fn bsdf_direction(&self) -> Vec2 {
+        self.sampler.get2d(self.base + bounce::BSDF_DIRECTION)
+    }
+
+    /// Russian roulette.
+    #[inline]
+    pub fn roulette(&self) -> f32 {
+        self.sampler.get1d(self.base + bounce::ROULETTE)
+    }
+}
+
+/// A photon's dimensions: six at emission, then four per bounce.
+pub mod photon {
+    /// Shutter time, when the pass does not fix one.
+    pub const TIME: u32 = 0;
+    /// Which light emits.
+    pub const LIGHT: u32 = 1;
+    /// The point on the light (2-D).
+    pub const POSITION: u32 = 2;
+    /// The emitted direction (2-D).
+    pub const DIRECTION: u32 = 4;
+    /// The first bounce's dimensions start here.
+    pub const FIRST_BOUNCE: u32 = 6;
+    /// Dimensions per bounce.
+    pub const PER_BOUNCE: u32 = 4;
+    /// Within a bounce: the BSDF lobe.
+    pub const LOBE: u32 = 0;
+    /// Within a bounce: the direction in the lobe (2-D).
+    pub const BSDF: u32 = 1;
+    /// Within a bounce: Russian roulette.
+    pub const ROULETTE: u32 = 3;
+}
+
+/// The sampler of photon `index` of progressive pass `pass` in a map of kind number `map`: the map
+/// keeps a caustic and a global pass independent of each other, the pass number successive passes.
+#[inline]
+pub fn photon_sampler(seed: u64, pass: u32, map: u32, index: u32) -> Sampler {
+    Sampler::new(seed ^ ((pass as u64) << 32), index, (map + 1) << 16)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn vertices_use_disjoint_dimensions_after_the_camera() {
+        assert_eq!(bounce_dimension(0), camera::DIMENSIONS);
+        let used = [bounce::LIGHT_SELECT, bounce::LIGHT_POINT + 1, bounce::BSDF_DIRECTION + 1, bounce::ROULETTE];
+        assert!(used.iter().all(|&d| d < bounce::DIMENSIONS), "a vertex stays within its {} dimensions", bounce::DIMENSIONS);
+        let v = VertexSampler::new(Sampler::new(3, 7, 2), 1);
+        let s = Sampler::new(3, 7, 2);
+        assert_eq!(v.roulette(), s.get1d(camera::DIMENSIONS + bounce::DIMENSIONS + bounce::ROULETTE));
+        assert_eq!(v.light_point(), s.get2d(camera::DIMENSIONS + bounce::DIMENSIONS + bounce::LIGHT_POINT));
+    }
+}

@@ -1,0 +1,56 @@
+//! Next-event estimation: one light sample at a vertex, as a shadow ray and what it adds if nothing
+//! blocks it.
+
+use super::{VertexSampler, Vertex, mis::power_heuristic};
+use crate::geometry::Ray;
+use crate::geometry::offset::{SHADOW_EPSILON, offset_ray_origin};
+use crate::materials::TransportMode;
+use crate::render_scene::RenderScene;
+use glam::Vec3;
+
+/// A light sample waiting for its visibility test.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShadowSample {
+    /// The segment from the vertex to the point on the light (`t_max` just short of 1).
+    pub ray: Ray,
+    /// β · f · |cos θ| · Le · w / pdf: what the path gains when the segment is free.
+    pub contribution: Vec3,
+    /// The light sampled.
+    pub light: u32,
+    /// The shading normal at the vertex, on the side it is seen from.
+    pub normal: Vec3,
+}
+
+/// Sample a light for vertex `v` of a path with throughput `beta` at shutter time `time`. With
+/// `mis`, the contribution carries the power-heuristic weight against BSDF sampling (which then
+/// counts emission it hits with the complementary weight); without, light sampling is the only way
+/// this vertex sees direct light. None when no light is picked, the BSDF sends nothing towards it,
+/// or its pdf is zero.
+#[inline]
+pub fn sample_light(
+    scene: &RenderScene,
+    v: &Vertex,
+    beta: Vec3,
+    time: f32,
+    u: &VertexSampler,
+    mis: bool,
+) -> Option<ShadowSample> {
+    let si = &v.si;
+    let normal = v.n_side();
+    let (light, ls) = scene.lights.sample(si.p, normal, time, u.light_select(), u.light_point())?;
+    let wi_world = (ls.p - si.p).normalize();
+    let wi = v.frame.to_local(wi_world);
+    let f = v.bsdf.eval(v.wo, wi, TransportMode::Radiance) * wi.z.abs();
+    if !(f.max_element() > 0.0 && ls.pdf > 0.0) {
+        return None;
+    }
+    let contribution = if mis {
+        let weight = power_heuristic(ls.pdf, v.bsdf.pdf(v.wo, wi));
+        beta * f * ls.le * (weight / ls.pdf)
+    } else {
+        beta * f * ls.le / ls.pdf
+    };
+    let origin = offset_ray_origin(si.p, si.p_error, si.ng, wi_world);
+    let ray = Ray { o: origin, d: ls.p - origin, t_max: 1.0 - SHADOW_EPSILON, time };
+    Some(ShadowSample { ray, contribution, light, normal })
+}

@@ -1,0 +1,116 @@
+//! The camera-vertex kernel that every integrator shares, as pure functions on plain data.
+//!
+//! A camera path is a [`CameraPath`] (throughput, radiance so far, and what MIS and Russian roulette
+//! remember of the last bounce). At each hit an integrator builds a [`Vertex`] and calls, in its own
+//! order:
+//! - [`emission::add_surface_emission`] / [`emission::add_escaped_radiance`]: light the path found by
+//!   BSDF sampling, weighted by the integrator's [`emission::EmissionWeight`];
+//! - [`direct::sample_light`]: next-event estimation, with or without MIS, as a shadow ray to trace;
+//! - [`continuation::continue_path`]: the BSDF sample that continues the path, with the one
+//!   Russian-roulette rule (`β · η-scale`, survival capped);
+//! - photons have theirs in [`photon`].
+//!
+//! Every random number comes from [`dimensions`], the one layout of the sampler's dimensions. The ECS
+//! systems in `systems/` are thin queries over these functions.
+
+pub mod continuation;
+pub mod dimensions;
+pub mod direct;
+pub mod emission;
+pub mod mis;
+pub mod photon;
+
+use crate::geometry::{Ray, SurfaceHit};
+use crate::materials::{Bsdf, ShadingParams};
+use crate::render_scene::RenderScene;
+use crate::sampling::warp::Frame;
+use glam::Vec3;
+
+pub use continuation::{PathLimits, continue_path};
+pub use dimensions::VertexSampler;
+pub use direct::{ShadowSample, sample_light};
+pub use emission::EmissionWeight;
+pub use mis::power_heuristic;
+
+/// The state of a camera path between bounces (names as in pbrt-v4's `PathIntegrator::Li`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraPath {
+    /// Throughput β.
+    pub beta: Vec3,
+    /// Radiance gathered so far.
+    pub l: Vec3,
+    /// Product of the squared relative IORs crossed (Russian roulette divides it out).
+    pub eta_scale: f32,
+    /// BSDF pdf of the last bounce (MIS weight of emission found next).
+    pub prev_pdf: f32,
+    /// Position of the last scattering vertex.
+    pub prev_p: Vec3,
+    /// Shading normal there, on the side the path left from (light selection depends on it, and
+    /// MIS must see the same selection).
+    pub prev_n: Vec3,
+    /// Bounces so far.
+    pub depth: u32,
+    /// Whether the last bounce was a delta lobe (emission found next is counted fully).
+    pub specular_bounce: bool,
+}
+
+impl CameraPath {
+    /// A path at the camera: throughput one, no radiance yet.
+    pub const START: Self = Self {
+        beta: Vec3::ONE,
+        l: Vec3::ZERO,
+        eta_scale: 1.0,
+        prev_pdf: 0.0,
+        prev_p: Vec3::ZERO,
+        prev_n: Vec3::ZERO,
+        depth: 0,
+        specular_bounce: false,
+    };
+
+    /// Whether the last vertex was the camera or a delta bounce: emission found now was not
+    /// reachable by light sampling, nor by photons stored at non-specular surfaces.
+    #[inline]
+    pub fn seen_directly(&self) -> bool {
+        self.depth == 0 || self.specular_bounce
+    }
+}
+
+impl Default for CameraPath {
+    fn default() -> Self {
+        Self::START
+    }
+}
+
+/// A shading point: the surface hit, its resolved BSDF and shading frame, and the outgoing direction.
+#[derive(Clone, Copy, Debug)]
+pub struct Vertex {
+    /// The hit.
+    pub si: SurfaceHit,
+    /// The material's parameters after textures.
+    pub params: ShadingParams,
+    /// Its BSDF.
+    pub bsdf: Bsdf,
+    /// The shading frame (z = shading normal).
+    pub frame: Frame,
+    /// Towards where the ray came from, in the shading frame.
+    pub wo: Vec3,
+}
+
+impl Vertex {
+    /// The vertex where `ray` hit `si`.
+    #[inline]
+    pub fn new(scene: &RenderScene, ray: &Ray, si: SurfaceHit) -> Self {
+        let params = scene.shading_params(&si);
+        let bsdf = Bsdf::new(&params);
+        let frame = Frame::from_z(si.ns);
+        let wo = frame.to_local(-ray.d);
+        Self { si, params, bsdf, frame, wo }
+    }
+
+    /// The shading normal on the side the path arrived from: how light selection and MIS see this
+    /// point.
+    #[inline]
+    pub fn n_side(&self) -> Vec3 {
+        if self.wo.z >= 0.0 { self.si.ns } else { -self.si.ns }
+    }
+}

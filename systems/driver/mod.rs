@@ -1,0 +1,223 @@
+//! The one driver: build a World and an integrator's [`Plan`] from a scene and its settings, run its
+//! passes until the samples or passes are done or a time limit passes, extend, and make the image and
+//! the report — the way pbrt-v4's `Render()` runs any integrator. The command, the bench, the tests
+//! and a host application all drive every integrator through [`Renderer`]; none of them knows which
+//! integrator it runs.
+
+pub mod plan;
+pub mod report;
+pub mod world;
+
+use crate::error::Result;
+use crate::film::Image;
+use crate::integrators;
+use crate::resources::{FilmResource, PassRange, PhotonStats, RenderStats, SceneFeatures};
+use crate::scene::{RunFile, Scene};
+use bevy_ecs::prelude::*;
+use plan::{Plan, Repeat, Unit};
+use report::{PhaseTime, Report};
+use std::time::Instant;
+
+pub use world::{DEFAULT_RESOLUTION, MAX_WAVEFRONT, init_thread_pools, resolution, scene_world};
+
+/// How far a render has come, for a progress bar.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Progress {
+    /// What it is counted in.
+    pub unit: Unit,
+    /// Samples per pixel splatted (fractional while a pass runs), or passes done.
+    pub done: f64,
+    /// What the render aims at.
+    pub target: u32,
+}
+
+/// A render in progress: the World (scene, settings, film, entities), the plan that drives it, and
+/// where it stands.
+pub struct Renderer {
+    /// Scene, settings, film and the integrator's entities. A host may add its own resources.
+    pub world: World,
+    /// The integrator's phases; a host may add its systems to them (`Plan::phase_mut`).
+    pub plan: Plan,
+    /// What the scene uses.
+    pub features: SceneFeatures,
+    /// Passes run.
+    passes: u32,
+    /// Progress at the end of the last pass.
+    done: u32,
+    /// Progress aimed at.
+    target: u32,
+    /// Set when a time limit stopped the render.
+    stopped: bool,
+    /// Seconds spent rendering.
+    seconds: f64,
+    /// Where the time went, phase by phase (same order as the plan's).
+    phase_times: Vec<PhaseTime>,
+    /// Camera samples per pixel that one unit of progress stands for (`pm`: its final-gather rays).
+    samples_per_unit: u32,
+}
+
+impl Renderer {
+    /// Check the settings against the scene, build the World and the integrator's plan. The target is
+    /// the run's `render.spp` or `progressive.passes`, by the integrator.
+    pub fn new(scene: Scene, run: &RunFile) -> Result<Self> {
+        integrators::check(scene_pixels(&scene, run)?, &scene, run)?;
+        let (mut world, features) = scene_world(scene, run)?;
+        let plan = integrators::plan(&mut world, run, features)?;
+        let target = match plan.unit {
+            Unit::Samples => run.render.spp,
+            Unit::Passes => run.progressive.passes,
+        };
+        let samples_per_unit = integrators::camera_samples_per_unit(run);
+        let phase_times = plan.phases.iter().map(|p| PhaseTime { name: p.name, seconds: 0.0, runs: 0 }).collect();
+        Ok(Self {
+            world,
+            plan,
+            features,
+            passes: 0,
+            done: 0,
+            target,
+            stopped: false,
+            seconds: 0.0,
+            phase_times,
+            samples_per_unit,
+        })
+    }
+
+    /// What progress is aimed at.
+    pub fn target(&self) -> u32 {
+        self.target
+    }
+
+    /// Aim at `target` samples per pixel or passes: raise it to continue a finished render (the film
+    /// keeps what it has), as benchmarks do to measure the error after 1, 2, 4, … of them.
+    pub fn set_target(&mut self, target: u32) {
+        self.target = target;
+        self.stopped = false;
+    }
+
+    /// Passes run so far.
+    pub fn passes(&self) -> u32 {
+        self.passes
+    }
+
+    /// How far the render has come.
+    pub fn progress(&self) -> Progress {
+        let done = match self.plan.unit {
+            Unit::Passes => self.passes as f64,
+            Unit::Samples => {
+                let film = self.world.resource::<FilmResource>();
+                let pixels = (film.width as u64 * film.height as u64).max(1) as f64;
+                self.world.resource::<RenderStats>().samples as f64 / (pixels * self.samples_per_unit as f64)
+            }
+        };
+        Progress { unit: self.plan.unit, done, target: self.target }
+    }
+
+    /// Run passes until the target is reached or, with `time_limit`, that many seconds have passed:
+    /// then no new work starts, what is in flight finishes (a sample's path, or the pass that is
+    /// running), and every pixel keeps the samples it got (samples are handed out sample-major, so
+    /// pixels differ by at most one). `on_step` is called after every bounce step and every pass.
+    pub fn run(&mut self, time_limit: Option<f64>, mut on_step: impl FnMut(&Renderer)) -> Report {
+        let start = Instant::now();
+        let deadline = time_limit.map(|limit| (start, limit));
+        while self.done < self.target && !self.stopped {
+            self.run_pass(deadline, &mut on_step);
+        }
+        self.report()
+    }
+
+    /// Run one pass of the plan, towards the current target.
+    pub fn run_pass(&mut self, deadline: Option<(Instant, f64)>, on_step: &mut impl FnMut(&Renderer)) {
+        let pass_start = Instant::now();
+        let (index, begin) = (self.passes, self.done);
+        let end = (self.plan.pass_end)(begin, self.target).clamp(begin + 1, self.target.max(begin + 1));
+        self.world.insert_resource(PassRange { index, begin, end, stop: false });
+        let _span = tracing::info_span!("pass", index).entered();
+        for i in 0..self.plan.phases.len() {
+            if !self.plan.phases[i].when.includes(index) {
+                continue;
+            }
+            let phase_start = Instant::now();
+            let mut runs = 0;
+            loop {
+                self.plan.phases[i].schedule.run(&mut self.world);
+                runs += 1;
+                let Repeat::WhileBusy(busy) = self.plan.phases[i].repeat else { break };
+                if deadline.is_some_and(|(start, limit)| start.elapsed().as_secs_f64() >= limit) {
+                    self.world.resource_mut::<PassRange>().stop = true;
+                    self.stopped = true;
+                }
+                on_step(self);
+                if !busy(&self.world) {
+                    break;
+                }
+            }
+            let time = &mut self.phase_times[i];
+            time.seconds += phase_start.elapsed().as_secs_f64();
+            time.runs += runs;
+        }
+        self.passes += 1;
+        self.done = end;
+        self.seconds += pass_start.elapsed().as_secs_f64();
+        if deadline.is_some_and(|(start, limit)| start.elapsed().as_secs_f64() >= limit) {
+            self.stopped = true;
+        }
+        on_step(self);
+    }
+
+    /// The image so far.
+    pub fn image(&self) -> Image {
+        (self.plan.image)(&self.world, self.passes)
+    }
+
+    /// Start over on the same entities: a black film, zero counters, no passes (a host's next
+    /// frame, after it has moved things and replaced `SceneResource`).
+    pub fn restart(&mut self) {
+        let (width, height) = {
+            let film = self.world.resource::<FilmResource>();
+            (film.width, film.height)
+        };
+        self.world.insert_resource(FilmResource(crate::film::Film::new(width, height)));
+        self.world.insert_resource(RenderStats::default());
+        if self.world.contains_resource::<PhotonStats>() {
+            self.world.insert_resource(PhotonStats::default());
+        }
+        (self.plan.reset)(&mut self.world);
+        self.passes = 0;
+        self.done = 0;
+        self.stopped = false;
+        self.seconds = 0.0;
+        self.phase_times.iter_mut().for_each(|t| (t.seconds, t.runs) = (0.0, 0));
+    }
+
+    /// What the render did so far.
+    pub fn report(&self) -> Report {
+        let film = self.world.resource::<FilmResource>();
+        let wavefront = self
+            .world
+            .try_query::<&crate::components::PathState>()
+            .map_or(0, |mut q| q.iter(&self.world).count() as u32);
+        let mut report = Report {
+            integrator: self.plan.kind,
+            width: film.width,
+            height: film.height,
+            unit: self.plan.unit,
+            done: self.progress().done,
+            target: self.target,
+            seconds: self.seconds,
+            phases: self.phase_times.clone(),
+            paths: *self.world.resource::<RenderStats>(),
+            wavefront,
+            photons: None,
+            hit_points: None,
+        };
+        (self.plan.report)(&self.world, &mut report);
+        report
+    }
+}
+
+/// The number of pixels the run asks for, before anything is allocated.
+fn scene_pixels(scene: &Scene, run: &RunFile) -> Result<u64> {
+    let (w, h) = resolution(scene, run)?;
+    Ok(w as u64 * h as u64)
+}

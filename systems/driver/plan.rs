@@ -1,0 +1,133 @@
+//! What an integrator is, as the driver sees it: the phases of a pass (schedules and how often they
+//! run), what its progress is counted in, how its statistics become an image, and what it adds to the
+//! report. Each `integrators/*.rs` builds one; the driver runs any of them.
+
+use super::report::Report;
+use crate::film::Image;
+use crate::scene::IntegratorKind;
+use bevy_ecs::prelude::*;
+use bevy_ecs::schedule::{ScheduleLabel, SingleThreadedExecutor};
+
+/// What a render's progress is counted in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Unit {
+    /// Samples per pixel (`pt`, `pt-naive`, `pm`): a pass renders a range of them.
+    Samples,
+    /// Photon passes (`ppm`, `sppm`, `appm`, `cppm`): a pass is one.
+    Passes,
+}
+
+impl Unit {
+    /// The unit's name in messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Samples => "spp",
+            Self::Passes => "passes",
+        }
+    }
+}
+
+/// In which passes a phase runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum When {
+    /// Every pass.
+    EveryPass,
+    /// The first pass only (`pm`'s photon maps, `ppm`'s hit points).
+    FirstPass,
+    /// Every pass but the first (what the first pass learned is frozen).
+    LaterPasses,
+}
+
+impl When {
+    /// Whether a phase with this rule runs in pass `index`.
+    pub fn includes(self, index: u32) -> bool {
+        match self {
+            Self::EveryPass => true,
+            Self::FirstPass => index == 0,
+            Self::LaterPasses => index > 0,
+        }
+    }
+}
+
+/// How often a phase's schedule runs within a pass.
+#[derive(Clone, Copy, Debug)]
+pub enum Repeat {
+    /// Once.
+    Once,
+    /// Until the predicate says no entity has work left (a bounce per run).
+    WhileBusy(fn(&World) -> bool),
+}
+
+/// One step of a pass: a schedule, when it runs, and how often.
+pub struct Phase {
+    /// Its name in the report and the profile ("bounce", "photons", "statistics", ...).
+    pub name: &'static str,
+    /// Its systems.
+    pub schedule: Schedule,
+    /// In which passes.
+    pub when: When,
+    /// How often.
+    pub repeat: Repeat,
+}
+
+impl Phase {
+    /// An empty phase whose schedule runs its systems in order on one thread: they parallelise their
+    /// own queries, and a parallel executor would only add hand-off cost between these few, fat
+    /// systems.
+    pub fn new(name: &'static str, when: When, repeat: Repeat) -> Self {
+        let mut schedule = Schedule::new(PhaseLabel(name));
+        schedule.set_executor(SingleThreadedExecutor::new());
+        Self { name, schedule, when, repeat }
+    }
+
+    /// A phase that runs `systems` once.
+    pub fn once<M>(name: &'static str, when: When, systems: impl IntoScheduleConfigs<bevy_ecs::system::ScheduleSystem, M>) -> Self {
+        let mut phase = Self::new(name, when, Repeat::Once);
+        phase.schedule.add_systems(systems);
+        phase
+    }
+}
+
+/// A schedule's label by phase name, so a profile tells the phases apart.
+#[derive(ScheduleLabel, Debug, Clone, PartialEq, Eq, Hash)]
+pub struct PhaseLabel(pub &'static str);
+
+/// Where the pass that starts at progress `done` ends, for a render that aims at `target`.
+pub type PassEnd = Box<dyn Fn(u32, u32) -> u32 + Send + Sync>;
+
+/// An integrator, ready to run: its entities and resources are in the World; this says how to drive
+/// them.
+pub struct Plan {
+    /// Which integrator.
+    pub kind: IntegratorKind,
+    /// What progress is counted in.
+    pub unit: Unit,
+    /// The phases of a pass, in order.
+    pub phases: Vec<Phase>,
+    /// Where each pass ends.
+    pub pass_end: PassEnd,
+    /// The image from the World's statistics after `passes` passes.
+    pub image: fn(&World, u32) -> Image,
+    /// Adds the integrator's own lines to the report.
+    pub report: fn(&World, &mut Report),
+    /// Clears the statistics for a new render over the same entities (a host's next frame).
+    pub reset: fn(&mut World),
+}
+
+impl Plan {
+    /// The phase named `name`, to add a host's systems to.
+    pub fn phase_mut(&mut self, name: &str) -> Option<&mut Phase> {
+        self.phases.iter_mut().find(|p| p.name == name)
+    }
+
+    /// One pass per unit of progress (the progressive photon mappers).
+    pub fn one_per_pass() -> PassEnd {
+        Box::new(|done, _| done + 1)
+    }
+
+    /// Everything that is left in one pass (the sample integrators: the wavefront hands out samples
+    /// continuously, and a pass boundary would only make the paths wait for the last one).
+    pub fn all_at_once() -> PassEnd {
+        Box::new(|_, target| target)
+    }
+}

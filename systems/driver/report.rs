@@ -1,0 +1,105 @@
+//! What a render reports: one type for every integrator, which the command prints and a host reads.
+
+use super::plan::Unit;
+use crate::photon::PhotonMapKind;
+use crate::resources::{PhotonMapSummary, RenderStats};
+use crate::scene::IntegratorKind;
+
+/// Time spent in one phase.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PhaseTime {
+    /// The phase's name.
+    pub name: &'static str,
+    /// Seconds, all passes.
+    pub seconds: f64,
+    /// Runs of its schedule.
+    pub runs: u64,
+}
+
+/// The photon side of a render.
+#[derive(Clone, Debug, Default)]
+pub struct PhotonSummary {
+    /// Photons emitted.
+    pub emitted: u64,
+    /// Photons stored.
+    pub stored: u64,
+    /// Photon rays traced.
+    pub traced: u64,
+    /// Photons ended by Russian roulette.
+    pub roulette_kills: u64,
+    /// Photon contributions to hit points dropped for being NaN or infinite.
+    pub dropped: u64,
+    /// `pm`'s maps.
+    pub maps: Vec<PhotonMapSummary>,
+}
+
+/// The hit points of a progressive render.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct HitPointSummary {
+    /// Hit points.
+    pub count: u64,
+    /// Per pixel.
+    pub per_pixel: u32,
+    /// Bytes each takes with its camera path.
+    pub bytes_each: usize,
+    /// Mean gather radius.
+    pub mean_radius: f32,
+    /// The radius rule's initial radius.
+    pub initial_radius: f32,
+}
+
+/// A render's report.
+#[derive(Clone, Debug)]
+pub struct Report {
+    /// Which integrator.
+    pub integrator: IntegratorKind,
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// What progress is counted in.
+    pub unit: Unit,
+    /// Progress reached: samples per pixel (fractional when a time limit cut a pass), or passes.
+    pub done: f64,
+    /// Progress aimed at.
+    pub target: u32,
+    /// Seconds spent rendering.
+    pub seconds: f64,
+    /// Where the time went.
+    pub phases: Vec<PhaseTime>,
+    /// Camera-path counters.
+    pub paths: RenderStats,
+    /// Camera-path entities.
+    pub wavefront: u32,
+    /// Photons, for the integrators that trace them.
+    pub photons: Option<PhotonSummary>,
+    /// Hit points, for the progressive integrators.
+    pub hit_points: Option<HitPointSummary>,
+}
+
+impl Report {
+    /// Camera samples splatted per second.
+    pub fn samples_per_second(&self) -> f64 {
+        self.paths.samples as f64 / self.seconds.max(1e-9)
+    }
+
+    /// Rays (closest-hit and shadow) per second.
+    pub fn rays_per_second(&self) -> f64 {
+        (self.paths.rays + self.paths.shadow_rays) as f64 / self.seconds.max(1e-9)
+    }
+
+    /// Seconds spent in phases whose name starts with `prefix`.
+    pub fn phase_seconds(&self, prefix: &str) -> f64 {
+        self.phases.iter().filter(|p| p.name.starts_with(prefix)).map(|p| p.seconds).sum()
+    }
+
+    /// The name of a photon map kind in the report.
+    pub fn map_name(kind: PhotonMapKind) -> &'static str {
+        match kind {
+            PhotonMapKind::Global => "global",
+            PhotonMapKind::Indirect => "indirect",
+            PhotonMapKind::Caustic => "caustic",
+            PhotonMapKind::Bounced => "bounced",
+        }
+    }
+}

@@ -1,0 +1,267 @@
+//! What the progressive photon mappers (`ppm`, `sppm`, `appm`, `cppm`) share: hit-point entities per
+//! pixel and one wavefront of photon entities, both spawned once, and a pass of three groups of
+//! phases, like pbrt-v4's SPPM loop:
+//! - camera: every pixel's camera paths to their hit points (`ppm`: the first pass only);
+//! - photons: one pass of photons, a bounce per run, until every photon has landed;
+//! - statistics: Gather (the pass's kd-tree, then the integrator's gather) → Update (its radius rule).
+//!
+//! | parameter (`[progressive]`) | type | default | meaning |
+//! |---|---|---|---|
+//! | `passes` | u32 | 64 | photon passes (`render.time_limit` may stop earlier) |
+//! | `photons_per_pass` | u32 | 65 536 | photons emitted per pass |
+//! | `alpha` | f32 | 2/3 | fraction of each pass's photons kept (`ppm`, `sppm`, and `appm`'s bounds) |
+//! | `initial_radius` | f32 | from the scene | first gather radius (`photon::progressive::initial_radius`) |
+//! | `hit_points_per_pixel` | square u32 | 16 (`ppm`), 1 | hit points per pixel, stratified over the filter |
+//! | `memory_budget_mib` | u64 | half the RAM | hit points + photons may not exceed it |
+
+use super::{add_photon_systems, configure_stages, paths_busy, photons_busy, spawn_photons, stage_order};
+use crate::PassSystems;
+use crate::components::{AdaptiveStats, Chi2Cells, HitPoint, PathHit, PathRay, PathState, PathStatus, PhotonHit, PhotonRay, PhotonState, ShadowRay};
+use crate::driver::MAX_WAVEFRONT;
+use crate::driver::plan::{Phase, Plan, Repeat, Unit, When};
+use crate::driver::report::{HitPointSummary, PhotonSummary, Report};
+use crate::driver::world::physical_memory_bytes;
+use crate::emit::emit_camera_paths_for;
+use crate::error::{Error, Result};
+use crate::film::Image;
+use crate::gather::splat_paths_to_film;
+use crate::passes::{begin_camera_pass, begin_photon_pass, begin_progressive_pass, cap_initial_radius};
+use crate::photon::PhotonMapKind;
+use crate::photon::progressive::{CHI2_CELLS, CHI2_FIRST_TEST, RadiusRule, initial_radius};
+use crate::resources::{
+    FilmResource, PassPhotons, PhotonBuffer, PhotonStats, PhotonWork, ProgressiveConfig, RenderConfig,
+    SceneFeatures, SceneResource, Workload,
+};
+use crate::scatter::scatter_to_visible_points;
+use crate::scene::schedule::Pass;
+use crate::scene::{RunFile, Scene};
+use crate::trace::{trace_paths, trace_shadow_rays};
+use bevy_ecs::prelude::*;
+use glam::Vec3;
+use std::sync::atomic::Ordering;
+
+/// Bytes a hit point costs: its statistics and the camera-path state that re-traces it.
+pub const BYTES_PER_HIT_POINT: usize = size_of::<HitPoint>()
+    + size_of::<PathRay>()
+    + size_of::<PathHit>()
+    + size_of::<PathState>()
+    + size_of::<ShadowRay>()
+    + size_of::<Chi2Cells>();
+/// Bytes a photon of one pass costs: its deposit in the buffer and in the pass's kd-tree.
+pub const BYTES_PER_PHOTON: usize = 2 * size_of::<crate::photon::Photon>();
+
+/// What distinguishes one progressive integrator from another.
+pub struct Variant {
+    /// How statistics become radiance and a radius.
+    pub rule: RadiusRule,
+    /// Whether the camera pass samples a light at the hit points.
+    pub nee: bool,
+    /// When the camera pass runs (`ppm`: the first pass; the others re-trace every pass).
+    pub camera: When,
+    /// Adds the gather and the update to the statistics schedule.
+    pub statistics: fn(&mut Schedule),
+}
+
+/// The settings of a progressive integrator, checked before anything is allocated: hit points for
+/// every pixel plus one pass of photons must fit the memory budget.
+pub fn check(pixels: u64, scene: &Scene, run: &RunFile) -> Result<()> {
+    let settings = run.progressive;
+    let kind = run.render.integrator;
+    settings.check().map_err(|problem| Error::Setting { name: "progressive".into(), problem })?;
+    if scene.materials.len() > u16::MAX as usize + 1 {
+        return Err(Error::Setting {
+            name: "integrator".into(),
+            problem: format!(
+                "progressive photon mapping holds material indices in 16 bits; the scene has {} materials",
+                scene.materials.len()
+            ),
+        });
+    }
+    let hit_points = pixels * settings.hit_points_for(kind) as u64;
+    let photon_wavefront = settings.photons_per_pass.min(MAX_WAVEFRONT);
+    let needed = hit_points * BYTES_PER_HIT_POINT as u64
+        + settings.photons_per_pass as u64 * BYTES_PER_PHOTON as u64
+        + photon_wavefront as u64
+            * (size_of::<PhotonState>() + size_of::<PhotonRay>() + size_of::<PhotonHit>()) as u64;
+    let budget = settings.memory_budget_mib.map_or(physical_memory_bytes() / 2, |mib| mib << 20);
+    if needed > budget {
+        return Err(Error::Setting {
+            name: "progressive.memory_budget_mib".into(),
+            problem: format!(
+                "{hit_points} hit points ({BYTES_PER_HIT_POINT} bytes each) and {} photons per pass need {} MiB, over \
+                 the budget of {} MiB: lower the resolution, hit_points_per_pixel or photons_per_pass, or raise the budget",
+                settings.photons_per_pass,
+                needed >> 20,
+                budget >> 20
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// The plan of a progressive integrator for the scene in `world`.
+pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures, variant: Variant) -> Result<Plan> {
+    let settings = run.progressive;
+    let kind = run.render.integrator;
+    let features = super::without_visibility_learning(world, features, "progressive passes use the light tree");
+    let order = stage_order(run);
+    let per_pixel = settings.hit_points_for(kind);
+    let (area, diagonal) = {
+        let scene = world.resource::<SceneResource>();
+        let (min, max) = scene.geometry.bounds();
+        (scene.surface_area(), (max - min).length())
+    };
+    let r0 =
+        settings.initial_radius.unwrap_or_else(|| initial_radius(area, diagonal, settings.photons_per_pass));
+    world.insert_resource(ProgressiveConfig {
+        rule: variant.rule,
+        alpha: settings.alpha,
+        r0,
+        r0_given: settings.initial_radius.is_some(),
+        photons_per_pass: settings.photons_per_pass,
+        hit_points_per_pixel: per_pixel,
+        pass: 0,
+    });
+    world.resource_mut::<RenderConfig>().strata = per_pixel;
+    spawn_hit_points(world, variant.rule, per_pixel, r0);
+
+    let config = world.resource::<RenderConfig>().clone();
+    // Without light sampling at the hit points, photons carry direct light too.
+    let stored = if variant.nee { PhotonMapKind::Bounced } else { PhotonMapKind::Global };
+    world.insert_resource(PhotonWork::new(stored, settings.photons_per_pass, &config, features.motion));
+    world.insert_resource(PhotonBuffer::default());
+    world.insert_resource(PhotonStats::default());
+    world.insert_resource(PassPhotons::default());
+    spawn_photons(world, settings.photons_per_pass.min(MAX_WAVEFRONT));
+
+    let mut phases = vec![Phase::once("statistics", When::EveryPass, begin_progressive_pass(features.motion))];
+    for group in run.schedule.pass_order().unwrap_or([Pass::Camera, Pass::Photons, Pass::Statistics]) {
+        match group {
+            Pass::Camera => {
+                phases.push(Phase::once("camera", variant.camera, begin_camera_pass));
+                let mut camera = Phase::new("camera", variant.camera, Repeat::WhileBusy(paths_busy));
+                add_camera_systems(&mut camera.schedule, features, order, variant.nee);
+                phases.push(camera);
+                phases.push(Phase::once("camera", When::FirstPass, cap_initial_radius));
+            }
+            Pass::Photons => {
+                phases.push(Phase::once("photons", When::EveryPass, begin_photon_pass));
+                let mut photons = Phase::new("photons", When::EveryPass, Repeat::WhileBusy(photons_busy));
+                add_photon_systems(&mut photons.schedule, order);
+                phases.push(photons);
+            }
+            Pass::Statistics => {
+                let mut statistics = Phase::new("statistics", When::EveryPass, Repeat::Once);
+                statistics.schedule.configure_sets((PassSystems::Gather, PassSystems::Update).chain());
+                (variant.statistics)(&mut statistics.schedule);
+                phases.push(statistics);
+            }
+        }
+    }
+    Ok(Plan { kind, unit: Unit::Passes, phases, pass_end: Plan::one_per_pass(), image, report, reset })
+}
+
+/// One entity per hit point, pixel-major (`per_pixel` consecutive entities share a pixel, sample `j`
+/// taking stratum `j`): its camera path and its statistics, plus the rule's own.
+fn spawn_hit_points(world: &mut World, rule: RadiusRule, per_pixel: u32, r0: f32) {
+    let pixels = {
+        let film = world.resource::<FilmResource>();
+        film.width * film.height
+    };
+    let count = pixels * per_pixel;
+    let path = move |k: u32| {
+        (PathRay::default(), PathHit::default(), PathState::new(k / per_pixel, k % per_pixel), ShadowRay::default())
+    };
+    let hit_point = HitPoint::new(r0 * r0);
+    match rule {
+        RadiusRule::Shrinking => {
+            world.spawn_batch((0..count).map(|k| (path(k), hit_point)));
+        }
+        RadiusRule::Adaptive => {
+            world.spawn_batch((0..count).map(|k| (path(k), hit_point, AdaptiveStats::default())));
+        }
+        RadiusRule::ChiSquare => {
+            let cells = Chi2Cells { counts: [0; CHI2_CELLS], min_photons: CHI2_FIRST_TEST };
+            world.spawn_batch((0..count).map(|k| (path(k), hit_point, cells)));
+        }
+    }
+    // The camera paths only splat what they see directly; the film hands out no further work.
+    let mut workload = Workload::new(pixels, 0, 1, pixels);
+    workload.next = workload.total_samples();
+    world.insert_resource(workload);
+}
+
+/// The camera pass: paths to their first non-specular hit; `nee` adds a light sample there.
+pub fn add_camera_systems(
+    schedule: &mut Schedule,
+    features: SceneFeatures,
+    order: [crate::scene::schedule::Stage; 5],
+    nee: bool,
+) {
+    configure_stages(schedule, order);
+    schedule.add_systems(emit_camera_paths_for(features).in_set(PassSystems::Emit));
+    schedule.add_systems(trace_paths.in_set(PassSystems::Trace));
+    if nee && features.lights {
+        schedule.add_systems(scatter_to_visible_points::<true>.in_set(PassSystems::Scatter));
+        schedule.add_systems(trace_shadow_rays.in_set(PassSystems::Shadow));
+    } else {
+        schedule.add_systems(scatter_to_visible_points::<false>.in_set(PassSystems::Scatter));
+    }
+    schedule.add_systems(splat_paths_to_film.in_set(PassSystems::Gather));
+}
+
+/// The image so far: emission and direct light from the film, plus the mean of each pixel's hit-point
+/// estimates.
+fn image(world: &World, passes: u32) -> Image {
+    let mut image = world.resource::<FilmResource>().image();
+    let config = *world.resource::<ProgressiveConfig>();
+    let weight = 1.0 / config.hit_points_per_pixel as f32;
+    let Some(mut hit_points) = world.try_query::<(&PathState, &HitPoint)>() else { return image };
+    for (state, hp) in hit_points.iter(world) {
+        let l = config.rule.radiance(hp.tau, hp.r2, passes).as_vec3() * weight;
+        image.pixels[state.pixel as usize] += if l.is_finite() { l } else { Vec3::ZERO };
+    }
+    image
+}
+
+/// Photons, hit points and their mean radius.
+fn report(world: &World, report: &mut Report) {
+    let stats = world.resource::<PhotonStats>();
+    let config = world.resource::<ProgressiveConfig>();
+    report.photons = Some(PhotonSummary {
+        emitted: stats.emitted,
+        stored: stats.stored,
+        traced: stats.traced,
+        roulette_kills: stats.roulette_kills,
+        dropped: world.resource::<PassPhotons>().dropped.load(Ordering::Relaxed),
+        maps: Vec::new(),
+    });
+    let (sum, count) = world.try_query::<&HitPoint>().map_or((0.0, 0), |mut q| {
+        q.iter(world).fold((0.0f64, 0u64), |(s, c), hp| (s + (hp.r2 as f64).sqrt(), c + 1))
+    });
+    report.hit_points = Some(HitPointSummary {
+        count,
+        per_pixel: config.hit_points_per_pixel,
+        bytes_each: BYTES_PER_HIT_POINT,
+        mean_radius: (sum / count.max(1) as f64) as f32,
+        initial_radius: config.r0,
+    });
+}
+
+/// Every hit point back to the initial radius with no statistics.
+fn reset(world: &mut World) {
+    let r0 = world.resource::<ProgressiveConfig>().r0;
+    for mut hp in world.query::<&mut HitPoint>().iter_mut(world) {
+        *hp = HitPoint::new(r0 * r0);
+    }
+    for mut stats in world.query::<&mut AdaptiveStats>().iter_mut(world) {
+        *stats = AdaptiveStats::default();
+    }
+    for mut cells in world.query::<&mut Chi2Cells>().iter_mut(world) {
+        *cells = Chi2Cells { counts: [0; CHI2_CELLS], min_photons: CHI2_FIRST_TEST };
+    }
+    for mut state in world.query::<&mut PathState>().iter_mut(world) {
+        state.status = PathStatus::Idle;
+    }
+    world.resource::<PassPhotons>().dropped.store(0, Ordering::Relaxed);
+}

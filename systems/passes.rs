@@ -1,0 +1,167 @@
+//! The systems that run once at the edges of a pass: hand out a pass's samples, start a camera or
+//! photon pass, turn a photon pass into a map, and fix what the first pass teaches (the learned light
+//! visibility, the initial radius).
+//!
+//! | system | runs | reads | writes |
+//! |---|---|---|---|
+//! | `hand_out_samples` | each sample pass | `PassRange` | `Workload`, idle `PathState`s |
+//! | `finish_light_learning` | after the first pass (`pt`, visibility selection) | | `SceneResource` lights |
+//! | `begin_progressive_pass` | each progressive pass | `PassRange` | `RenderConfig::pass_time`, `PhotonWork`, `ProgressiveConfig::pass` |
+//! | `begin_camera_pass` | each camera pass | `PassRange`, `ProgressiveConfig` | `PathState` (sample, status) |
+//! | `cap_initial_radius` | after the first camera pass | `CameraResource`, `HitPoint` | `ProgressiveConfig::r0`, `HitPoint::r2` |
+//! | `begin_photon_pass` | each photon pass | `PhotonWork` | `PhotonState`, `PhotonStats` |
+//! | `begin_photon_map` / `finish_photon_map` | `pm`'s first pass, per map | `PhotonBuffer` | `PhotonWork`, `PhotonMaps` |
+
+use crate::components::{HitPoint, PathState, PathStatus, PhotonState};
+use crate::photon::{PhotonMap, PhotonMapKind};
+use crate::resources::{
+    CameraResource, PassRange, PhotonBuffer, PhotonMapSummary, PhotonMaps, PhotonStats, PhotonWork,
+    ProgressiveConfig, RenderConfig, SceneResource, Workload,
+};
+use crate::sampling::Sampler;
+use bevy_ecs::prelude::*;
+
+/// A system that hands the pass's samples (`PassRange` begin..end, each standing for
+/// `camera_samples_per_unit` camera samples) to the idle paths in entity order; the rest go to paths
+/// as they finish (`splat_paths_to_film`).
+pub fn hand_out_samples(
+    camera_samples_per_unit: u32,
+) -> impl FnMut(Res<PassRange>, ResMut<Workload>, Query<&mut PathState>) {
+    move |range, mut workload, mut paths| {
+        let (begin, end) = (range.begin * camera_samples_per_unit, range.end * camera_samples_per_unit);
+        *workload = Workload::new(workload.pixels, begin, end, workload.wavefront);
+        if range.stop {
+            return;
+        }
+        for mut state in &mut paths {
+            if state.status != PathStatus::Idle {
+                continue;
+            }
+            let Some((pixel, sample)) = workload.take() else { break };
+            (state.pixel, state.sample, state.status) = (pixel, sample, PathStatus::NeedsCamera);
+        }
+    }
+}
+
+/// Visibility-aware light selection learns from the first pass only: freeze what it learned.
+pub fn finish_light_learning(mut scene: ResMut<SceneResource>) {
+    scene.lights.finish_learning();
+}
+
+/// A system that starts a progressive pass: one shutter time for the camera and the photons of the
+/// pass when something moves (Hachisuka & Jensen 2009, §5), the pass's photon numbers, and the pass
+/// number for the update.
+pub fn begin_progressive_pass(
+    motion: bool,
+) -> impl FnMut(Res<PassRange>, ResMut<RenderConfig>, ResMut<PhotonWork>, ResMut<ProgressiveConfig>) {
+    move |range, mut config, mut work, mut progressive| {
+        let pass = range.index;
+        let time = motion.then(|| Sampler::new(config.seed, u32::MAX, pass).get1d(0));
+        config.pass_time = time;
+        work.time = time;
+        work.pass = pass;
+        progressive.pass = pass;
+    }
+}
+
+/// Send every pixel's camera paths out again, with the pass's samples: sample `pass · N + j` for the
+/// `j`-th of a pixel's N hit points, so that each keeps its stratum of the pixel.
+pub fn begin_camera_pass(
+    range: Res<PassRange>,
+    config: Res<ProgressiveConfig>,
+    mut paths: Query<&mut PathState>,
+) {
+    let per_pixel = config.hit_points_per_pixel;
+    for mut state in &mut paths {
+        state.sample = range.index * per_pixel + state.sample % per_pixel;
+        state.status = PathStatus::NeedsCamera;
+    }
+}
+
+/// Bound the heuristic initial radius by `FOOTPRINT_PIXELS` pixel footprints at the median
+/// distance of the first pass's hit points: the area heuristic alone fails where a huge ground
+/// plane or backdrop dominates the area, and a radius of metres would make every hit point
+/// gather every photon.
+pub fn cap_initial_radius(
+    camera: Res<CameraResource>,
+    mut config: ResMut<ProgressiveConfig>,
+    mut hit_points: Query<&mut HitPoint>,
+) {
+    /// A first estimate blurred over up to ten pixels is smooth enough and sharpens within passes.
+    const FOOTPRINT_PIXELS: f32 = 10.0;
+    if config.r0_given {
+        return;
+    }
+    let (cx, cy) = (camera.width / 2, camera.height / 2);
+    let ray = |x| camera.generate_ray(x, cy, glam::Vec2::splat(0.5), glam::Vec2::splat(0.5), 0.0);
+    let pixel_angle = ray(cx).d.normalize().angle_between(ray(cx + 1).d.normalize());
+    let origin = camera.origin;
+    let mut distances: Vec<f32> =
+        hit_points.iter().filter(|hp| hp.is_valid()).map(|hp| (hp.p - origin).length()).collect();
+    if distances.is_empty() || pixel_angle.is_nan() || pixel_angle <= 0.0 {
+        return;
+    }
+    let mid = distances.len() / 2;
+    let median = *distances.select_nth_unstable_by(mid, f32::total_cmp).1;
+    let cap = FOOTPRINT_PIXELS * pixel_angle * median;
+    if !(cap > 0.0 && cap < config.r0) {
+        return;
+    }
+    config.r0 = cap;
+    for mut hp in &mut hit_points {
+        hp.r2 = cap * cap;
+    }
+}
+
+/// Start a photon pass: every photon entity takes a photon of the pass in entity order (those beyond
+/// the pass's count stay idle), and the rest are handed out as photons land (`store_photons`).
+pub fn begin_photon_pass(
+    mut work: ResMut<PhotonWork>,
+    mut stats: ResMut<PhotonStats>,
+    mut buffer: ResMut<PhotonBuffer>,
+    mut photons: Query<&mut PhotonState>,
+) {
+    let total = work.settings.total;
+    let mut handed = 0;
+    for mut state in &mut photons {
+        if handed < total {
+            (state.index, state.status) = (handed, PathStatus::NeedsCamera);
+            handed += 1;
+        } else {
+            state.status = PathStatus::Idle;
+        }
+    }
+    work.next = handed;
+    stats.emitted += total as u64;
+    buffer.photons.clear();
+}
+
+/// A system that sets up `pm`'s photon pass for the map `kind` with `count` photons (each map's
+/// photons are independent of the others': the kind selects their random numbers).
+pub fn begin_photon_map(kind: PhotonMapKind, count: u32) -> impl FnMut(ResMut<PhotonWork>) {
+    move |mut work| {
+        work.settings.kind = kind;
+        work.settings.total = count;
+        (work.pass, work.time) = (0, None);
+    }
+}
+
+/// A system that builds the photon map of `kind` from the pass's deposits.
+pub fn finish_photon_map(kind: PhotonMapKind) -> impl FnMut(ResMut<PhotonBuffer>, Res<PhotonWork>, ResMut<PhotonMaps>) {
+    move |mut buffer, work, mut maps| {
+        let map = PhotonMap::build(std::mem::take(&mut buffer.photons));
+        maps.built.push(PhotonMapSummary {
+            kind,
+            emitted: work.settings.total,
+            stored: map.len(),
+            bytes: map.memory_bytes(),
+        });
+        let slot = match kind {
+            PhotonMapKind::Global => &mut maps.global,
+            PhotonMapKind::Indirect => &mut maps.indirect,
+            PhotonMapKind::Caustic => &mut maps.caustic,
+            PhotonMapKind::Bounced => return,
+        };
+        *slot = Some(map);
+    }
+}
