@@ -4,8 +4,9 @@
 // criterion_group! generates an undocumented public fn.
 #![allow(missing_docs)]
 
+use caustica::Renderer;
+use caustica::driver::init_thread_pools;
 use caustica::scene::{IntegratorKind, load};
-use caustica::systems::render::{init_thread_pools, prepare};
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use std::path::Path;
 
@@ -22,8 +23,8 @@ fn bench_frame(c: &mut Criterion) {
         group.throughput(Throughput::Elements(pixels));
         group.bench_function(BenchmarkId::new(format!("{kind:?}"), "cornell-box 1spp"), |b| {
             b.iter_batched(
-                || prepare(scene.clone(), &run).expect("prepares"),
-                |mut renderer| renderer.run(|_| {}),
+                || Renderer::new(scene.clone(), &run).expect("prepares"),
+                |mut renderer| renderer.run(None, |_| {}),
                 criterion::BatchSize::PerIteration,
             )
         });

@@ -5,9 +5,9 @@
 // criterion_group! generates an undocumented public fn.
 #![allow(missing_docs)]
 
+use caustica::Renderer;
+use caustica::driver::init_thread_pools;
 use caustica::scene::{IntegratorKind, load};
-use caustica::systems::progressive::prepare_progressive;
-use caustica::systems::render::init_thread_pools;
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use std::path::Path;
 
@@ -21,24 +21,23 @@ fn bench_passes(c: &mut Criterion) {
         run.render.integrator = kind;
         run.render.max_depth = Some(8);
         let photons = run.progressive.photons_per_pass as u64;
-        let mut renderer = prepare_progressive(scene, &run).expect("prepares");
+        run.progressive.passes = u32::MAX;
+        let mut renderer = Renderer::new(scene, &run).expect("prepares");
         // Warm up to a typical radius: the gather cost depends on it.
         for _ in 0..8 {
-            renderer.run_pass();
+            renderer.run_pass(None, &mut |_| {});
         }
         group.throughput(Throughput::Elements(photons));
         group.bench_function(BenchmarkId::new(format!("{kind:?}"), "whole pass"), |b| {
-            b.iter(|| renderer.run_pass())
+            b.iter(|| renderer.run_pass(None, &mut |_| {}))
         });
-        // The stages alone: each pass is run whole, and only the stage's own time is reported.
-        type Stage = fn(&caustica::systems::progressive::PassReport) -> f64;
-        let stages: [(&str, Stage); 2] =
-            [("photon pass", |r| r.photon_seconds), ("gather + update", |r| r.gather_seconds)];
-        for (name, seconds) in stages {
+        // The phases alone: each pass is run whole, and only the phase's own time is reported.
+        for (name, phase) in [("photon pass", "photons"), ("gather + update", "statistics")] {
             group.bench_function(BenchmarkId::new(format!("{kind:?}"), name), |b| {
                 b.iter_custom(|iters| {
-                    let total: f64 = (0..iters).map(|_| seconds(&renderer.run_pass())).sum();
-                    std::time::Duration::from_secs_f64(total)
+                    let before = renderer.report().phase_seconds(phase);
+                    (0..iters).for_each(|_| renderer.run_pass(None, &mut |_| {}));
+                    std::time::Duration::from_secs_f64(renderer.report().phase_seconds(phase) - before)
                 })
             });
         }

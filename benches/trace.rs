@@ -6,14 +6,14 @@
 #![allow(missing_docs)]
 
 use bevy_ecs::prelude::*;
+use caustica::components::{PathHit, PathRay, PathState, PathStatus};
+use caustica::driver::init_thread_pools;
 use caustica::geometry::{Geometry, Ray};
+use caustica::resources::SceneResource;
 use caustica::sampling::Sampler;
 use caustica::sampling::warp::uniform_sphere;
 use caustica::scene::load;
-use caustica::systems::components::{PathHit, PathRay, PathState, PathStatus};
-use caustica::systems::render::init_thread_pools;
-use caustica::systems::resources::SceneGeometry;
-use caustica::systems::trace::trace_paths;
+use caustica::trace::trace_paths;
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -102,12 +102,12 @@ fn bench_trace(c: &mut Criterion) {
     // The ECS system on a wavefront of the same rays (bevy's heavy_compute pattern).
     let mut world = World::new();
     let lights = caustica::lights::Lights::default();
-    world.insert_resource(SceneGeometry {
+    world.insert_resource(SceneResource(caustica::RenderScene {
         geometry,
         lights,
         materials: scene.materials.clone(),
         textures: vec![],
-    });
+    }));
     world.spawn_batch(rays.iter().enumerate().map(|(i, r)| {
         let mut state = PathState::new(i as u32, 0);
         state.status = PathStatus::Active;

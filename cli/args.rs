@@ -337,3 +337,100 @@ impl std::str::FromStr for Triple {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use caustica::scene::environment::EnvironmentRadiance;
+    use clap::Parser;
+    use glam::Vec3;
+
+    fn render_args(args: &[&str]) -> RenderArgs {
+        let cli = Cli::try_parse_from(args).unwrap_or_else(|e| panic!("{args:?}: {e}"));
+        let Some(Command::Render(args)) = cli.command else { panic!("a render command") };
+        *args
+    }
+
+    /// A run file with a constant environment and a map beside it, in a fresh directory.
+    fn outdoor(test: &str) -> (std::path::PathBuf, std::path::PathBuf) {
+        let dir = std::env::temp_dir().join(format!("caustica-args-{}-{test}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let sky = dir.join("sky.exr");
+        let image = caustica::film::Image { width: 4, height: 2, pixels: vec![Vec3::ONE; 8] };
+        caustica::film::output::write_image(&image, &sky, 0.0).unwrap();
+        let run = dir.join("outdoor.toml");
+        let spheres = "[[sphere]]\nname = \"ball\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\n\
+                       material = { base_color = [0.5, 0.5, 0.5] }\n";
+        std::fs::write(&run, format!("[environment]\ncolor = [0.1, 0.2, 0.3]\n\n{spheres}")).unwrap();
+        (run, sky)
+    }
+
+    #[test]
+    fn environment_flags_choose_over_the_run_file() {
+        let (path, sky) = outdoor("flags");
+        let args = render_args(&[
+            "caustica",
+            "render",
+            "x.toml",
+            "--environment",
+            sky.to_str().unwrap(),
+            "--environment-strength",
+            "3",
+        ]);
+        let (scene, run) = caustica::scene::load_with(&path, |run| args.apply(run)).expect("loads");
+        assert_eq!(run.environment.color, None, "a map on the command line replaces the run file's colour");
+        let env = scene.environment.expect("environment");
+        assert!(matches!(env.radiance, EnvironmentRadiance::Map(_)));
+        assert_eq!(env.strength, 3.0);
+
+        let args = render_args(&["caustica", "render", "x.toml", "--environment-color", "1,0.5,0.25"]);
+        let (scene, _) = caustica::scene::load_with(&path, |run| args.apply(run)).expect("loads");
+        let env = scene.environment.expect("environment");
+        assert_eq!(env.radiance, EnvironmentRadiance::Constant(Vec3::new(1.0, 0.5, 0.25)));
+    }
+
+    #[test]
+    fn malformed_colours_and_conflicting_flags_are_refused_by_the_parser() {
+        for args in [
+            vec!["caustica", "render", "--environment-color", "1,2"],
+            vec!["caustica", "render", "--environment-color", "1,x,2"],
+            vec!["caustica", "render", "--eye", "1,2,inf"],
+            vec!["caustica", "render", "--environment", "a.exr", "--environment-color", "1,1,1"],
+            vec!["caustica", "render", "--integrator", "ptt"],
+        ] {
+            assert!(Cli::try_parse_from(&args).is_err(), "{args:?} parsed");
+        }
+        let (path, _) = outdoor("negative-strength");
+        let args = render_args(&["caustica", "render", "--environment-strength=-1"]);
+        let error = caustica::scene::load_with(&path, |run| args.apply(run)).expect_err("negative strength");
+        assert!(error.to_string().contains("environment.strength"), "{error}");
+    }
+
+    #[test]
+    fn flags_reach_the_run_file_by_their_run_file_names() {
+        let args = render_args(&[
+            "caustica",
+            "render",
+            "--camera",
+            "tele",
+            "--integrator",
+            "pt-naive",
+            "--light-selection",
+            "tree",
+            "--filter",
+            "gaussian",
+            "--kernel",
+            "biweight",
+            "--hit-points-per-pixel",
+            "4",
+        ]);
+        let mut run = RunFile::default();
+        args.apply(&mut run);
+        assert_eq!(run.camera.name.as_deref(), Some("tele"));
+        assert_eq!(run.render.integrator, IntegratorKind::PtNaive);
+        assert_eq!(run.render.light_selection, LightSelection::Tree);
+        assert_eq!(run.film.filter, FilterKind::Gaussian);
+        assert_eq!(run.photons.kernel, Kernel::Biweight);
+        assert_eq!(run.progressive.hit_points_per_pixel, Some(4));
+    }
+}

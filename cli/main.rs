@@ -30,7 +30,9 @@ fn main() -> Result<()> {
             }
             Ok(())
         }
-        Some(Command::Compare { image, reference, window }) => compare::compare_files(&image, &reference, window.as_deref()),
+        Some(Command::Compare { image, reference, window }) => {
+            compare::compare_files(&image, &reference, window.as_deref())
+        }
         Some(Command::Bench(args)) => {
             caustica::driver::init_thread_pools(None);
             let report = bench::run(&args)?;
@@ -39,7 +41,13 @@ fn main() -> Result<()> {
         }
         Some(Command::Density(args)) => {
             let summary = density_plot::run(&args)?;
-            println!("{} points, h = {:.4} ({}); wrote {}", summary.n, summary.h, summary.h_rule, args.output.display());
+            println!(
+                "{} points, h = {:.4} ({}); wrote {}",
+                summary.n,
+                summary.h,
+                summary.h_rule,
+                args.output.display()
+            );
             Ok(())
         }
     }

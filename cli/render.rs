@@ -29,7 +29,8 @@ pub fn render(args: &RenderArgs) -> Result<()> {
         output::check_output_path(path)?;
     }
     let reference = args.reference.as_deref().map(output::read_exr).transpose()?;
-    let mut renderer = Renderer::new(scene, &run).with_context(|| format!("preparing {}", scene_path.display()))?;
+    let mut renderer =
+        Renderer::new(scene, &run).with_context(|| format!("preparing {}", scene_path.display()))?;
 
     let bar = if args.quiet { ProgressBar::hidden() } else { ProgressBar::new(renderer.target() as u64) };
     let template = format!("{{bar:40}} {{pos}}/{{len}} {}  {{msg}}  ETA {{eta}}", renderer.plan.unit.name());
@@ -46,7 +47,10 @@ pub fn render(args: &RenderArgs) -> Result<()> {
         {
             written_after = passes;
             let image = renderer.image();
-            write_error = outputs.iter().map(|p| output::write_image(&image, p, run.film.exposure)).find_map(|r| r.err());
+            write_error = outputs
+                .iter()
+                .map(|p| output::write_image(&image, p, run.film.exposure))
+                .find_map(|r| r.err());
         }
     });
     bar.finish_and_clear();

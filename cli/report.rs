@@ -37,7 +37,11 @@ pub fn print_report(scene: &Path, report: &Report, total_seconds: f64) {
         );
     }
     if paths.lookups > 0 {
-        println!("lookups     {} k-nearest queries, {:.3} M/s", paths.lookups, paths.lookups as f64 / seconds / 1e6);
+        println!(
+            "lookups     {} k-nearest queries, {:.3} M/s",
+            paths.lookups,
+            paths.lookups as f64 / seconds / 1e6
+        );
     }
     if let Some(photons) = &report.photons {
         let photon_seconds = report.phase_seconds("photons").max(1e-9);

@@ -1,22 +1,18 @@
-//! A host application that owns its bevy_ecs World and Schedule and renders with Caustica inside it.
+//! A host application that renders with Caustica inside its own bevy_ecs World and Schedule.
 //!
-//! It loads the Cornell box, puts Caustica's resources and path-tracing systems into its own World
-//! and Schedule next to one system of its own (a bounce counter), slides the short block across the
-//! floor from frame to frame, and writes each frame to out/simulation-N.png.
+//! It loads the Cornell box and builds Caustica's plan for `pt`, puts a resource of its own into the
+//! same World and a system of its own (a bounce counter) into the plan's bounce phase, slides the
+//! short block across the floor from frame to frame, and writes each frame to out/simulation-N.png.
 //!
 //! ```sh
 //! cargo run --release --example simulation
 //! ```
 
 use bevy_ecs::prelude::*;
-use caustica::film::Film;
 use caustica::film::output::write_image;
+use caustica::resources::{RenderStats, SceneResource};
 use caustica::scene::{IntegratorKind, load};
-use caustica::systems::PassSystems;
-use caustica::systems::components::PathState;
-use caustica::systems::integrators;
-use caustica::systems::render::{init_thread_pools, scene_world, spawn_wavefront};
-use caustica::systems::resources::{RenderStats, SceneGeometry, Workload};
+use caustica::{PassSystems, RenderScene, Renderer};
 use glam::Vec3;
 use std::path::Path;
 
@@ -39,7 +35,7 @@ const SIZE: u32 = 96;
 const SPP: u32 = 16;
 
 fn main() -> anyhow::Result<()> {
-    init_thread_pools(None);
+    caustica::driver::init_thread_pools(None);
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box.gltf");
     let (scene, mut run) = load(&path)?;
     run.render.integrator = IntegratorKind::Pt;
@@ -47,12 +43,11 @@ fn main() -> anyhow::Result<()> {
     run.film.width = Some(SIZE);
     run.film.height = Some(SIZE);
 
-    // Caustica's resources (SceneGeometry, Camera, Film, RenderConfig, RenderStats) in the host's World.
-    let (mut world, features) = scene_world(scene.clone(), &run)?;
-    world.insert_resource(Simulation::default());
-    let mut schedule = Schedule::default();
-    integrators::path::build(&mut schedule, features, run.render.integrator);
-    schedule.add_systems(count_bounces.after(PassSystems::Gather));
+    // Caustica's World and plan, with the host's resource and system in them.
+    let mut renderer = Renderer::new(scene.clone(), &run)?;
+    renderer.world.insert_resource(Simulation::default());
+    let bounce = renderer.plan.phase_mut("bounce").expect("pt has a bounce phase");
+    bounce.schedule.add_systems(count_bounces.after(PassSystems::Gather));
 
     std::fs::create_dir_all("out")?;
     for frame in 0..FRAMES {
@@ -62,34 +57,19 @@ fn main() -> anyhow::Result<()> {
         for mesh in moved.meshes.iter_mut().filter(|m| m.node_name.as_deref() == Some("short_block")) {
             mesh.positions.iter_mut().for_each(|p| *p += offset);
         }
-        world.insert_resource(SceneGeometry::build(&moved, run.render.light_selection));
+        renderer.world.insert_resource(SceneResource(RenderScene::build(&moved, run.render.light_selection)));
+        renderer.world.resource_mut::<Simulation>().bounces = 0;
 
-        // A fresh film and work list, and one wavefront of path entities for this frame.
-        world.insert_resource(Film::new(SIZE, SIZE));
-        world.insert_resource(RenderStats::default());
-        world.resource_mut::<Simulation>().bounces = 0;
-        let old: Vec<Entity> = world.query_filtered::<Entity, With<PathState>>().iter(&world).collect();
-        old.into_iter().for_each(|e| {
-            world.despawn(e);
-        });
-        let mut workload = Workload::new(SIZE * SIZE, 0, SPP, SIZE * SIZE);
-        spawn_wavefront(&mut world, &mut workload);
-        world.insert_resource(workload);
-
-        // The host's loop: one schedule run advances every path by a bounce.
-        loop {
-            schedule.run(&mut world);
-            if world.resource::<RenderStats>().active_paths == 0 {
-                break;
-            }
-        }
-        let image = world.resource::<Film>().image();
+        // A black film and the samples of this frame, on the same entities.
+        renderer.restart();
+        renderer.run(None, |_| {});
+        let image = renderer.image();
         let out = format!("out/simulation-{frame}.png");
         write_image(&image, Path::new(&out), 0.0)?;
         println!(
             "frame {frame}: block at x {:+.2} m, {} bounces, mean radiance {:.3} -> {out}",
             offset.x,
-            world.resource::<Simulation>().bounces,
+            renderer.world.resource::<Simulation>().bounces,
             image.mean().x
         );
     }

@@ -35,7 +35,8 @@ impl RenderScene {
     pub fn from_scene(mut scene: Scene, light_selection: LightSelection) -> Self {
         let mut geometry = Geometry::build(&scene);
         let lights = scene_lights(&mut geometry, &scene, light_selection);
-        let (materials, textures) = (std::mem::take(&mut scene.materials), std::mem::take(&mut scene.textures));
+        let (materials, textures) =
+            (std::mem::take(&mut scene.materials), std::mem::take(&mut scene.textures));
         Self { geometry, lights, materials, textures }
     }
 
@@ -65,7 +66,9 @@ impl RenderScene {
 
     /// Whether any material is a pure delta (mirror, smooth glass): only then can caustics form.
     pub fn has_specular(&self) -> bool {
-        self.materials.iter().any(|m| Bsdf::new(&m.shading_params(m.base_color, m.metallic, m.roughness)).is_delta())
+        self.materials
+            .iter()
+            .any(|m| Bsdf::new(&m.shading_params(m.base_color, m.metallic, m.roughness)).is_delta())
     }
 
     /// Total surface area of the primitives (for the initial-radius heuristic of progressive photon

@@ -2,14 +2,14 @@
 //! split by who reads them (`trace` touches only the rays and hits).
 
 use crate::geometry::{Ray, bvh::Hit};
+use crate::kernel::photon::PhotonPath;
 use crate::kernel::{CameraPath, Vertex};
 use crate::materials::Bsdf;
 use crate::photon::estimate::GatherPoint;
+use crate::photon::progressive::AdaptiveStatistics;
 use crate::photon::record::{decode_octahedral, encode_octahedral};
 use crate::render_scene::RenderScene;
 use crate::sampling::warp::Frame;
-use crate::kernel::photon::PhotonPath;
-use crate::photon::progressive::AdaptiveStatistics;
 use bevy_ecs::component::Component;
 use glam::Vec3;
 
@@ -228,7 +228,14 @@ impl HitPoint {
         );
         let frame = Frame::from_z(decode_octahedral(self.ns, 16));
         let wo = frame.to_local(decode_octahedral(self.wo, 16));
-        GatherPoint { p: self.p, beta: self.beta, bsdf: Bsdf::new(&params), frame, wo, transmits: m.transmission > 0.0 }
+        GatherPoint {
+            p: self.p,
+            beta: self.beta,
+            bsdf: Bsdf::new(&params),
+            frame,
+            wo,
+            transmits: m.transmission > 0.0,
+        }
     }
 }
 

@@ -31,7 +31,8 @@ pub fn emit_camera_paths<const LENS: bool, const MOTION: bool>(
             let y = state.pixel / camera.width;
             let u_filter = stratified(sampler.get2d(dim::FILTER), state.sample, config.strata);
             let u_lens = if LENS { sampler.get2d(dim::LENS) } else { Vec2::splat(0.5) };
-            let time = if MOTION { config.pass_time.unwrap_or_else(|| sampler.get1d(dim::TIME)) } else { 0.0 };
+            let time =
+                if MOTION { config.pass_time.unwrap_or_else(|| sampler.get1d(dim::TIME)) } else { 0.0 };
             ray.0 = camera.generate_ray(x, y, u_filter, u_lens, time);
             state.path = CameraPath::START;
             state.gathering = false;

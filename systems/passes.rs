@@ -78,18 +78,19 @@ pub fn begin_camera_pass(
     }
 }
 
-/// Bound the heuristic initial radius by `FOOTPRINT_PIXELS` pixel footprints at the median
+/// After the first camera pass, bound the heuristic initial radius by `FOOTPRINT_PIXELS` pixel footprints at the median
 /// distance of the first pass's hit points: the area heuristic alone fails where a huge ground
 /// plane or backdrop dominates the area, and a radius of metres would make every hit point
 /// gather every photon.
 pub fn cap_initial_radius(
+    range: Res<PassRange>,
     camera: Res<CameraResource>,
     mut config: ResMut<ProgressiveConfig>,
     mut hit_points: Query<&mut HitPoint>,
 ) {
     /// A first estimate blurred over up to ten pixels is smooth enough and sharpens within passes.
     const FOOTPRINT_PIXELS: f32 = 10.0;
-    if config.r0_given {
+    if config.r0_given || range.index > 0 {
         return;
     }
     let (cx, cy) = (camera.width / 2, camera.height / 2);
@@ -147,7 +148,9 @@ pub fn begin_photon_map(kind: PhotonMapKind, count: u32) -> impl FnMut(ResMut<Ph
 }
 
 /// A system that builds the photon map of `kind` from the pass's deposits.
-pub fn finish_photon_map(kind: PhotonMapKind) -> impl FnMut(ResMut<PhotonBuffer>, Res<PhotonWork>, ResMut<PhotonMaps>) {
+pub fn finish_photon_map(
+    kind: PhotonMapKind,
+) -> impl FnMut(ResMut<PhotonBuffer>, Res<PhotonWork>, ResMut<PhotonMaps>) {
     move |mut buffer, work, mut maps| {
         let map = PhotonMap::build(std::mem::take(&mut buffer.photons));
         maps.built.push(PhotonMapSummary {

@@ -14,7 +14,9 @@
 //! emission seen directly or through specular bounces; light sampling (unweighted) and photons carry
 //! the rest.
 
-use super::components::{HitPoint, PathHit, PathRay, PathState, PathStatus, PhotonHit, PhotonRay, PhotonState, ShadowRay};
+use super::components::{
+    HitPoint, PathHit, PathRay, PathState, PathStatus, PhotonHit, PhotonRay, PhotonState, ShadowRay,
+};
 use super::resources::{PhotonMaps, PhotonWork, RenderConfig, SceneResource, wavefront_batching};
 use crate::geometry::Ray;
 use crate::geometry::bvh::Hit;
@@ -34,15 +36,17 @@ pub fn scatter_paths<const NEE: bool>(
     config: Res<RenderConfig>,
     mut paths: Query<(&PathHit, &mut PathRay, &mut PathState, &mut ShadowRay)>,
 ) {
-    paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each(|(hit, mut ray, mut state, mut shadow)| {
-        if state.status != PathStatus::Active {
-            return;
-        }
-        state.rays += 1;
-        if !path_vertex::<NEE>(&scene, &config, &hit.0, &mut ray.0, &mut state, &mut shadow) {
-            state.status = PathStatus::Finished;
-        }
-    });
+    paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each(
+        |(hit, mut ray, mut state, mut shadow)| {
+            if state.status != PathStatus::Active {
+                return;
+            }
+            state.rays += 1;
+            if !path_vertex::<NEE>(&scene, &config, &hit.0, &mut ray.0, &mut state, &mut shadow) {
+                state.status = PathStatus::Finished;
+            }
+        },
+    );
 }
 
 /// One vertex of `pt` or `pt-naive`; false when the path ends.
@@ -106,7 +110,16 @@ pub fn scatter_photon_mapped(
                 return;
             }
             state.rays += 1;
-            if !photon_mapped_vertex(&scene, &config, &maps, neighbors, &hit.0, &mut ray.0, &mut state, &mut shadow) {
+            if !photon_mapped_vertex(
+                &scene,
+                &config,
+                &maps,
+                neighbors,
+                &hit.0,
+                &mut ray.0,
+                &mut state,
+                &mut shadow,
+            ) {
                 state.status = PathStatus::Finished;
             }
         },
@@ -142,7 +155,17 @@ fn photon_mapped_vertex(
     let v = Vertex::new(scene, ray, si);
     let mut estimate = |map: &PhotonMap, lookups: &mut u32| {
         *lookups += 1;
-        radiance_estimate(map, &v.si, &v.frame, &v.bsdf, v.wo, maps.k, maps.max_radius2, maps.kernel, neighbors)
+        radiance_estimate(
+            map,
+            &v.si,
+            &v.frame,
+            &v.bsdf,
+            v.wo,
+            maps.k,
+            maps.max_radius2,
+            maps.kernel,
+            neighbors,
+        )
     };
     if !v.bsdf.is_delta() {
         if state.gathering {
@@ -188,8 +211,15 @@ pub fn scatter_to_visible_points<const NEE: bool>(
                 return;
             }
             state.rays += 1;
-            if !visible_point_vertex::<NEE>(&scene, &config, &hit.0, &mut ray.0, &mut state, &mut shadow, &mut hit_point)
-            {
+            if !visible_point_vertex::<NEE>(
+                &scene,
+                &config,
+                &hit.0,
+                &mut ray.0,
+                &mut state,
+                &mut shadow,
+                &mut hit_point,
+            ) {
                 state.status = PathStatus::Finished;
             }
         },

@@ -4,7 +4,9 @@
 //! `trace_shadow_rays` reads `ShadowRay`; writes `PathState` (adds the contribution when the
 //! segment is free). `trace_photons` reads `PhotonRay`; writes `PhotonHit`.
 
-use super::components::{PathHit, PathRay, PathState, PathStatus, PhotonHit, PhotonRay, PhotonState, ShadowRay};
+use super::components::{
+    PathHit, PathRay, PathState, PathStatus, PhotonHit, PhotonRay, PhotonState, ShadowRay,
+};
 use super::resources::{SceneResource, wavefront_batching};
 use bevy_ecs::prelude::*;
 
@@ -35,7 +37,10 @@ pub fn trace_shadow_rays(scene: Res<SceneResource>, mut paths: Query<(&mut Shado
 }
 
 /// Closest hit of every flying photon.
-pub fn trace_photons(scene: Res<SceneResource>, mut photons: Query<(&PhotonRay, &mut PhotonHit, &PhotonState)>) {
+pub fn trace_photons(
+    scene: Res<SceneResource>,
+    mut photons: Query<(&PhotonRay, &mut PhotonHit, &PhotonState)>,
+) {
     photons.par_iter_mut().batching_strategy(wavefront_batching()).for_each(|(ray, mut hit, state)| {
         if state.status == PathStatus::Active {
             hit.0 = scene.geometry.intersect(&ray.0);

@@ -9,7 +9,9 @@
 use super::components::{AdaptiveStats, Chi2Cells, HitPoint};
 use super::resources::{ProgressiveConfig, wavefront_batching};
 use crate::lights::area::luminance;
-use crate::photon::progressive::{CHI2_CELLS, add_pass_estimate, chi2_shrink, global_radius2, hachisuka_update};
+use crate::photon::progressive::{
+    CHI2_CELLS, add_pass_estimate, chi2_shrink, global_radius2, hachisuka_update,
+};
 use bevy_ecs::prelude::*;
 use glam::Vec3;
 
@@ -72,7 +74,7 @@ fn clear_pass(hp: &mut HitPoint) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::resources::RadiusRule;
+    use crate::photon::progressive::{CHI2_FIRST_TEST, RadiusRule};
     use bevy_ecs::system::RunSystemOnce;
     use glam::DVec3;
 

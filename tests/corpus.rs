@@ -5,11 +5,11 @@
 mod common;
 
 use bevy_ecs::world::World;
-use caustica::camera::Camera;
+use caustica::Renderer;
 use caustica::film::Image;
 use caustica::lights::area::luminance;
+use caustica::resources::{CameraResource, SceneResource};
 use caustica::scene::{self, IntegratorKind};
-use caustica::systems::resources::SceneGeometry;
 use glam::Vec2;
 
 /// Mean luminance the pixels showing the model must exceed: the samples' surfaces have albedos of a
@@ -19,8 +19,8 @@ const LIT_FLOOR: f32 = 0.02;
 
 /// The pixels whose centre ray hits the model.
 fn model_pixels(world: &World) -> Vec<usize> {
-    let camera = world.resource::<Camera>();
-    let geometry = &world.resource::<SceneGeometry>().geometry;
+    let camera = world.resource::<CameraResource>();
+    let geometry = &world.resource::<SceneResource>().geometry;
     (0..camera.width * camera.height)
         .filter(|&i| {
             let ray =
@@ -42,7 +42,7 @@ fn check(name: &str, kind: IntegratorKind, image: &Image, model: &[usize]) {
 
 #[test]
 fn every_sample_renders_lit_without_errors_or_non_finite_pixels() {
-    caustica::systems::render::init_thread_pools(None);
+    caustica::driver::init_thread_pools(None);
     let mut names = Vec::new();
     for entry in std::fs::read_dir(common::data("gltf-samples")).expect("samples dir") {
         let path = entry.expect("dir entry").path();
@@ -58,17 +58,9 @@ fn every_sample_renders_lit_without_errors_or_non_finite_pixels() {
             run.film.height = Some(24);
             run.progressive.passes = 4;
             run.progressive.photons_per_pass = 4096;
-            if kind.is_progressive() {
-                let mut renderer = caustica::systems::progressive::prepare_progressive(scene, &run)
-                    .unwrap_or_else(|e| panic!("{name}: {e}"));
-                renderer.run(None, |_, _| {});
-                check(&name, kind, &renderer.image(), &model_pixels(&renderer.world));
-            } else {
-                let mut renderer =
-                    caustica::systems::render::prepare(scene, &run).unwrap_or_else(|e| panic!("{name}: {e}"));
-                renderer.run(|_| {});
-                check(&name, kind, &renderer.image(), &model_pixels(&renderer.world));
-            }
+            let mut renderer = Renderer::new(scene, &run).unwrap_or_else(|e| panic!("{name}: {e}"));
+            renderer.run(None, |_| {});
+            check(&name, kind, &renderer.image(), &model_pixels(&renderer.world));
         }
         names.push(name);
     }

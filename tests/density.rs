@@ -41,7 +41,7 @@ fn ise(estimate: impl Fn(f64) -> f64, pdf: impl Fn(f64) -> f64) -> f64 {
 #[test]
 fn fixture_histogram_counts_for_widths_three_and_one() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/density-100.txt");
-    let data = caustica::density::plot::read_data(&path).unwrap();
+    let data = caustica::density::data::read_data(&path).unwrap();
     assert_eq!(data.len(), 100);
     let sample = Sample::new(&data);
     for width in [3i64, 1] {

@@ -3,13 +3,10 @@
 
 mod common;
 
-use caustica::cli::{Cli, Command, RenderArgs};
 use caustica::film::Image;
 use caustica::film::output::write_image;
 use caustica::scene::environment::EnvironmentRadiance;
 use caustica::scene::{self, IntegratorKind, LightSelection, RunFile};
-use caustica::systems::resources::SceneGeometry;
-use clap::Parser;
 use glam::Vec3;
 use std::path::{Path, PathBuf};
 
@@ -109,53 +106,6 @@ fn run_file_environment_map_is_read_relative_to_the_run_file() {
 }
 
 #[test]
-fn flags_choose_the_environment_over_the_run_file() {
-    let dir = temp_dir("flags");
-    let sky = write_sky(&dir);
-    let path = outdoor_run_file(&dir, "color = [0.1, 0.2, 0.3]");
-    let cli = Cli::parse_from([
-        "caustica",
-        "render",
-        path.to_str().unwrap(),
-        "--environment",
-        sky.to_str().unwrap(),
-        "--environment-strength",
-        "3",
-    ]);
-    let Some(Command::Render(args)) = cli.command else { panic!("render command") };
-    let (scene, run) = scene::load_with(&path, |run| args.apply(run)).expect("loads");
-    assert_eq!(run.environment.color, None);
-    let env = scene.environment.expect("environment");
-    assert!(matches!(env.radiance, EnvironmentRadiance::Map(_)));
-    assert_eq!(env.strength, 3.0);
-
-    let cli = Cli::parse_from(["caustica", "render", "x.gltf", "--environment-color", "1,0.5,0.25"]);
-    let Some(Command::Render(args)) = cli.command else { panic!("render command") };
-    let (scene, _) = scene::load_with(&path, |run| args.apply(run)).expect("loads");
-    let env = scene.environment.expect("environment");
-    assert_eq!(env.radiance, EnvironmentRadiance::Constant(Vec3::new(1.0, 0.5, 0.25)));
-}
-
-#[test]
-fn malformed_colour_and_conflicting_flags_are_refused_by_the_parser() {
-    for args in [
-        vec!["caustica", "render", "--environment-color", "1,2"],
-        vec!["caustica", "render", "--environment-color", "1,x,2"],
-        vec!["caustica", "render", "--eye", "1,2,inf"],
-        vec!["caustica", "render", "--environment", "a.exr", "--environment-color", "1,1,1"],
-    ] {
-        assert!(Cli::try_parse_from(&args).is_err(), "{args:?} parsed");
-    }
-    let environment =
-        caustica::cli::EnvironmentArgs { environment_strength: Some(-1.0), ..Default::default() };
-    let args = RenderArgs { environment, ..RenderArgs::default() };
-    let dir = temp_dir("negative-strength");
-    let path = outdoor_run_file(&dir, "color = [1.0, 1.0, 1.0]");
-    let error = scene::load_with(&path, |run| args.apply(run)).expect_err("negative strength");
-    assert!(error.to_string().contains("environment.strength"), "{error}");
-}
-
-#[test]
 fn bad_environment_maps_are_errors_naming_the_file() {
     let dir = temp_dir("bad-maps");
     let missing = outdoor_run_file(&dir, "file = \"nowhere.exr\"");
@@ -208,7 +158,7 @@ fn radiance_hdr_maps_load_like_exr() {
 fn a_scene_without_lights_gets_a_white_environment_with_a_warning() {
     let mut dark = caustica::test_scenes::environment_furnace(0.5, 1.0);
     dark.environment = None;
-    let logs = common::capture_logs(|| SceneGeometry::build(&dark, LightSelection::Power));
+    let logs = common::capture_logs(|| caustica::RenderScene::build(&dark, LightSelection::Power));
     let (geometry, logs) = logs;
     assert!(geometry.lights.environment.is_some());
     assert!(logs.contains("environment furnace (procedural)") && logs.contains("uniform white"), "{logs}");
@@ -220,7 +170,7 @@ fn a_scene_without_lights_gets_a_white_environment_with_a_warning() {
 
     let mut lit = caustica::test_scenes::furnace(0.5, 0.5);
     lit.environment = None;
-    let (geometry, logs) = common::capture_logs(|| SceneGeometry::build(&lit, LightSelection::Power));
+    let (geometry, logs) = common::capture_logs(|| caustica::RenderScene::build(&lit, LightSelection::Power));
     assert!(geometry.lights.environment.is_none());
     assert!(!logs.contains("uniform white"), "{logs}");
 }
@@ -292,10 +242,10 @@ fn a_camera_less_file_is_framed_and_the_flags_override_the_framing() {
     let mut run = RunFile::default();
     run.film.width = Some(40);
     run.film.height = Some(20);
-    let (result, logs) = common::capture_logs(|| caustica::systems::render::scene_world(scene.clone(), &run));
+    let (result, logs) = common::capture_logs(|| caustica::driver::scene_world(scene.clone(), &run));
     let (world, _) = result.expect("world");
     assert!(logs.contains("no camera in the file") && logs.contains("+Z"), "{logs}");
-    let camera = world.resource::<caustica::camera::Camera>();
+    let camera = world.resource::<caustica::resources::CameraResource>();
     // The unit ball's bounding box has radius √3; at 45° it is framed from √3 / sin 22.5° on +Z.
     let eye = camera.generate_ray(20, 10, glam::Vec2::splat(0.5), glam::Vec2::ZERO, 0.0).o;
     assert!((eye - Vec3::new(0.0, 0.0, 3f32.sqrt() / 22.5f32.to_radians().sin())).length() < 1e-3, "{eye}");
@@ -303,8 +253,8 @@ fn a_camera_less_file_is_framed_and_the_flags_override_the_framing() {
     // Tall images fit the horizontal field instead.
     run.film.width = Some(20);
     run.film.height = Some(40);
-    let (world, _) = caustica::systems::render::scene_world(scene.clone(), &run).unwrap();
-    let camera = world.resource::<caustica::camera::Camera>();
+    let (world, _) = caustica::driver::scene_world(scene.clone(), &run).unwrap();
+    let camera = world.resource::<caustica::resources::CameraResource>();
     let eye = camera.generate_ray(10, 20, glam::Vec2::splat(0.5), glam::Vec2::ZERO, 0.0).o;
     let half_x = (0.5 * (22.5f32.to_radians().tan())).atan();
     assert!((eye.z - 3f32.sqrt() / half_x.sin()).abs() < 1e-3, "{eye}");
@@ -313,9 +263,9 @@ fn a_camera_less_file_is_framed_and_the_flags_override_the_framing() {
     run.film.width = Some(40);
     run.film.height = Some(20);
     run.camera.yfov_degrees = Some(20.0);
-    let (world, _) = caustica::systems::render::scene_world(scene.clone(), &run).unwrap();
+    let (world, _) = caustica::driver::scene_world(scene.clone(), &run).unwrap();
     let eye = world
-        .resource::<caustica::camera::Camera>()
+        .resource::<caustica::resources::CameraResource>()
         .generate_ray(20, 10, glam::Vec2::splat(0.5), glam::Vec2::ZERO, 0.0)
         .o;
     assert!((eye.z - 3f32.sqrt() / 10f32.to_radians().sin()).abs() < 1e-3, "{eye}");
@@ -323,10 +273,10 @@ fn a_camera_less_file_is_framed_and_the_flags_override_the_framing() {
     run.camera.eye = Some([4.0, 0.0, 0.0]);
     run.camera.target = Some([0.0, 0.0, 0.0]);
     run.camera.yfov_degrees = Some(30.0);
-    let (result, logs) = common::capture_logs(|| caustica::systems::render::scene_world(scene.clone(), &run));
+    let (result, logs) = common::capture_logs(|| caustica::driver::scene_world(scene.clone(), &run));
     let (world, _) = result.expect("world");
     assert!(!logs.contains("no camera"), "eye and target given: no warning: {logs}");
-    let ray = world.resource::<caustica::camera::Camera>().generate_ray(
+    let ray = world.resource::<caustica::resources::CameraResource>().generate_ray(
         20,
         10,
         glam::Vec2::splat(0.5),

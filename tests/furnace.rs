@@ -49,11 +49,7 @@ fn progressive_photon_mappers_give_unit_radiance_in_the_furnace() {
         run.progressive.photons_per_pass = 20_000;
         run.film.width = Some(48);
         run.film.height = Some(48);
-        caustica::systems::render::init_thread_pools(None);
-        let mut renderer =
-            caustica::systems::progressive::prepare_progressive(furnace(0.5, 0.5), &run).unwrap();
-        renderer.run(None, |_, _| {});
-        let image = renderer.image();
+        let image = common::render(furnace(0.5, 0.5), &run);
         let mean = image.mean().to_array().iter().sum::<f32>() / 3.0;
         assert!((mean - 1.0).abs() < 0.02, "{kind:?}: mean radiance {mean}, expected 1");
         assert!(image.pixels.iter().all(|p| p.is_finite() && p.min_element() >= 0.0), "{kind:?}: bad pixel");

@@ -7,7 +7,6 @@ use caustica::geometry::{Ray, SurfaceHit};
 use caustica::materials::ShadingParams;
 use caustica::scene::gltf::{load_gltf, load_gltf_with_camera, srgb_to_linear};
 use caustica::scene::{self, LightSelection, RunFile, Scene, Wrap, validate};
-use caustica::systems::resources::SceneGeometry;
 use glam::{Vec2, Vec3};
 use std::path::{Path, PathBuf};
 
@@ -727,7 +726,7 @@ fn png_data_uri(width: u32, height: u32, texels: &[[u8; 3]]) -> String {
 
 /// The surface hit and resolved material where a ray down -Z through (x, y) meets the scene.
 fn shade(scene: &Scene, x: f32, y: f32) -> (SurfaceHit, ShadingParams) {
-    let geometry = SceneGeometry::build(scene, LightSelection::Uniform);
+    let geometry = caustica::RenderScene::build(scene, LightSelection::Uniform);
     // Not `-Vec3::Z`: obvhs 0.4 takes a -0.0 component for a positive direction in its octant but a negative one
     // in its inverse direction, and the traversal misses.
     let ray = Ray { o: Vec3::new(x, y, 1.0), d: Vec3::new(0.0, 0.0, -1.0), t_max: f32::INFINITY, time: 0.0 };
@@ -1280,11 +1279,8 @@ fn cameras_are_picked_by_camera_or_node_name() {
         "lists the cameras: {message}"
     );
 
-    // The command line's --camera reaches the loader: overrides apply before the file is read.
-    let cli =
-        <caustica::cli::Cli as clap::Parser>::parse_from(["caustica", "render", "x", "--camera", "tele"]);
-    let Some(caustica::cli::Command::Render(args)) = cli.command else { panic!("a render command") };
-    let (scene, _) = scene::load_with(&path, |run| args.apply(run)).expect("loads");
+    // Overrides (the command line's --camera) apply before the file is read.
+    let (scene, _) = scene::load_with(&path, |run| run.camera.name = Some("tele".into())).expect("loads");
     assert_eq!(scene.camera.expect("a camera").name, "tele");
 }
 

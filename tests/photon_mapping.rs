@@ -2,18 +2,19 @@
 
 mod common;
 
+use caustica::Renderer;
 use caustica::density::Kernel;
+use caustica::driver::init_thread_pools;
 use caustica::film::compare::compare;
 use caustica::film::output::read_exr;
 use caustica::geometry::SurfaceHit;
 use caustica::materials::{Bsdf, ShadingParams};
+use caustica::photon::estimate::radiance_estimate;
 use caustica::photon::{Neighbors, Photon, PhotonMap};
+use caustica::resources::PhotonMaps;
 use caustica::sampling::Sampler;
 use caustica::sampling::warp::Frame;
 use caustica::scene::{IntegratorKind, RunFile, load};
-use caustica::systems::photon_estimate::radiance_estimate;
-use caustica::systems::render::{init_thread_pools, prepare};
-use caustica::systems::resources::PhotonMaps;
 use caustica::test_scenes::furnace;
 use glam::{Vec2, Vec3};
 
@@ -27,11 +28,14 @@ fn furnace_stored_power(a: f32, photons: u32, final_gather: u32) -> (f64, f64) {
     run.render.spp = 1;
     run.photons.photons = photons;
     run.photons.final_gather = final_gather;
-    let renderer = prepare(scene, &run).expect("furnace prepares");
+    (run.film.width, run.film.height) = (Some(4), Some(4));
+    let mut renderer = Renderer::new(scene, &run).expect("furnace prepares");
+    // The maps are built in the first pass.
+    renderer.run(None, |_| {});
     let maps = renderer.world.resource::<PhotonMaps>();
     let map = maps.global.as_ref().or(maps.indirect.as_ref()).expect("a global or indirect map");
     let stored: f64 = map.photons().iter().map(|p| p.power().x as f64).sum();
-    let scene = renderer.world.resource::<caustica::systems::resources::SceneGeometry>();
+    let scene = renderer.world.resource::<caustica::resources::SceneResource>();
     let emitted: f64 = scene.lights.lights.iter().map(|l| l.power() as f64).sum();
     (stored, emitted)
 }

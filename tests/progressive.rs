@@ -3,14 +3,14 @@
 
 mod common;
 
+use caustica::Renderer;
+use caustica::driver::init_thread_pools;
 use caustica::film::Image;
 use caustica::film::compare::compare;
 use caustica::film::output::read_exr;
 use caustica::scene::{IntegratorKind, RunFile, load};
-use caustica::systems::progressive::{ProgressiveRenderer, prepare_progressive};
-use caustica::systems::render::init_thread_pools;
 
-fn progressive(gltf: &str, kind: IntegratorKind, photons_per_pass: u32, passes: u32) -> ProgressiveRenderer {
+fn progressive(gltf: &str, kind: IntegratorKind, photons_per_pass: u32, passes: u32) -> Renderer {
     init_thread_pools(None);
     let (scene, mut run): (_, RunFile) = load(&common::data(gltf)).expect("test scene loads");
     run.render.integrator = kind;
@@ -18,7 +18,7 @@ fn progressive(gltf: &str, kind: IntegratorKind, photons_per_pass: u32, passes: 
     run.progressive.passes = passes;
     run.film.width = Some(128);
     run.film.height = Some(128);
-    prepare_progressive(scene, &run).expect("scene prepares")
+    Renderer::new(scene, &run).expect("scene prepares")
 }
 
 fn half_reference(name: &str) -> Image {
@@ -27,7 +27,7 @@ fn half_reference(name: &str) -> Image {
 
 /// relMSE against `reference` (cropped to `window` when given) after each pass in `checkpoints`.
 fn errors_at(
-    renderer: &mut ProgressiveRenderer,
+    renderer: &mut Renderer,
     reference: &Image,
     checkpoints: &[u32],
     window: Option<[u32; 4]>,
@@ -39,9 +39,8 @@ fn errors_at(
     let reference = crop(reference);
     let mut errors = Vec::new();
     for &at in checkpoints {
-        while renderer.passes < at {
-            renderer.run_pass();
-        }
+        renderer.set_target(at);
+        renderer.run(None, |_| {});
         errors.push(compare(&crop(&renderer.image()), &reference).unwrap().relmse);
     }
     errors
@@ -114,7 +113,7 @@ fn a_run_over_the_memory_budget_stops_before_it_allocates() {
     run.film.width = Some(4096);
     run.film.height = Some(4096);
     run.progressive.memory_budget_mib = Some(64);
-    let message = prepare_progressive(scene, &run).err().expect("over budget").to_string();
+    let message = Renderer::new(scene, &run).err().expect("over budget").to_string();
     assert!(message.contains("memory_budget_mib") && message.contains("MiB"), "{message}");
 }
 
@@ -124,7 +123,7 @@ fn alpha_outside_zero_to_one_is_refused() {
         let (scene, mut run): (_, RunFile) = load(&common::data("cornell-box.gltf")).unwrap();
         run.render.integrator = IntegratorKind::Sppm;
         run.progressive.alpha = alpha;
-        let message = prepare_progressive(scene, &run).err().expect("bad alpha").to_string();
+        let message = Renderer::new(scene, &run).err().expect("bad alpha").to_string();
         assert!(message.contains("alpha"), "{alpha}: {message}");
     }
 }
@@ -132,15 +131,15 @@ fn alpha_outside_zero_to_one_is_refused() {
 #[test]
 fn a_time_limit_stops_progressive_and_path_rendering_early() {
     let mut renderer = progressive("cornell-box.gltf", IntegratorKind::Sppm, 1000, 1000);
-    renderer.run(Some(0.0), |_, _| {});
-    assert_eq!(renderer.passes, 1, "a zero budget still finishes the pass it started");
+    renderer.run(Some(0.0), |_| {});
+    assert_eq!(renderer.passes(), 1, "a zero budget still finishes the pass it started");
 
     let (scene, mut run): (_, RunFile) = load(&common::data("cornell-box.gltf")).unwrap();
     run.film.width = Some(32);
     run.film.height = Some(32);
     run.render.spp = 1000;
-    let mut renderer = caustica::systems::render::prepare(scene, &run).unwrap();
-    let summary = renderer.run_until(Some(0.0), |_| {});
-    assert!(summary.stats.samples < 1000 * 32 * 32, "{} samples", summary.stats.samples);
+    let mut renderer = Renderer::new(scene, &run).unwrap();
+    let report = renderer.run(Some(0.0), |_| {});
+    assert!(report.paths.samples < 1000 * 32 * 32, "{} samples", report.paths.samples);
     assert!(renderer.image().mean().is_finite());
 }

@@ -6,7 +6,6 @@ mod common;
 use caustica::film::Image;
 use caustica::scene::schedule::{Pass, ScheduleSettings, Stage};
 use caustica::scene::{IntegratorKind, RunFile, load};
-use caustica::systems::progressive::prepare_progressive;
 
 fn run_for(kind: IntegratorKind, schedule: ScheduleSettings) -> (caustica::scene::Scene, RunFile) {
     let (scene, mut run): (_, RunFile) = load(&common::data("cornell-spheres.gltf")).unwrap();
@@ -24,14 +23,7 @@ fn run_for(kind: IntegratorKind, schedule: ScheduleSettings) -> (caustica::scene
 
 fn render(kind: IntegratorKind, schedule: ScheduleSettings) -> Image {
     let (scene, run) = run_for(kind, schedule);
-    if kind.is_progressive() {
-        caustica::systems::render::init_thread_pools(None);
-        let mut renderer = prepare_progressive(scene, &run).unwrap();
-        renderer.run(None, |_, _| {});
-        renderer.image()
-    } else {
-        common::render(scene, &run)
-    }
+    common::render(scene, &run)
 }
 
 fn bits(image: &Image) -> Vec<[u32; 3]> {

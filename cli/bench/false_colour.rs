@@ -1,7 +1,7 @@
 //! False-colour images of the per-pixel error, for seeing where an integrator is wrong.
 
-use caustica::{Error, Result};
 use caustica::film::Image;
+use caustica::{Error, Result};
 use std::path::Path;
 
 /// Decades of relative squared error the colour ramp spans: 1e-6 (black) to 1 (white).

@@ -7,12 +7,12 @@ mod false_colour;
 mod plot;
 
 use crate::args::BenchArgs;
-use caustica::{Choice, Error, Result};
+use caustica::Renderer;
 use caustica::film::Image;
 use caustica::film::compare::compare;
 use caustica::film::output::{read_exr, write_image};
 use caustica::scene::{IntegratorKind, LightSelection, RunFile, Scene, load_with};
-use caustica::Renderer;
+use caustica::{Choice, Error, Result};
 use std::io::Write as _;
 use std::path::PathBuf;
 use std::time::Instant;

@@ -1,8 +1,8 @@
 //! The log-log plot of relMSE against time (or samples) for `caustica bench`, PNG and SVG.
 
 use super::Checkpoint;
-use caustica::{Error, Result};
 use caustica::scene::{IntegratorKind, LightSelection};
+use caustica::{Error, Result};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;

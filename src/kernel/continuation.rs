@@ -55,8 +55,12 @@ pub fn continue_path(
         path.eta_scale *= bs.eta * bs.eta;
     }
     path.depth += 1;
-    let ray =
-        Ray { o: offset_ray_origin(si.p, si.p_error, si.ng, wi_world), d: wi_world, t_max: f32::INFINITY, time };
+    let ray = Ray {
+        o: offset_ray_origin(si.p, si.p_error, si.ng, wi_world),
+        d: wi_world,
+        t_max: f32::INFINITY,
+        time,
+    };
     if path.depth >= limits.rr_depth {
         let survive = survival_probability(path.beta, path.eta_scale);
         if u.roulette() >= survive {

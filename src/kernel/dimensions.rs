@@ -120,8 +120,13 @@ mod tests {
     #[test]
     fn vertices_use_disjoint_dimensions_after_the_camera() {
         assert_eq!(bounce_dimension(0), camera::DIMENSIONS);
-        let used = [bounce::LIGHT_SELECT, bounce::LIGHT_POINT + 1, bounce::BSDF_DIRECTION + 1, bounce::ROULETTE];
-        assert!(used.iter().all(|&d| d < bounce::DIMENSIONS), "a vertex stays within its {} dimensions", bounce::DIMENSIONS);
+        let used =
+            [bounce::LIGHT_SELECT, bounce::LIGHT_POINT + 1, bounce::BSDF_DIRECTION + 1, bounce::ROULETTE];
+        assert!(
+            used.iter().all(|&d| d < bounce::DIMENSIONS),
+            "a vertex stays within its {} dimensions",
+            bounce::DIMENSIONS
+        );
         let v = VertexSampler::new(Sampler::new(3, 7, 2), 1);
         let s = Sampler::new(3, 7, 2);
         assert_eq!(v.roulette(), s.get1d(camera::DIMENSIONS + bounce::DIMENSIONS + bounce::ROULETTE));

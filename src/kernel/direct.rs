@@ -1,7 +1,7 @@
 //! Next-event estimation: one light sample at a vertex, as a shadow ray and what it adds if nothing
 //! blocks it.
 
-use super::{VertexSampler, Vertex, mis::power_heuristic};
+use super::{Vertex, VertexSampler, mis::power_heuristic};
 use crate::geometry::Ray;
 use crate::geometry::offset::{SHADOW_EPSILON, offset_ray_origin};
 use crate::materials::TransportMode;

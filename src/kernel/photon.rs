@@ -49,14 +49,20 @@ pub struct PhotonPassSettings {
 
 /// Start a photon on a light with `sampler`'s numbers at shutter time `time`: its first ray and path.
 #[inline]
-pub fn emit_photon(scene: &RenderScene, settings: &PhotonPassSettings, sampler: &Sampler, time: f32) -> Option<(Ray, PhotonPath)> {
+pub fn emit_photon(
+    scene: &RenderScene,
+    settings: &PhotonPassSettings,
+    sampler: &Sampler,
+    time: f32,
+) -> Option<(Ray, PhotonPath)> {
     let (_, e) = scene.lights.sample_emission(
         time,
         sampler.get1d(dim::LIGHT),
         sampler.get2d(dim::POSITION),
         sampler.get2d(dim::DIRECTION),
     )?;
-    let ray = Ray { o: offset_ray_origin(e.p, e.p.abs() * gamma(4), e.n, e.d), d: e.d, t_max: f32::INFINITY, time };
+    let ray =
+        Ray { o: offset_ray_origin(e.p, e.p.abs() * gamma(4), e.n, e.d), d: e.d, t_max: f32::INFINITY, time };
     Some((ray, PhotonPath { power: e.weight / settings.total as f32, depth: 0, specular_only: true }))
 }
 
@@ -127,9 +133,12 @@ pub fn scatter_photon(
         return bounce;
     }
     let base = dim::FIRST_BOUNCE + path.depth * dim::PER_BOUNCE;
-    let Some(bs) =
-        bsdf.sample(v.wo, sampler.get1d(base + dim::LOBE), sampler.get2d(base + dim::BSDF), TransportMode::Importance)
-    else {
+    let Some(bs) = bsdf.sample(
+        v.wo,
+        sampler.get1d(base + dim::LOBE),
+        sampler.get2d(base + dim::BSDF),
+        TransportMode::Importance,
+    ) else {
         return bounce;
     };
     // Survive with the surface's reflectivity (capped after rr_depth so lossless loops end).

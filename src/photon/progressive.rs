@@ -193,8 +193,17 @@ impl AdaptiveStatistics {
     /// squared radius for the next pass: the MSE-optimal one, r⁶ = 2C / (μ₂² ΔL² i) (Kaplanyan &
     /// Dachsbacher 2013, eq. 12), within [`ADAPTIVE_BAND`] of the global PPM radius `global2` and
     /// below the initial radius `r0`; `global2` itself until the estimates have warmed up.
-    pub fn update(&mut self, pass: u32, estimate: f64, previous_mean: f64, r2: f32, global2: f32, r0: f32) -> f32 {
-        let (lo, hi) = (ADAPTIVE_BAND.0 * ADAPTIVE_BAND.0 * global2, ADAPTIVE_BAND.1 * ADAPTIVE_BAND.1 * global2);
+    pub fn update(
+        &mut self,
+        pass: u32,
+        estimate: f64,
+        previous_mean: f64,
+        r2: f32,
+        global2: f32,
+        r0: f32,
+    ) -> f32 {
+        let (lo, hi) =
+            (ADAPTIVE_BAND.0 * ADAPTIVE_BAND.0 * global2, ADAPTIVE_BAND.1 * ADAPTIVE_BAND.1 * global2);
         let hi = hi.min(r0 * r0);
         if pass > 0 {
             self.variance_sum += (estimate - previous_mean).powi(2) * r2 as f64;

@@ -181,7 +181,12 @@ impl MaterialDesc {
     /// The BSDF parameters of this material with the given base colour, metallic and roughness (its
     /// factors, or those after textures and vertex colours); the rest comes from the material.
     #[inline]
-    pub fn shading_params(&self, base_color: Vec3, metallic: f32, roughness: f32) -> crate::materials::ShadingParams {
+    pub fn shading_params(
+        &self,
+        base_color: Vec3,
+        metallic: f32,
+        roughness: f32,
+    ) -> crate::materials::ShadingParams {
         crate::materials::ShadingParams {
             base_color,
             metallic,

@@ -1,8 +1,8 @@
 //! Run files (TOML): which glTF to load, what to add to it, and how to render it.
 
 use super::{MaterialDesc, Scene, Sphere};
-use crate::error::{Error, Result};
 use crate::choice::Choice;
+use crate::error::{Error, Result};
 use glam::Vec3;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};

@@ -68,7 +68,8 @@ impl Renderer {
             Unit::Passes => run.progressive.passes,
         };
         let samples_per_unit = integrators::camera_samples_per_unit(run);
-        let phase_times = plan.phases.iter().map(|p| PhaseTime { name: p.name, seconds: 0.0, runs: 0 }).collect();
+        let phase_times =
+            plan.phases.iter().map(|p| PhaseTime { name: p.name, seconds: 0.0, runs: 0 }).collect();
         Ok(Self {
             world,
             plan,
@@ -139,6 +140,7 @@ impl Renderer {
             }
             let phase_start = Instant::now();
             let mut runs = 0;
+            self.plan.phases[i].begin.run(&mut self.world);
             loop {
                 self.plan.phases[i].schedule.run(&mut self.world);
                 runs += 1;
@@ -152,6 +154,7 @@ impl Renderer {
                     break;
                 }
             }
+            self.plan.phases[i].end.run(&mut self.world);
             let time = &mut self.phase_times[i];
             time.seconds += phase_start.elapsed().as_secs_f64();
             time.runs += runs;

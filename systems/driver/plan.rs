@@ -58,39 +58,69 @@ pub enum Repeat {
     WhileBusy(fn(&World) -> bool),
 }
 
-/// One step of a pass: a schedule, when it runs, and how often.
+/// One step of a pass: a schedule, when it runs and how often, with a schedule run once before it
+/// (hand out the pass's work) and one after it (turn what it made into what the next step reads).
 pub struct Phase {
-    /// Its name in the report and the profile ("bounce", "photons", "statistics", ...).
+    /// Its name in the report and the profile ("bounce", "camera", "photons", "statistics").
     pub name: &'static str,
+    /// Run once before the first run of `schedule`.
+    pub begin: Schedule,
     /// Its systems.
     pub schedule: Schedule,
+    /// Run once after the last run of `schedule`.
+    pub end: Schedule,
     /// In which passes.
     pub when: When,
-    /// How often.
+    /// How often `schedule` runs.
     pub repeat: Repeat,
 }
 
 impl Phase {
-    /// An empty phase whose schedule runs its systems in order on one thread: they parallelise their
-    /// own queries, and a parallel executor would only add hand-off cost between these few, fat
-    /// systems.
+    /// An empty phase. Its schedules run their systems in order on one thread: the systems
+    /// parallelise their own queries, and a parallel executor would only add hand-off cost between
+    /// these few, fat systems.
     pub fn new(name: &'static str, when: When, repeat: Repeat) -> Self {
-        let mut schedule = Schedule::new(PhaseLabel(name));
-        schedule.set_executor(SingleThreadedExecutor::new());
-        Self { name, schedule, when, repeat }
+        let schedule = |part: &'static str| {
+            let mut schedule = Schedule::new(PhaseLabel(name, part));
+            schedule.set_executor(SingleThreadedExecutor::new());
+            schedule
+        };
+        Self { name, begin: schedule("begin"), schedule: schedule("run"), end: schedule("end"), when, repeat }
     }
 
     /// A phase that runs `systems` once.
-    pub fn once<M>(name: &'static str, when: When, systems: impl IntoScheduleConfigs<bevy_ecs::system::ScheduleSystem, M>) -> Self {
+    pub fn once<M>(
+        name: &'static str,
+        when: When,
+        systems: impl IntoScheduleConfigs<bevy_ecs::system::ScheduleSystem, M>,
+    ) -> Self {
         let mut phase = Self::new(name, when, Repeat::Once);
         phase.schedule.add_systems(systems);
         phase
     }
+
+    /// This phase with `systems` run once before it.
+    pub fn with_begin<M>(
+        mut self,
+        systems: impl IntoScheduleConfigs<bevy_ecs::system::ScheduleSystem, M>,
+    ) -> Self {
+        self.begin.add_systems(systems);
+        self
+    }
+
+    /// This phase with `systems` run once after it.
+    pub fn with_end<M>(
+        mut self,
+        systems: impl IntoScheduleConfigs<bevy_ecs::system::ScheduleSystem, M>,
+    ) -> Self {
+        self.end.add_systems(systems);
+        self
+    }
 }
 
-/// A schedule's label by phase name, so a profile tells the phases apart.
+/// A schedule's label by phase name and part, so a profile tells the phases apart.
 #[derive(ScheduleLabel, Debug, Clone, PartialEq, Eq, Hash)]
-pub struct PhaseLabel(pub &'static str);
+pub struct PhaseLabel(pub &'static str, pub &'static str);
 
 /// Where the pass that starts at progress `done` ends, for a render that aims at `target`.
 pub type PassEnd = Box<dyn Fn(u32, u32) -> u32 + Send + Sync>;

@@ -30,7 +30,9 @@ pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result
         nee: run.schedule.nee_for(run.render.integrator),
         camera: When::EveryPass,
         statistics: |schedule| {
-            schedule.add_systems((build_pass_photon_map, gather_photons_into_chi2_cells).chain().in_set(PassSystems::Gather));
+            schedule.add_systems(
+                (build_pass_photon_map, gather_photons_into_chi2_cells).chain().in_set(PassSystems::Gather),
+            );
             schedule.add_systems(update_radii_by_chi2.in_set(PassSystems::Update));
         },
     };

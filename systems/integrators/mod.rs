@@ -117,7 +117,9 @@ pub fn film_image(world: &World, _passes: u32) -> crate::film::Image {
 pub fn spawn_paths(world: &mut World, count: u32) {
     use crate::components::{PathHit, PathRay, PathState, PathStatus, ShadowRay};
     let idle = PathState { status: PathStatus::Idle, ..PathState::new(0, 0) };
-    world.spawn_batch((0..count).map(|_| (PathRay::default(), PathHit::default(), idle, ShadowRay::default())));
+    world.spawn_batch(
+        (0..count).map(|_| (PathRay::default(), PathHit::default(), idle, ShadowRay::default())),
+    );
 }
 
 /// Spawn `count` photon entities, idle until a photon pass hands them photons.

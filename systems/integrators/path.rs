@@ -52,8 +52,8 @@ pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result
     if features.learns_visibility {
         phases.push(Phase::once("learning", When::LaterPasses, finish_light_learning));
     }
-    phases.push(Phase::once("bounce", When::EveryPass, hand_out_samples(1)));
-    let mut bounce = Phase::new("bounce", When::EveryPass, Repeat::WhileBusy(paths_busy));
+    let mut bounce =
+        Phase::new("bounce", When::EveryPass, Repeat::WhileBusy(paths_busy)).with_begin(hand_out_samples(1));
     add_bounce_systems(&mut bounce.schedule, features, stage_order(run), nee);
     phases.push(bounce);
     let pass_end: crate::driver::plan::PassEnd = if features.learns_visibility {
@@ -83,7 +83,8 @@ pub fn add_bounce_systems(schedule: &mut Schedule, features: SceneFeatures, orde
         schedule.add_systems(scatter_paths::<true>.in_set(PassSystems::Scatter));
         schedule.add_systems(trace_shadow_rays.in_set(PassSystems::Shadow));
         if features.learns_visibility {
-            schedule.add_systems(learn_light_visibility.before(splat_paths_to_film).in_set(PassSystems::Gather));
+            schedule
+                .add_systems(learn_light_visibility.before(splat_paths_to_film).in_set(PassSystems::Gather));
         }
     } else {
         schedule.add_systems(scatter_paths::<false>.in_set(PassSystems::Scatter));

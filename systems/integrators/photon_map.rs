@@ -15,7 +15,10 @@
 //! the path tracer's bounce schedule with `scatter_photon_mapped` in the Scatter set. A scene pays
 //! for what it has: no caustic pass without specular surfaces.
 
-use super::{add_photon_systems, configure_stages, film_image, paths_busy, photons_busy, spawn_paths, spawn_photons, stage_order};
+use super::{
+    add_photon_systems, configure_stages, film_image, paths_busy, photons_busy, spawn_paths, spawn_photons,
+    stage_order,
+};
 use crate::PassSystems;
 use crate::driver::MAX_WAVEFRONT;
 use crate::driver::plan::{Phase, Plan, Repeat, Unit, When};
@@ -26,8 +29,8 @@ use crate::gather::splat_paths_to_film;
 use crate::passes::{begin_photon_map, begin_photon_pass, finish_photon_map, hand_out_samples};
 use crate::photon::PhotonMapKind;
 use crate::resources::{
-    FilmResource, PhotonBuffer, PhotonMaps, PhotonStats, PhotonWork, RenderConfig, SceneFeatures, SceneResource,
-    Workload,
+    FilmResource, PhotonBuffer, PhotonMaps, PhotonStats, PhotonWork, RenderConfig, SceneFeatures,
+    SceneResource, Workload,
 };
 use crate::scatter::scatter_photon_mapped;
 use crate::scene::RunFile;
@@ -50,7 +53,10 @@ pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result
     let final_gather = settings.final_gather > 0;
     let mut maps = Vec::new();
     if settings.photons > 0 {
-        maps.push((if final_gather { PhotonMapKind::Global } else { PhotonMapKind::Indirect }, settings.photons));
+        maps.push((
+            if final_gather { PhotonMapKind::Global } else { PhotonMapKind::Indirect },
+            settings.photons,
+        ));
     }
     if features.specular && settings.caustic_photons > 0 {
         maps.push((PhotonMapKind::Caustic, settings.caustic_photons));
@@ -75,14 +81,14 @@ pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result
 
     let mut phases = Vec::new();
     for (kind, count) in maps {
-        phases.push(Phase::once("photons", When::FirstPass, (begin_photon_map(kind, count), begin_photon_pass).chain()));
-        let mut photons = Phase::new("photons", When::FirstPass, Repeat::WhileBusy(photons_busy));
+        let mut photons = Phase::new("photons", When::FirstPass, Repeat::WhileBusy(photons_busy))
+            .with_begin((begin_photon_map(kind, count), begin_photon_pass).chain())
+            .with_end(finish_photon_map(kind));
         add_photon_systems(&mut photons.schedule, order);
         phases.push(photons);
-        phases.push(Phase::once("photon maps", When::FirstPass, finish_photon_map(kind)));
     }
-    phases.push(Phase::once("bounce", When::EveryPass, hand_out_samples(super::camera_samples_per_unit(run))));
-    let mut bounce = Phase::new("bounce", When::EveryPass, Repeat::WhileBusy(paths_busy));
+    let mut bounce = Phase::new("bounce", When::EveryPass, Repeat::WhileBusy(paths_busy))
+        .with_begin(hand_out_samples(super::camera_samples_per_unit(run)));
     configure_stages(&mut bounce.schedule, order);
     bounce.schedule.add_systems(emit_camera_paths_for(features).in_set(PassSystems::Emit));
     bounce.schedule.add_systems(trace_paths.in_set(PassSystems::Trace));

@@ -16,7 +16,10 @@
 
 use super::{add_photon_systems, configure_stages, paths_busy, photons_busy, spawn_photons, stage_order};
 use crate::PassSystems;
-use crate::components::{AdaptiveStats, Chi2Cells, HitPoint, PathHit, PathRay, PathState, PathStatus, PhotonHit, PhotonRay, PhotonState, ShadowRay};
+use crate::components::{
+    AdaptiveStats, Chi2Cells, HitPoint, PathHit, PathRay, PathState, PathStatus, PhotonHit, PhotonRay,
+    PhotonState, ShadowRay,
+};
 use crate::driver::MAX_WAVEFRONT;
 use crate::driver::plan::{Phase, Plan, Repeat, Unit, When};
 use crate::driver::report::{HitPointSummary, PhotonSummary, Report};
@@ -103,7 +106,8 @@ pub fn check(pixels: u64, scene: &Scene, run: &RunFile) -> Result<()> {
 pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures, variant: Variant) -> Result<Plan> {
     let settings = run.progressive;
     let kind = run.render.integrator;
-    let features = super::without_visibility_learning(world, features, "progressive passes use the light tree");
+    let features =
+        super::without_visibility_learning(world, features, "progressive passes use the light tree");
     let order = stage_order(run);
     let per_pixel = settings.hit_points_for(kind);
     let (area, diagonal) = {
@@ -134,19 +138,19 @@ pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures, variant: 
     world.insert_resource(PassPhotons::default());
     spawn_photons(world, settings.photons_per_pass.min(MAX_WAVEFRONT));
 
-    let mut phases = vec![Phase::once("statistics", When::EveryPass, begin_progressive_pass(features.motion))];
+    let mut phases = vec![Phase::once("pass", When::EveryPass, begin_progressive_pass(features.motion))];
     for group in run.schedule.pass_order().unwrap_or([Pass::Camera, Pass::Photons, Pass::Statistics]) {
         match group {
             Pass::Camera => {
-                phases.push(Phase::once("camera", variant.camera, begin_camera_pass));
-                let mut camera = Phase::new("camera", variant.camera, Repeat::WhileBusy(paths_busy));
+                let mut camera = Phase::new("camera", variant.camera, Repeat::WhileBusy(paths_busy))
+                    .with_begin(begin_camera_pass)
+                    .with_end(cap_initial_radius);
                 add_camera_systems(&mut camera.schedule, features, order, variant.nee);
                 phases.push(camera);
-                phases.push(Phase::once("camera", When::FirstPass, cap_initial_radius));
             }
             Pass::Photons => {
-                phases.push(Phase::once("photons", When::EveryPass, begin_photon_pass));
-                let mut photons = Phase::new("photons", When::EveryPass, Repeat::WhileBusy(photons_busy));
+                let mut photons = Phase::new("photons", When::EveryPass, Repeat::WhileBusy(photons_busy))
+                    .with_begin(begin_photon_pass);
                 add_photon_systems(&mut photons.schedule, order);
                 phases.push(photons);
             }
@@ -170,7 +174,12 @@ fn spawn_hit_points(world: &mut World, rule: RadiusRule, per_pixel: u32, r0: f32
     };
     let count = pixels * per_pixel;
     let path = move |k: u32| {
-        (PathRay::default(), PathHit::default(), PathState::new(k / per_pixel, k % per_pixel), ShadowRay::default())
+        (
+            PathRay::default(),
+            PathHit::default(),
+            PathState::new(k / per_pixel, k % per_pixel),
+            ShadowRay::default(),
+        )
     };
     let hit_point = HitPoint::new(r0 * r0);
     match rule {

@@ -25,7 +25,9 @@ pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result
         nee: run.schedule.nee_for(run.render.integrator),
         camera: When::EveryPass,
         statistics: |schedule| {
-            schedule.add_systems((build_pass_photon_map, gather_photons_into_hit_points).chain().in_set(PassSystems::Gather));
+            schedule.add_systems(
+                (build_pass_photon_map, gather_photons_into_hit_points).chain().in_set(PassSystems::Gather),
+            );
             schedule.add_systems(update_hit_point_radii.in_set(PassSystems::Update));
         },
     };

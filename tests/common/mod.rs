@@ -1,9 +1,10 @@
 //! Helpers shared by the integration tests.
 #![allow(dead_code)]
 
+use caustica::Renderer;
+use caustica::driver::init_thread_pools;
 use caustica::film::Image;
 use caustica::scene::{RunFile, Scene};
-use caustica::systems::render::{init_thread_pools, prepare};
 use std::path::{Path, PathBuf};
 
 /// A file under tests/data.
@@ -16,19 +17,12 @@ pub fn render(scene: Scene, run: &RunFile) -> Image {
     try_render(scene, run).expect("scene prepares")
 }
 
-/// Prepare and render with whichever driver the integrator needs; Err carries the error message.
+/// Render with the driver; Err carries the error message.
 pub fn try_render(scene: Scene, run: &RunFile) -> Result<Image, String> {
     init_thread_pools(None);
-    if run.render.integrator.is_progressive() {
-        let mut renderer =
-            caustica::systems::progressive::prepare_progressive(scene, run).map_err(|e| e.to_string())?;
-        renderer.run(None, |_, _| {});
-        Ok(renderer.image())
-    } else {
-        let mut renderer = prepare(scene, run).map_err(|e| e.to_string())?;
-        renderer.run(|_| {});
-        Ok(renderer.image())
-    }
+    let mut renderer = Renderer::new(scene, run).map_err(|e| e.to_string())?;
+    renderer.run(None, |_| {});
+    Ok(renderer.image())
 }
 
 /// Average 2×2 blocks: a box-filtered image at half resolution is exactly this of the full one.
