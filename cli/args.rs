@@ -209,8 +209,8 @@ pub struct RenderArgs {
     /// Progressive photon mapping: memory budget for hit points and photons, MiB; overrides the run file.
     #[arg(long)]
     pub memory_budget_mib: Option<u64>,
-    /// Progressive photon mapping: hit points per pixel, a square number (1, 4, 9, 16, …), stratified
-    /// over the pixel filter (default 16 for ppm, 1 for the others); overrides the run file.
+    /// Progressive photon mapping: hit points per pixel, a power of two, stratified over the pixel
+    /// filter (default 32 for ppm, 1 for the others); overrides the run file.
     #[arg(long)]
     pub hit_points_per_pixel: Option<u32>,
     /// Stop after this many seconds of rendering (every integrator; the sample or pass count still

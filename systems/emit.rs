@@ -12,6 +12,7 @@ use crate::kernel::CameraPath;
 use crate::kernel::dimensions::{camera as dim, photon_sampler};
 use crate::kernel::photon::{emit_photon, photon_time};
 use crate::sampling::Sampler;
+use crate::sampling::net::net_point;
 use bevy_ecs::prelude::*;
 use glam::Vec2;
 
@@ -29,7 +30,8 @@ pub fn emit_camera_paths<const LENS: bool, const MOTION: bool>(
             let sampler = Sampler::new(config.seed, state.pixel, state.sample);
             let x = state.pixel % camera.width;
             let y = state.pixel / camera.width;
-            let u_filter = stratified(sampler.get2d(dim::FILTER), state.sample, config.strata);
+            let u_filter =
+                stratified(sampler.get2d(dim::FILTER), config.seed, state.pixel, state.sample, config.strata);
             let u_lens = if LENS { sampler.get2d(dim::LENS) } else { Vec2::splat(0.5) };
             let time =
                 if MOTION { config.pass_time.unwrap_or_else(|| sampler.get1d(dim::TIME)) } else { 0.0 };
@@ -41,16 +43,16 @@ pub fn emit_camera_paths<const LENS: bool, const MOTION: bool>(
     );
 }
 
-/// `u` moved into cell `sample mod strata` of a √strata × √strata grid over the unit square, so that
-/// the camera samples of a pixel that share a pass (its hit points) cover the pixel filter evenly.
+/// The filter sample of camera sample `sample` when `strata` samples of a pixel share a pass (its
+/// hit points): point `sample mod strata` of a (0, m, 2)-net scrambled per pixel, so that they cover
+/// the pixel evenly in every direction; `u` itself when there is one.
 #[inline]
-fn stratified(u: Vec2, sample: u32, strata: u32) -> Vec2 {
+fn stratified(u: Vec2, seed: u64, pixel: u32, sample: u32, strata: u32) -> Vec2 {
     if strata <= 1 {
         return u;
     }
-    let side = strata.isqrt();
-    let cell = sample % strata;
-    (Vec2::new((cell % side) as f32, (cell / side) as f32) + u) / side as f32
+    let bits = crate::sampling::rng::mix64(seed ^ crate::sampling::rng::mix64(pixel as u64 ^ 0x6e65_7473));
+    net_point(sample % strata, [bits as u32, (bits >> 32) as u32])
 }
 
 /// The `emit_camera_paths` instance for a scene: lens and time sampling only when the scene has an
@@ -98,17 +100,15 @@ mod tests {
     use glam::Vec2;
 
     #[test]
-    fn strata_tile_the_pixel_once_each() {
-        for strata in [4u32, 9, 16] {
-            let side = strata.isqrt();
-            let mut seen = vec![0u32; strata as usize];
+    fn a_pixels_strata_cover_it_in_rows_and_columns() {
+        for strata in [4u32, 16, 64] {
+            let mut rows = vec![0u32; strata as usize];
             for sample in 0..strata {
-                let u = stratified(Vec2::splat(0.5), sample, strata);
-                assert!(u.cmpge(Vec2::ZERO).all() && u.cmplt(Vec2::ONE).all());
-                seen[((u.y * side as f32) as u32 * side + (u.x * side as f32) as u32) as usize] += 1;
+                let u = stratified(Vec2::splat(0.5), 7, 3, sample + 5 * strata, strata);
+                rows[(u.y * strata as f32) as usize] += 1;
             }
-            assert!(seen.iter().all(|&n| n == 1), "{strata}: {seen:?}");
+            assert!(rows.iter().all(|&n| n == 1), "{strata}: {rows:?}");
         }
-        assert_eq!(stratified(Vec2::new(0.3, 0.7), 5, 1), Vec2::new(0.3, 0.7));
+        assert_eq!(stratified(Vec2::new(0.3, 0.7), 7, 3, 5, 1), Vec2::new(0.3, 0.7));
     }
 }

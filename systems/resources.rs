@@ -59,7 +59,7 @@ pub struct RenderConfig {
     /// One shutter time for every camera ray of this pass (stochastic PPM), instead of one per sample.
     pub pass_time: Option<f32>,
     /// Camera samples of a pixel that share one pass (several hit points per pixel): the pixel filter
-    /// is stratified over them, sample `s` taking cell `s mod strata` of a √strata × √strata grid.
+    /// is stratified over them, sample `s` taking point `s mod strata` of a (0, m, 2)-net.
     pub strata: u32,
 }
 

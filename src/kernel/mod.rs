@@ -20,6 +20,9 @@ pub mod emission;
 pub mod mis;
 pub mod photon;
 
+#[cfg(test)]
+mod tests;
+
 use crate::geometry::{Ray, SurfaceHit};
 use crate::materials::{Bsdf, ShadingParams};
 use crate::render_scene::RenderScene;

@@ -299,8 +299,8 @@ pub struct ProgressiveSettings {
     pub initial_radius: Option<f32>,
     /// Memory the hit points and photons may take, in MiB; `None` is half the machine's memory.
     pub memory_budget_mib: Option<u64>,
-    /// Hit points per pixel, a square number: they stratify the pixel filter on a √N × √N grid, each
-    /// with its own radius and statistics. `None`: 16 for `ppm`, whose hit points are traced once and
+    /// Hit points per pixel, a power of two: the points of a (0, m, 2)-net over the pixel filter, each
+    /// with its own radius and statistics. `None`: 32 for `ppm`, whose hit points are traced once and
     /// would otherwise converge to a point-sampled image; 1 for the others, which re-trace theirs
     /// with a new filter sample every pass.
     pub hit_points_per_pixel: Option<u32>,
@@ -507,13 +507,13 @@ impl RunFile {
     }
 }
 
-/// Most hit points a pixel may have (a 16 × 16 grid).
+/// Most hit points a pixel may have.
 pub const MAX_HIT_POINTS_PER_PIXEL: u32 = 256;
 
 impl ProgressiveSettings {
     /// Hit points per pixel for `integrator`: the setting, or its default.
     pub fn hit_points_for(&self, integrator: IntegratorKind) -> u32 {
-        self.hit_points_per_pixel.unwrap_or(if integrator == IntegratorKind::Ppm { 16 } else { 1 })
+        self.hit_points_per_pixel.unwrap_or(if integrator == IntegratorKind::Ppm { 32 } else { 1 })
     }
 
     /// Which setting is out of range, if any (named as in the run file, without the table).
@@ -535,11 +535,11 @@ impl ProgressiveSettings {
             return Err(format!("initial_radius is {r}, must be finite and > 0"));
         }
         if let Some(n) = self.hit_points_per_pixel
-            && (!(1..=MAX_HIT_POINTS_PER_PIXEL).contains(&n) || n.isqrt() * n.isqrt() != n)
+            && !(n.is_power_of_two() && n <= MAX_HIT_POINTS_PER_PIXEL)
         {
             return Err(format!(
-                "hit_points_per_pixel is {n}, must be a square number from 1 to {MAX_HIT_POINTS_PER_PIXEL} (1, 4, 9, 16, …): \
-                 the hit points of a pixel form a √N × √N grid"
+                "hit_points_per_pixel is {n}, must be a power of two from 1 to {MAX_HIT_POINTS_PER_PIXEL} (1, 2, 4, 8, …): \
+                 the hit points of a pixel are the points of a (0, m, 2)-net over it"
             ));
         }
         Ok(())

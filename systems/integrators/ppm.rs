@@ -5,7 +5,7 @@
 //! correct their flux. `ppm` takes all light but directly seen emission from photons, as the paper
 //! does, so its photons are stored from their first hit on and the camera pass samples no light.
 //! One fixed hit point per pixel would converge to a point-sampled image and alias every edge; the
-//! default is 16 per pixel, stratified over the pixel filter, which converge to the filtered one.
+//! default is 32 per pixel, the points of a (0, 5, 2)-net over the pixel filter (`sampling::net`).
 
 use super::progressive::{Variant, plan as progressive_plan};
 use crate::PassSystems;

@@ -11,7 +11,7 @@
 //! | `photons_per_pass` | u32 | 65 536 | photons emitted per pass |
 //! | `alpha` | f32 | 2/3 | fraction of each pass's photons kept (`ppm`, `sppm`, and `appm`'s bounds) |
 //! | `initial_radius` | f32 | from the scene | first gather radius (`photon::progressive::initial_radius`) |
-//! | `hit_points_per_pixel` | square u32 | 16 (`ppm`), 1 | hit points per pixel, stratified over the filter |
+//! | `hit_points_per_pixel` | power of two | 32 (`ppm`), 1 | hit points per pixel, stratified over the filter |
 //! | `memory_budget_mib` | u64 | half the RAM | hit points + photons may not exceed it |
 
 use super::{add_photon_systems, configure_stages, paths_busy, photons_busy, spawn_photons, stage_order};
