@@ -1,0 +1,181 @@
+//! Reading a glTF file: the JSON or GLB container, its buffers and its images, and the URIs they name,
+//! each failure naming the buffer or image.
+
+use super::label;
+use crate::error::{Error, Result};
+use std::path::Path;
+
+/// Reads the file, its buffers and its images, naming the buffer or image that fails.
+pub(super) fn import(
+    path: &Path,
+) -> Result<(gltf::Document, Vec<gltf::buffer::Data>, Vec<gltf::image::Data>)> {
+    let bytes = std::fs::read(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+    let gltf_error = |message: String| Error::Gltf { path: path.to_path_buf(), message };
+    let gltf::Gltf { document, mut blob } =
+        gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| gltf_error(describe(&e)))?;
+    // gltf-json 1.4's validation indexes `accessors` with each POSITION index before checking it
+    // (a panic on an index out of range), so check those first, then validate.
+    let json = document.as_json();
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            let position =
+                primitive.attributes.get(&gltf::json::validation::Checked::Valid(gltf::Semantic::Positions));
+            if let Some(index) = position
+                && index.value() >= json.accessors.len()
+            {
+                return Err(gltf_error(format!(
+                    "{} primitive {p}: POSITION is accessor {}, but the file has {} accessors",
+                    label("mesh", mesh.name.as_deref(), m),
+                    index.value(),
+                    json.accessors.len()
+                )));
+            }
+        }
+    }
+    let document = validate(document.into_json()).map_err(|e| gltf_error(describe(&e)))?;
+    let version = &document.as_json().asset.version;
+    if !version.starts_with("2.") {
+        return Err(gltf_error(format!("asset.version is \"{version}\", only 2.x is supported")));
+    }
+    let base = path.parent().unwrap_or(Path::new("."));
+    let mut buffers = Vec::with_capacity(document.buffers().len());
+    for buffer in document.buffers() {
+        let object = label("buffer", buffer.name(), buffer.index());
+        if let gltf::buffer::Source::Uri(uri) = buffer.source() {
+            check_uri(uri).map_err(|problem| gltf_error(format!("{object}: {problem}")))?;
+        }
+        let data = gltf::buffer::Data::from_source_and_blob(buffer.source(), Some(base), &mut blob).map_err(
+            |e| {
+                let source = match buffer.source() {
+                    gltf::buffer::Source::Uri(uri) => describe_uri(uri, base),
+                    gltf::buffer::Source::Bin => "the GLB BIN chunk".to_owned(),
+                };
+                gltf_error(format!("{object} ({source}): {}", describe(&e)))
+            },
+        )?;
+        if data.len() < buffer.length() {
+            return Err(gltf_error(format!(
+                "{object}: holds {} bytes but byteLength says {}",
+                data.len(),
+                buffer.length()
+            )));
+        }
+        buffers.push(data);
+    }
+    // The gltf crate computes view ends unchecked and slices image views without a bounds check.
+    for view in document.views() {
+        let buffer = view.buffer();
+        if view.offset().checked_add(view.length()).is_none_or(|end| end > buffer.length()) {
+            return Err(gltf_error(format!(
+                "{}: byteOffset {} + byteLength {} is past the end of {} ({} bytes)",
+                label("bufferView", view.name(), view.index()),
+                view.offset(),
+                view.length(),
+                label("buffer", buffer.name(), buffer.index()),
+                buffer.length()
+            )));
+        }
+    }
+    // The gltf crate unwraps these (its validation does not check them), so reject them before it panics.
+    for (index, image) in document.as_json().images.iter().enumerate() {
+        let object = label("image", image.name.as_deref(), index);
+        let problem = match (&image.uri, &image.buffer_view, &image.mime_type) {
+            (None, None, _) => "has neither uri nor bufferView",
+            (Some(_), Some(_), _) => "has both uri and bufferView",
+            (None, Some(_), None) => "has a bufferView but no mimeType",
+            (Some(uri), None, _) => match check_uri(uri) {
+                Ok(()) => continue,
+                Err(problem) => return Err(gltf_error(format!("{object}: {problem}"))),
+            },
+            _ => continue,
+        };
+        return Err(gltf_error(format!("{object} {problem}")));
+    }
+    let mut images = Vec::with_capacity(document.images().len());
+    for image in document.images() {
+        let data = gltf::image::Data::from_source(image.source(), Some(base), &buffers).map_err(|e| {
+            let source = match image.source() {
+                gltf::image::Source::Uri { uri, .. } => describe_uri(uri, base),
+                gltf::image::Source::View { view, .. } => {
+                    format!("bufferView #{}", view.index())
+                }
+            };
+            gltf_error(format!(
+                "{} ({source}): {}",
+                label("image", image.name(), image.index()),
+                describe(&e)
+            ))
+        })?;
+        images.push(data);
+    }
+    Ok((document, buffers, images))
+}
+
+/// gltf-json's validation, except that it requires a bufferView on every accessor that is not sparse, where glTF 2.0
+/// defines an accessor without one as all zeros (which [`read`] supplies).
+fn validate(json: gltf::json::Root) -> Result<gltf::Document, gltf::Error> {
+    use gltf::json::validation::{Error as Invalid, Validate};
+    let mut errors = Vec::new();
+    json.validate(&json, gltf::json::Path::new, &mut |path, error| {
+        let path = path();
+        let zeros = matches!(error, Invalid::Missing)
+            && path.as_str().starts_with("accessors[")
+            && path.as_str().ends_with("].bufferView");
+        if !zeros {
+            errors.push((path, error));
+        }
+    });
+    if errors.is_empty() {
+        Ok(gltf::Document::from_json_without_validation(json))
+    } else {
+        Err(gltf::Error::Validation(errors))
+    }
+}
+
+fn describe(error: &gltf::Error) -> String {
+    match error {
+        gltf::Error::Deserialize(e) => format!("invalid JSON or wrong glTF structure: {e}"),
+        gltf::Error::Validation(errors) => {
+            let first: Vec<String> = errors.iter().take(5).map(|(path, e)| format!("{path}: {e}")).collect();
+            let more = errors.len().saturating_sub(first.len());
+            let more = if more > 0 { format!(" (and {more} more)") } else { String::new() };
+            format!("invalid glTF: {}{more}", first.join("; "))
+        }
+        other => other.to_string(),
+    }
+}
+
+/// The gltf crate unwraps the UTF-8 decoding of a percent-encoded relative URI, so reject those it would panic on.
+fn check_uri(uri: &str) -> Result<(), String> {
+    // Only relative references are percent-decoded; `data:` and `file:` URIs are taken as they are.
+    if uri.contains(':') {
+        return Ok(());
+    }
+    let (bytes, mut decoded) = (uri.as_bytes(), Vec::with_capacity(uri.len()));
+    let hex = |i: usize| bytes.get(i).and_then(|&b| char::from(b).to_digit(16));
+    let mut i = 0;
+    while i < bytes.len() {
+        match (bytes[i], hex(i + 1), hex(i + 2)) {
+            (b'%', Some(high), Some(low)) => {
+                decoded.push((high * 16 + low) as u8);
+                i += 3;
+            }
+            (b, _, _) => {
+                decoded.push(b);
+                i += 1;
+            }
+        }
+    }
+    match String::from_utf8(decoded) {
+        Ok(_) => Ok(()),
+        Err(_) => Err(format!("URI '{uri}' percent-decodes to bytes that are not UTF-8")),
+    }
+}
+
+fn describe_uri(uri: &str, base: &Path) -> String {
+    if uri.starts_with("data:") {
+        "embedded data URI".to_owned()
+    } else {
+        format!("'{uri}', resolved to {}", base.join(uri).display())
+    }
+}

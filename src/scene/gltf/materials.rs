@@ -1,0 +1,234 @@
+//! Materials and textures: glTF's metallic-roughness with its extensions as a `MaterialDesc`, and
+//! images decoded to linear RGBA once per use (colour or data).
+
+use super::{Loader, label};
+use crate::error::Result;
+use crate::scene::{MaterialDesc, Texture, TextureRef, Wrap};
+use glam::{Vec2, Vec3, Vec4};
+use tracing::warn;
+
+impl Loader<'_> {
+    pub(super) fn default_material(&mut self) -> u32 {
+        *self.default_material.get_or_insert_with(|| {
+            self.scene.materials.push(MaterialDesc::default());
+            (self.scene.materials.len() - 1) as u32
+        })
+    }
+
+    pub(super) fn material(&mut self, material: &gltf::Material) -> Result<MaterialDesc> {
+        let index = material.index().unwrap_or_default();
+        let object = label("material", material.name(), index);
+        let pbr = material.pbr_metallic_roughness();
+        let [r, g, b, _alpha] = pbr.base_color_factor();
+        let base_color_texture =
+            pbr.base_color_texture().map(|info| self.texture_ref(&info, true)).transpose()?;
+        let metallic_roughness_texture =
+            pbr.metallic_roughness_texture().map(|info| self.texture_ref(&info, false)).transpose()?;
+        for (slot, texture) in [
+            ("baseColorTexture", &base_color_texture),
+            ("metallicRoughnessTexture", &metallic_roughness_texture),
+        ] {
+            if let Some(t) = texture.filter(|t| t.tex_coord > 1) {
+                return Err(self.invalid(
+                    object,
+                    format!(
+                        "{slot} reads TEXCOORD_{}; only TEXCOORD_0 and TEXCOORD_1 are supported",
+                        t.tex_coord
+                    ),
+                ));
+            }
+        }
+        let specular = material.specular();
+        let volume = material.volume();
+
+        let mut ignored = Vec::new();
+        if material.normal_texture().is_some() {
+            ignored.push("normalTexture");
+        }
+        if material.occlusion_texture().is_some() {
+            ignored.push("occlusionTexture");
+        }
+        if material.emissive_texture().is_some() {
+            ignored.push("emissiveTexture");
+        }
+        if material.transmission().is_some_and(|t| t.transmission_texture().is_some()) {
+            ignored.push("transmissionTexture");
+        }
+        if specular
+            .as_ref()
+            .is_some_and(|s| s.specular_texture().is_some() || s.specular_color_texture().is_some())
+        {
+            ignored.push("specular textures");
+        }
+        if let Some(v) = &volume {
+            if v.thickness_texture().is_some() {
+                ignored.push("thicknessTexture");
+            }
+            if v.attenuation_distance().is_finite() {
+                ignored.push("volume attenuation");
+            }
+        }
+        if material.alpha_mode() != gltf::material::AlphaMode::Opaque {
+            ignored.push("alphaMode (rendered opaque)");
+        }
+        if !ignored.is_empty() {
+            warn!(file = %self.path.display(), "{object}: not supported, ignored: {}", ignored.join(", "));
+        }
+
+        Ok(MaterialDesc {
+            name: material.name().map_or_else(|| format!("material #{index}"), str::to_owned),
+            base_color: Vec3::new(r, g, b),
+            base_color_texture,
+            metallic: pbr.metallic_factor(),
+            roughness: pbr.roughness_factor(),
+            metallic_roughness_texture,
+            emission: Vec3::from(material.emissive_factor()) * material.emissive_strength().unwrap_or(1.0),
+            transmission: material.transmission().map_or(0.0, |t| t.transmission_factor()),
+            ior: material.ior().unwrap_or(1.5),
+            specular: specular.as_ref().map_or(1.0, |s| s.specular_factor()),
+            specular_color: specular.as_ref().map_or(Vec3::ONE, |s| Vec3::from(s.specular_color_factor())),
+            thickness: volume.as_ref().map_or(0.0, |v| v.thickness_factor()),
+            double_sided: material.double_sided(),
+        })
+    }
+
+    pub(super) fn texture_ref(&mut self, info: &gltf::texture::Info, srgb: bool) -> Result<TextureRef> {
+        let texture = self.texture(&info.texture(), srgb)?;
+        Ok(match info.texture_transform() {
+            Some(t) => TextureRef {
+                texture,
+                tex_coord: t.tex_coord().unwrap_or(info.tex_coord()),
+                transform: Some(uv_transform(t.offset(), t.rotation(), t.scale())),
+            },
+            None => TextureRef { texture, tex_coord: info.tex_coord(), transform: None },
+        })
+    }
+
+    pub(super) fn texture(&mut self, texture: &gltf::Texture, srgb: bool) -> Result<u32> {
+        if let Some(&index) = self.textures.get(&(texture.index(), srgb)) {
+            return Ok(index);
+        }
+        let image = texture.source();
+        let data = self.images.get(image.index()).ok_or_else(|| {
+            self.invalid(label("texture", texture.name(), texture.index()), "refers to a missing image")
+        })?;
+        let name = texture
+            .name()
+            .or(image.name())
+            .map(str::to_owned)
+            .or_else(|| match image.source() {
+                gltf::image::Source::Uri { uri, .. } if !uri.starts_with("data:") => Some(uri.to_owned()),
+                _ => None,
+            })
+            .unwrap_or_else(|| format!("texture #{}", texture.index()));
+        let sampler = texture.sampler();
+        self.scene.textures.push(Texture {
+            name,
+            width: data.width,
+            height: data.height,
+            texels: decode(data, srgb),
+            wrap_s: wrap(sampler.wrap_s()),
+            wrap_t: wrap(sampler.wrap_t()),
+        });
+        let index = (self.scene.textures.len() - 1) as u32;
+        self.textures.insert((texture.index(), srgb), index);
+        Ok(index)
+    }
+}
+
+/// KHR_texture_transform's `T * R * S` as columns (x axis, y axis, offset); the rotation is counter-clockwise in
+/// uv space whose v points down, as the extension's ratified text and its example define it.
+fn uv_transform(offset: [f32; 2], rotation: f32, scale: [f32; 2]) -> [Vec2; 3] {
+    let (sin, cos) = rotation.sin_cos();
+    [Vec2::new(cos, -sin) * scale[0], Vec2::new(sin, cos) * scale[1], Vec2::from(offset)]
+}
+
+fn wrap(mode: gltf::texture::WrappingMode) -> Wrap {
+    match mode {
+        gltf::texture::WrappingMode::ClampToEdge => Wrap::ClampToEdge,
+        gltf::texture::WrappingMode::MirroredRepeat => Wrap::MirroredRepeat,
+        gltf::texture::WrappingMode::Repeat => Wrap::Repeat,
+    }
+}
+
+/// Linear RGBA texels; grey images replicate to RGB, missing alpha is 1.
+fn decode(image: &gltf::image::Data, srgb: bool) -> Vec<Vec4> {
+    use gltf::image::Format;
+    let (channels, bytes) = match image.format {
+        Format::R8 => (1, 1),
+        Format::R8G8 => (2, 1),
+        Format::R8G8B8 => (3, 1),
+        Format::R8G8B8A8 => (4, 1),
+        Format::R16 => (1, 2),
+        Format::R16G16 => (2, 2),
+        Format::R16G16B16 => (3, 2),
+        Format::R16G16B16A16 => (4, 2),
+        Format::R32G32B32FLOAT => (3, 4),
+        Format::R32G32B32A32FLOAT => (4, 4),
+    };
+    // Float images are linear already; only integer encodings carry the sRGB curve.
+    let srgb = srgb && bytes < 4;
+    image
+        .pixels
+        .chunks_exact(channels * bytes)
+        .map(|px| {
+            let c = |i: usize| {
+                let b = &px[i * bytes..];
+                match bytes {
+                    1 => f32::from(b[0]) / 255.0,
+                    2 => f32::from(u16::from_ne_bytes([b[0], b[1]])) / 65535.0,
+                    _ => f32::from_ne_bytes([b[0], b[1], b[2], b[3]]),
+                }
+            };
+            let (rgb, alpha) = match channels {
+                1 => (Vec3::splat(c(0)), 1.0),
+                2 => (Vec3::splat(c(0)), c(1)),
+                3 => (Vec3::new(c(0), c(1), c(2)), 1.0),
+                _ => (Vec3::new(c(0), c(1), c(2)), c(3)),
+            };
+            let rgb = if srgb { rgb.map(srgb_to_linear) } else { rgb };
+            rgb.extend(alpha)
+        })
+        .collect()
+}
+
+/// The sRGB electro-optical transfer function (IEC 61966-2-1).
+pub fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn srgb_curve_hits_its_reference_points() {
+        assert_eq!(srgb_to_linear(0.0), 0.0);
+        assert!((srgb_to_linear(1.0) - 1.0).abs() < 1e-6);
+        assert!((srgb_to_linear(0.5) - 0.214_041_14).abs() < 1e-6);
+        // The linear segment and the power segment meet at 0.04045.
+        assert!((srgb_to_linear(0.04045) - srgb_to_linear(0.040_450_01)).abs() < 1e-6);
+    }
+
+    #[test]
+    fn decode_handles_grey_alpha_and_sixteen_bit_images() {
+        use gltf::image::{Data, Format};
+        let grey_alpha = Data { pixels: vec![255, 51], format: Format::R8G8, width: 1, height: 1 };
+        assert_eq!(decode(&grey_alpha, true), vec![Vec4::new(1.0, 1.0, 1.0, 0.2)]);
+        let rgb16: Vec<u8> = [65535u16, 0, 32768].iter().flat_map(|v| v.to_ne_bytes()).collect();
+        let rgb16 = Data { pixels: rgb16, format: Format::R16G16B16, width: 1, height: 1 };
+        let texel = decode(&rgb16, false)[0];
+        assert_eq!((texel.x, texel.y, texel.w), (1.0, 0.0, 1.0));
+        assert!((texel.z - 0.5).abs() < 1e-4);
+    }
+
+    #[test]
+    fn texture_transform_follows_the_extension_example() {
+        // KHR_texture_transform README: offset [0, 1], rotation 90°, scale 0.5 uses the lower-left quadrant.
+        let [x, y, offset] = uv_transform([0.0, 1.0], std::f32::consts::FRAC_PI_2, [0.5, 0.5]);
+        for uv in [Vec2::ZERO, Vec2::X, Vec2::Y, Vec2::ONE] {
+            let t = x * uv.x + y * uv.y + offset;
+            assert!(t.x > -1e-6 && t.x < 0.5 + 1e-6 && t.y > 0.5 - 1e-6 && t.y < 1.0 + 1e-6, "{uv} -> {t}");
+        }
+    }
+}
