@@ -2,7 +2,7 @@
 
 use caustica::Choice;
 use caustica::Report;
-use caustica::driver::plan::Unit;
+use caustica::plan::Unit;
 use std::path::Path;
 
 /// Print `report` of a render of `scene` that took `total_seconds` with loading.

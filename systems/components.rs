@@ -1,16 +1,16 @@
 //! Components of the three kinds of entities: camera paths, photons and progressive hit points,
 //! split by who reads them (`trace` touches only the rays and hits).
 
-use crate::geometry::{Ray, bvh::Hit};
-use crate::kernel::photon::PhotonPath;
-use crate::kernel::{CameraPath, Vertex};
-use crate::materials::Bsdf;
-use crate::photon::estimate::GatherPoint;
-use crate::photon::progressive::AdaptiveStatistics;
-use crate::photon::record::{decode_octahedral, encode_octahedral};
-use crate::render_scene::RenderScene;
-use crate::sampling::warp::Frame;
 use bevy_ecs::component::Component;
+use caustica_core::geometry::{Ray, bvh::Hit};
+use caustica_core::kernel::photon::PhotonPath;
+use caustica_core::kernel::{CameraPath, Vertex};
+use caustica_core::materials::Bsdf;
+use caustica_core::photon::estimate::GatherPoint;
+use caustica_core::photon::progressive::AdaptiveStatistics;
+use caustica_core::photon::record::{decode_octahedral, encode_octahedral};
+use caustica_core::render_scene::RenderScene;
+use caustica_core::sampling::warp::Frame;
 use glam::Vec3;
 
 /// The ray a path will trace next (hot: read by `trace_paths`).
@@ -49,7 +49,7 @@ pub struct ShadowRay {
 impl ShadowRay {
     /// Queue a light sample for the shadow stage.
     #[inline]
-    pub fn queue(&mut self, sample: crate::kernel::ShadowSample) {
+    pub fn queue(&mut self, sample: caustica_core::kernel::ShadowSample) {
         self.ray = sample.ray;
         self.contribution = sample.contribution;
         self.light = sample.light;
@@ -134,7 +134,7 @@ pub struct PhotonState {
     /// Life-cycle state.
     pub status: PathStatus,
     /// A photon left at this bounce's hit, waiting for `store_photons`.
-    pub deposit: Option<crate::photon::Photon>,
+    pub deposit: Option<caustica_core::photon::Photon>,
     /// Rays traced since the last store (statistics).
     pub bounces: u32,
     /// Russian-roulette terminations since the last store (statistics).
@@ -244,7 +244,7 @@ impl HitPoint {
 #[derive(Component, Clone, Copy, Debug)]
 pub struct Chi2Cells {
     /// Photons per cell, ring-major.
-    pub counts: [u32; crate::photon::progressive::CHI2_CELLS],
+    pub counts: [u32; caustica_core::photon::progressive::CHI2_CELLS],
     /// Photons the cells must hold before the test may shrink the radius.
     pub min_photons: f32,
 }

@@ -8,12 +8,12 @@
 
 use super::components::{PathRay, PathState, PathStatus, PhotonRay, PhotonState};
 use super::resources::{CameraResource, PhotonWork, RenderConfig, SceneFeatures, SceneResource};
-use crate::kernel::CameraPath;
-use crate::kernel::dimensions::{camera as dim, photon_sampler};
-use crate::kernel::photon::{emit_photon, photon_time};
-use crate::sampling::Sampler;
-use crate::sampling::net::net_point;
 use bevy_ecs::prelude::*;
+use caustica_core::kernel::CameraPath;
+use caustica_core::kernel::dimensions::{camera as dim, photon_sampler};
+use caustica_core::kernel::photon::{emit_photon, photon_time};
+use caustica_core::sampling::Sampler;
+use caustica_core::sampling::net::net_point;
 use glam::Vec2;
 
 /// Generate camera rays for paths that need one. `LENS`: sample the aperture; `MOTION`: sample the shutter.
@@ -51,7 +51,9 @@ fn stratified(u: Vec2, seed: u64, pixel: u32, sample: u32, strata: u32) -> Vec2 
     if strata <= 1 {
         return u;
     }
-    let bits = crate::sampling::rng::mix64(seed ^ crate::sampling::rng::mix64(pixel as u64 ^ 0x6e65_7473));
+    let bits = caustica_core::sampling::rng::mix64(
+        seed ^ caustica_core::sampling::rng::mix64(pixel as u64 ^ 0x6e65_7473),
+    );
     net_point(sample % strata, [bits as u32, (bits >> 32) as u32])
 }
 

@@ -19,10 +19,10 @@ use super::resources::{
     FilmResource, PassPhotons, PassRange, PhotonBuffer, PhotonStats, PhotonWork, RenderStats, SceneResource,
     Workload, wavefront_batching,
 };
-use crate::lights::area::luminance;
-use crate::photon::progressive::{biweight_laplacian, chi2_cell};
-use crate::render_scene::RenderScene;
 use bevy_ecs::prelude::*;
+use caustica_core::lights::area::luminance;
+use caustica_core::photon::progressive::{biweight_laplacian, chi2_cell};
+use caustica_core::render_scene::RenderScene;
 use glam::Vec3;
 use std::sync::atomic::Ordering;
 
@@ -130,7 +130,7 @@ pub fn learn_light_visibility(mut scene: ResMut<SceneResource>, mut shadows: Que
 
 /// Arrange the pass's photon deposits into a kd-tree (parallel, deterministic) for gathering.
 pub fn build_pass_photon_map(mut buffer: ResMut<PhotonBuffer>, mut pass: ResMut<PassPhotons>) {
-    pass.map = crate::photon::PhotonMap::build(std::mem::take(&mut buffer.photons));
+    pass.map = caustica_core::photon::PhotonMap::build(std::mem::take(&mut buffer.photons));
 }
 
 /// Visit every photon of the pass that counts for hit point `hp` (`GatherPoint::contribution`):

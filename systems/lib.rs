@@ -90,18 +90,21 @@ pub mod emit;
 pub mod gather;
 pub mod integrators;
 pub mod passes;
+pub mod plan;
+pub mod report;
 pub mod resources;
 pub mod scatter;
 pub mod trace;
 pub mod update;
+pub mod world;
 
 // The physics, re-exported so that a host needs one crate: `caustica::scene::load`, `caustica::film::Image`.
 pub use caustica_core::{
     Choice, Error, RenderScene, Result, camera, choice, density, error, film, geometry, kernel, lights,
     materials, photon, render_scene, sampling, scene, test_scenes,
 };
-pub use driver::report::Report;
 pub use driver::{Progress, Renderer};
+pub use report::Report;
 
 use bevy_ecs::schedule::SystemSet;
 

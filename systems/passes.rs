@@ -13,13 +13,13 @@
 //! | `begin_photon_map` / `finish_photon_map` | `pm`'s first pass, per map | `PhotonBuffer` | `PhotonWork`, `PhotonMaps` |
 
 use crate::components::{HitPoint, PathState, PathStatus, PhotonState};
-use crate::photon::{PhotonMap, PhotonMapKind};
 use crate::resources::{
     CameraResource, PassRange, PhotonBuffer, PhotonMapSummary, PhotonMaps, PhotonStats, PhotonWork,
     ProgressiveConfig, RenderConfig, SceneResource, Workload,
 };
-use crate::sampling::Sampler;
 use bevy_ecs::prelude::*;
+use caustica_core::photon::{PhotonMap, PhotonMapKind};
+use caustica_core::sampling::Sampler;
 
 /// A system that hands the pass's samples (`PassRange` begin..end, each standing for
 /// `camera_samples_per_unit` camera samples) to the idle paths in entity order; the rest go to paths

@@ -1,15 +1,15 @@
 //! Resources shared by the systems: the scene, the settings of this render, the film, the work to
 //! hand out, and the counters.
 
-use crate::camera::Camera;
-use crate::film::Film;
-use crate::kernel::PathLimits;
-use crate::kernel::photon::PhotonPassSettings;
-use crate::photon::progressive::RadiusRule;
-use crate::photon::{PhotonMap, PhotonMapKind};
-use crate::render_scene::RenderScene;
-use crate::scene::IntegratorKind;
 use bevy_ecs::resource::Resource;
+use caustica_core::camera::Camera;
+use caustica_core::film::Film;
+use caustica_core::kernel::PathLimits;
+use caustica_core::kernel::photon::PhotonPassSettings;
+use caustica_core::photon::progressive::RadiusRule;
+use caustica_core::photon::{PhotonMap, PhotonMapKind};
+use caustica_core::render_scene::RenderScene;
+use caustica_core::scene::IntegratorKind;
 use std::sync::atomic::AtomicU64;
 
 /// A core type as a resource, read through `Deref` (the core names no ECS).
@@ -209,7 +209,7 @@ impl PhotonWork {
 #[derive(Resource, Clone, Debug, Default)]
 pub struct PhotonBuffer {
     /// The deposits.
-    pub photons: Vec<crate::photon::Photon>,
+    pub photons: Vec<caustica_core::photon::Photon>,
 }
 
 /// Counters of the photon passes.
@@ -256,7 +256,7 @@ pub struct PhotonMaps {
     /// Largest squared gather radius.
     pub max_radius2: f32,
     /// Density-estimation kernel over the gather disc.
-    pub kernel: crate::density::kernels::Kernel,
+    pub kernel: caustica_core::density::kernels::Kernel,
     /// Whether the first diffuse hit shoots a final-gather ray.
     pub final_gather: bool,
     /// The maps built, in order.

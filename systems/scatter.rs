@@ -18,17 +18,17 @@ use super::components::{
     HitPoint, PathHit, PathRay, PathState, PathStatus, PhotonHit, PhotonRay, PhotonState, ShadowRay,
 };
 use super::resources::{PhotonMaps, PhotonWork, RenderConfig, SceneResource, wavefront_batching};
-use crate::geometry::Ray;
-use crate::geometry::bvh::Hit;
-use crate::kernel::dimensions::photon_sampler;
-use crate::kernel::emission::{add_escaped_radiance, add_surface_emission};
-use crate::kernel::photon::scatter_photon;
-use crate::kernel::{EmissionWeight, Vertex, VertexSampler, continue_path, sample_light};
-use crate::photon::estimate::radiance_estimate;
-use crate::photon::{Neighbors, PhotonMap};
-use crate::render_scene::RenderScene;
-use crate::sampling::Sampler;
 use bevy_ecs::prelude::*;
+use caustica_core::geometry::Ray;
+use caustica_core::geometry::bvh::Hit;
+use caustica_core::kernel::dimensions::photon_sampler;
+use caustica_core::kernel::emission::{add_escaped_radiance, add_surface_emission};
+use caustica_core::kernel::photon::scatter_photon;
+use caustica_core::kernel::{EmissionWeight, Vertex, VertexSampler, continue_path, sample_light};
+use caustica_core::photon::estimate::radiance_estimate;
+use caustica_core::photon::{Neighbors, PhotonMap};
+use caustica_core::render_scene::RenderScene;
+use caustica_core::sampling::Sampler;
 
 /// Scatter every active path. `NEE` selects `pt` (light sampling + MIS) over `pt-naive`.
 pub fn scatter_paths<const NEE: bool>(

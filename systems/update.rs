@@ -8,11 +8,11 @@
 
 use super::components::{AdaptiveStats, Chi2Cells, HitPoint};
 use super::resources::{ProgressiveConfig, wavefront_batching};
-use crate::lights::area::luminance;
-use crate::photon::progressive::{
+use bevy_ecs::prelude::*;
+use caustica_core::lights::area::luminance;
+use caustica_core::photon::progressive::{
     CHI2_CELLS, add_pass_estimate, chi2_shrink, global_radius2, hachisuka_update,
 };
-use bevy_ecs::prelude::*;
 use glam::Vec3;
 
 /// N' = N + αM, r'² = r² (N+αM)/(N+M), τ' = (τ + Φ_M)(N+αM)/(N+M) (Hachisuka, Ogaki & Jensen 2008,
@@ -74,12 +74,12 @@ fn clear_pass(hp: &mut HitPoint) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::photon::progressive::{CHI2_FIRST_TEST, RadiusRule};
     use bevy_ecs::system::RunSystemOnce;
+    use caustica_core::photon::progressive::{CHI2_FIRST_TEST, RadiusRule};
     use glam::DVec3;
 
     fn world(rule: RadiusRule) -> World {
-        crate::driver::init_thread_pools(None);
+        crate::world::init_thread_pools(None);
         let mut world = World::new();
         world.insert_resource(ProgressiveConfig {
             rule,
@@ -132,7 +132,7 @@ mod tests {
             let before = *world.get::<HitPoint>(e).unwrap();
             {
                 let mut hp = world.get_mut::<HitPoint>(e).unwrap();
-                hp.m = crate::sampling::Sampler::new(1, pass, 0).get1d(0).mul_add(200.0, 0.0) as u32;
+                hp.m = caustica_core::sampling::Sampler::new(1, pass, 0).get1d(0).mul_add(200.0, 0.0) as u32;
                 hp.phi = Vec3::splat(hp.m as f32 * 1e-3);
             }
             schedule.run(&mut world);
@@ -154,7 +154,7 @@ mod tests {
 
     #[test]
     fn chi2_rule_keeps_a_uniform_disc_and_shrinks_a_one_sided_one() {
-        use crate::photon::progressive::{CHI2_CELLS, CHI2_SECTORS};
+        use caustica_core::photon::progressive::{CHI2_CELLS, CHI2_SECTORS};
         let mut world = world(RadiusRule::ChiSquare);
         let uniform = Chi2Cells { counts: [20; CHI2_CELLS], min_photons: CHI2_FIRST_TEST };
         let mut half = [0; CHI2_CELLS];

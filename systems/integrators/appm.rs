@@ -15,14 +15,14 @@
 
 use super::progressive::{Variant, plan as progressive_plan};
 use crate::PassSystems;
-use crate::driver::plan::{Plan, When};
-use crate::error::Result;
 use crate::gather::{build_pass_photon_map, gather_photons_with_laplacian};
-use crate::photon::progressive::RadiusRule;
+use crate::plan::{Plan, When};
 use crate::resources::SceneFeatures;
-use crate::scene::RunFile;
 use crate::update::update_radii_adaptive;
 use bevy_ecs::prelude::*;
+use caustica_core::error::Result;
+use caustica_core::photon::progressive::RadiusRule;
+use caustica_core::scene::RunFile;
 
 /// The plan of `appm`: `sppm`'s passes with the Laplacian-estimating gather and the MSE-optimal radius.
 pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {

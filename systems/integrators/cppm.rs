@@ -14,14 +14,14 @@
 
 use super::progressive::{Variant, plan as progressive_plan};
 use crate::PassSystems;
-use crate::driver::plan::{Plan, When};
-use crate::error::Result;
 use crate::gather::{build_pass_photon_map, gather_photons_into_chi2_cells};
-use crate::photon::progressive::RadiusRule;
+use crate::plan::{Plan, When};
 use crate::resources::SceneFeatures;
-use crate::scene::RunFile;
 use crate::update::update_radii_by_chi2;
 use bevy_ecs::prelude::*;
+use caustica_core::error::Result;
+use caustica_core::photon::progressive::RadiusRule;
+use caustica_core::scene::RunFile;
 
 /// The plan of `cppm`: `sppm`'s passes with the cell-counting gather and the χ² radius rule.
 pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {

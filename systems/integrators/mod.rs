@@ -11,13 +11,13 @@ pub mod progressive;
 pub mod sppm;
 
 use crate::PassSystems;
-use crate::driver::plan::Plan;
-use crate::error::{Error, Result};
+use crate::plan::Plan;
 use crate::resources::SceneFeatures;
-use crate::scene::schedule::{CYCLE, Stage};
-use crate::scene::{IntegratorKind, RunFile, Scene};
 use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::IntoScheduleConfigs;
+use caustica_core::error::{Error, Result};
+use caustica_core::scene::schedule::{CYCLE, Stage};
+use caustica_core::scene::{IntegratorKind, RunFile, Scene};
 
 /// Check the run's settings for its integrator before anything is built: `pixels` is the image
 /// size the run asks for (budgets are checked before anything that big is allocated).
@@ -109,7 +109,7 @@ pub fn add_photon_systems(schedule: &mut Schedule, order: [Stage; 5]) {
 }
 
 /// The film's mean per pixel: the image of the integrators whose every sample goes to the film.
-pub fn film_image(world: &World, _passes: u32) -> crate::film::Image {
+pub fn film_image(world: &World, _passes: u32) -> caustica_core::film::Image {
     world.resource::<crate::resources::FilmResource>().image()
 }
 

@@ -18,18 +18,18 @@
 
 use super::{configure_stages, film_image, paths_busy, spawn_paths, stage_order};
 use crate::PassSystems;
-use crate::driver::MAX_WAVEFRONT;
-use crate::driver::plan::{Phase, Plan, Repeat, Unit, When};
 use crate::emit::emit_camera_paths_for;
-use crate::error::Result;
 use crate::gather::{learn_light_visibility, splat_paths_to_film};
 use crate::passes::{finish_light_learning, hand_out_samples};
+use crate::plan::{Phase, Plan, Repeat, Unit, When};
 use crate::resources::{FilmResource, SceneFeatures, Workload};
 use crate::scatter::scatter_paths;
-use crate::scene::schedule::Stage;
-use crate::scene::{IntegratorKind, RunFile};
 use crate::trace::{trace_paths, trace_shadow_rays};
+use crate::world::MAX_WAVEFRONT;
 use bevy_ecs::prelude::*;
+use caustica_core::error::Result;
+use caustica_core::scene::schedule::Stage;
+use caustica_core::scene::{IntegratorKind, RunFile};
 
 /// The plan of `pt` or `pt-naive` for the scene in `world`.
 pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
@@ -56,7 +56,7 @@ pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result
         Phase::new("bounce", When::EveryPass, Repeat::WhileBusy(paths_busy)).with_begin(hand_out_samples(1));
     add_bounce_systems(&mut bounce.schedule, features, stage_order(run), nee);
     phases.push(bounce);
-    let pass_end: crate::driver::plan::PassEnd = if features.learns_visibility {
+    let pass_end: crate::plan::PassEnd = if features.learns_visibility {
         // Learn from the shadow rays of the first sixteenth of the samples (at least one per pixel).
         Box::new(|done, target| if done == 0 { (target / 16).clamp(1, target) } else { target })
     } else {

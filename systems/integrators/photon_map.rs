@@ -20,22 +20,22 @@ use super::{
     stage_order,
 };
 use crate::PassSystems;
-use crate::driver::MAX_WAVEFRONT;
-use crate::driver::plan::{Phase, Plan, Repeat, Unit, When};
-use crate::driver::report::{PhotonSummary, Report};
 use crate::emit::emit_camera_paths_for;
-use crate::error::Result;
 use crate::gather::splat_paths_to_film;
 use crate::passes::{begin_photon_map, begin_photon_pass, finish_photon_map, hand_out_samples};
-use crate::photon::PhotonMapKind;
+use crate::plan::{Phase, Plan, Repeat, Unit, When};
+use crate::report::{PhotonSummary, Report};
 use crate::resources::{
     FilmResource, PhotonBuffer, PhotonMaps, PhotonStats, PhotonWork, RenderConfig, SceneFeatures,
     SceneResource, Workload,
 };
 use crate::scatter::scatter_photon_mapped;
-use crate::scene::RunFile;
 use crate::trace::{trace_paths, trace_shadow_rays};
+use crate::world::MAX_WAVEFRONT;
 use bevy_ecs::prelude::*;
+use caustica_core::error::Result;
+use caustica_core::photon::PhotonMapKind;
+use caustica_core::scene::RunFile;
 
 /// The plan of `pm` for the scene in `world`.
 pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {

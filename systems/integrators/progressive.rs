@@ -20,26 +20,26 @@ use crate::components::{
     AdaptiveStats, Chi2Cells, HitPoint, PathHit, PathRay, PathState, PathStatus, PhotonHit, PhotonRay,
     PhotonState, ShadowRay,
 };
-use crate::driver::MAX_WAVEFRONT;
-use crate::driver::plan::{Phase, Plan, Repeat, Unit, When};
-use crate::driver::report::{HitPointSummary, PhotonSummary, Report};
-use crate::driver::world::physical_memory_bytes;
 use crate::emit::emit_camera_paths_for;
-use crate::error::{Error, Result};
-use crate::film::Image;
 use crate::gather::splat_paths_to_film;
 use crate::passes::{begin_camera_pass, begin_photon_pass, begin_progressive_pass, cap_initial_radius};
-use crate::photon::PhotonMapKind;
-use crate::photon::progressive::{CHI2_CELLS, CHI2_FIRST_TEST, RadiusRule, initial_radius};
+use crate::plan::{Phase, Plan, Repeat, Unit, When};
+use crate::report::{HitPointSummary, PhotonSummary, Report};
 use crate::resources::{
     FilmResource, PassPhotons, PhotonBuffer, PhotonStats, PhotonWork, ProgressiveConfig, RenderConfig,
     SceneFeatures, SceneResource, Workload,
 };
 use crate::scatter::scatter_to_visible_points;
-use crate::scene::schedule::Pass;
-use crate::scene::{RunFile, Scene};
 use crate::trace::{trace_paths, trace_shadow_rays};
+use crate::world::MAX_WAVEFRONT;
+use crate::world::physical_memory_bytes;
 use bevy_ecs::prelude::*;
+use caustica_core::error::{Error, Result};
+use caustica_core::film::Image;
+use caustica_core::photon::PhotonMapKind;
+use caustica_core::photon::progressive::{CHI2_CELLS, CHI2_FIRST_TEST, RadiusRule, initial_radius};
+use caustica_core::scene::schedule::Pass;
+use caustica_core::scene::{RunFile, Scene};
 use glam::Vec3;
 use std::sync::atomic::Ordering;
 
@@ -51,7 +51,7 @@ pub const BYTES_PER_HIT_POINT: usize = size_of::<HitPoint>()
     + size_of::<ShadowRay>()
     + size_of::<Chi2Cells>();
 /// Bytes a photon of one pass costs: its deposit in the buffer and in the pass's kd-tree.
-pub const BYTES_PER_PHOTON: usize = 2 * size_of::<crate::photon::Photon>();
+pub const BYTES_PER_PHOTON: usize = 2 * size_of::<caustica_core::photon::Photon>();
 
 /// What distinguishes one progressive integrator from another.
 pub struct Variant {
@@ -204,7 +204,7 @@ fn spawn_hit_points(world: &mut World, rule: RadiusRule, per_pixel: u32, r0: f32
 pub fn add_camera_systems(
     schedule: &mut Schedule,
     features: SceneFeatures,
-    order: [crate::scene::schedule::Stage; 5],
+    order: [caustica_core::scene::schedule::Stage; 5],
     nee: bool,
 ) {
     configure_stages(schedule, order);

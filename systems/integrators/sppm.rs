@@ -8,14 +8,14 @@
 
 use super::progressive::{Variant, plan as progressive_plan};
 use crate::PassSystems;
-use crate::driver::plan::{Plan, When};
-use crate::error::Result;
 use crate::gather::{build_pass_photon_map, gather_photons_into_hit_points};
-use crate::photon::progressive::RadiusRule;
+use crate::plan::{Plan, When};
 use crate::resources::SceneFeatures;
-use crate::scene::RunFile;
 use crate::update::update_hit_point_radii;
 use bevy_ecs::prelude::*;
+use caustica_core::error::Result;
+use caustica_core::photon::progressive::RadiusRule;
+use caustica_core::scene::RunFile;
 
 /// The plan of `sppm`: camera pass with light sampling (without it, `[schedule] nee = false`, photons
 /// carry direct light too), photon pass, gather, shrinking-radius update.

@@ -2,30 +2,12 @@
 //! run), what its progress is counted in, how its statistics become an image, and what it adds to the
 //! report. Each `integrators/*.rs` builds one; the driver runs any of them.
 
-use super::report::Report;
-use crate::film::Image;
-use crate::scene::IntegratorKind;
+use crate::report::Report;
+pub use crate::report::Unit;
 use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::{ScheduleLabel, SingleThreadedExecutor};
-
-/// What a render's progress is counted in.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Unit {
-    /// Samples per pixel (`pt`, `pt-naive`, `pm`): a pass renders a range of them.
-    Samples,
-    /// Photon passes (`ppm`, `sppm`, `appm`, `cppm`): a pass is one.
-    Passes,
-}
-
-impl Unit {
-    /// The unit's name in messages.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Samples => "spp",
-            Self::Passes => "passes",
-        }
-    }
-}
+use caustica_core::film::Image;
+use caustica_core::scene::IntegratorKind;
 
 /// In which passes a phase runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

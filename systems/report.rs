@@ -1,9 +1,27 @@
 //! What a render reports: one type for every integrator, which the command prints and a host reads.
 
-use super::plan::Unit;
-use crate::photon::PhotonMapKind;
 use crate::resources::{PhotonMapSummary, RenderStats};
-use crate::scene::IntegratorKind;
+use caustica_core::photon::PhotonMapKind;
+use caustica_core::scene::IntegratorKind;
+
+/// What a render's progress is counted in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Unit {
+    /// Samples per pixel (`pt`, `pt-naive`, `pm`): a pass renders a range of them.
+    Samples,
+    /// Photon passes (`ppm`, `sppm`, `appm`, `cppm`): a pass is one.
+    Passes,
+}
+
+impl Unit {
+    /// The unit's name in messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Samples => "spp",
+            Self::Passes => "passes",
+        }
+    }
+}
 
 /// Time spent in one phase.
 #[derive(Clone, Debug, PartialEq)]

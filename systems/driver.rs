@@ -4,21 +4,17 @@
 //! and a host application all drive every integrator through [`Renderer`]; none of them knows which
 //! integrator it runs.
 
-pub mod plan;
-pub mod report;
-pub mod world;
-
-use crate::error::Result;
-use crate::film::Image;
 use crate::integrators;
+use crate::plan::{Plan, Repeat};
+use crate::report::{PhaseTime, Report, Unit};
 use crate::resources::{FilmResource, PassRange, PhotonStats, RenderStats, SceneFeatures};
-use crate::scene::{RunFile, Scene};
 use bevy_ecs::prelude::*;
-use plan::{Plan, Repeat, Unit};
-use report::{PhaseTime, Report};
+use caustica_core::error::Result;
+use caustica_core::film::Image;
+use caustica_core::scene::{RunFile, Scene};
 use std::time::Instant;
 
-pub use world::{DEFAULT_RESOLUTION, MAX_WAVEFRONT, init_thread_pools, resolution, scene_world};
+pub use crate::world::{DEFAULT_RESOLUTION, MAX_WAVEFRONT, init_thread_pools, resolution, scene_world};
 
 /// How far a render has come, for a progress bar.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -180,7 +176,7 @@ impl Renderer {
             let film = self.world.resource::<FilmResource>();
             (film.width, film.height)
         };
-        self.world.insert_resource(FilmResource(crate::film::Film::new(width, height)));
+        self.world.insert_resource(FilmResource(caustica_core::film::Film::new(width, height)));
         self.world.insert_resource(RenderStats::default());
         if self.world.contains_resource::<PhotonStats>() {
             self.world.insert_resource(PhotonStats::default());

@@ -1,15 +1,15 @@
 //! The World every integrator starts from: the scene's resources, sized and checked.
 
-use crate::camera::Camera;
-use crate::error::{Error, Result};
-use crate::film::Film;
-use crate::kernel::PathLimits;
-use crate::render_scene::RenderScene;
 use crate::resources::{
     CameraResource, FilmResource, PassRange, RenderConfig, RenderStats, SceneFeatures, SceneResource,
 };
-use crate::scene::{RunFile, Scene};
 use bevy_ecs::prelude::*;
+use caustica_core::camera::Camera;
+use caustica_core::error::{Error, Result};
+use caustica_core::film::Film;
+use caustica_core::kernel::PathLimits;
+use caustica_core::render_scene::RenderScene;
+use caustica_core::scene::{RunFile, Scene};
 
 /// Largest wavefront: enough paths to keep every core busy and the tables in cache-sized batches;
 /// larger images reuse each entity for several pixels.
@@ -52,7 +52,7 @@ pub fn resolution(scene: &Scene, run: &RunFile) -> Result<(u32, u32)> {
 
 /// The camera `desc` of the scene read from `source`, or one that frames its bounds when the file has none.
 fn scene_camera(
-    desc: Option<crate::scene::CameraDesc>,
+    desc: Option<caustica_core::scene::CameraDesc>,
     source: &std::path::Path,
     run: &RunFile,
     geometry: &RenderScene,
