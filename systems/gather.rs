@@ -36,13 +36,8 @@ pub fn splat_paths_to_film(
 ) {
     let mut active = 0;
     for mut state in &mut paths {
-        match state.status {
-            PathStatus::Idle => continue,
-            PathStatus::Active | PathStatus::NeedsCamera => {
-                active += 1;
-                continue;
-            }
-            PathStatus::Finished => {}
+        if !finished(state.status, &mut active) {
+            continue;
         }
         let state = &mut *state;
         // NaN/Inf never reach the film: the sample counts, its radiance does not.
@@ -74,6 +69,20 @@ pub fn splat_paths_to_film(
     stats.steps += 1;
 }
 
+/// Whether an entity has just finished and waits to be gathered; counts it in `active` if it is still
+/// working.
+#[inline]
+fn finished(status: PathStatus, active: &mut u32) -> bool {
+    match status {
+        PathStatus::Idle => false,
+        PathStatus::Active | PathStatus::NeedsCamera => {
+            *active += 1;
+            false
+        }
+        PathStatus::Finished => true,
+    }
+}
+
 /// Append this bounce's deposits to the photon buffer and hand finished entities their next photon.
 pub fn store_photons(
     mut work: ResMut<PhotonWork>,
@@ -88,13 +97,8 @@ pub fn store_photons(
             buffer.photons.push(photon);
             stats.stored += 1;
         }
-        match state.status {
-            PathStatus::Idle => continue,
-            PathStatus::Active | PathStatus::NeedsCamera => {
-                active += 1;
-                continue;
-            }
-            PathStatus::Finished => {}
+        if !finished(state.status, &mut active) {
+            continue;
         }
         stats.traced += state.bounces as u64;
         stats.roulette_kills += state.roulette_kills as u64;

@@ -113,13 +113,42 @@ pub fn film_image(world: &World, _passes: u32) -> caustica_core::film::Image {
     world.resource::<crate::resources::FilmResource>().image()
 }
 
+/// The wavefront of the sample integrators: one camera-path entity per pixel, at most
+/// `MAX_WAVEFRONT`, idle until a pass hands them samples, and the work list they take them from.
+pub fn spawn_path_wavefront(world: &mut World) {
+    let pixels = {
+        let film = world.resource::<crate::resources::FilmResource>();
+        film.width * film.height
+    };
+    let wavefront = pixels.min(crate::world::MAX_WAVEFRONT);
+    world.insert_resource(crate::resources::Workload::new(pixels, 0, 0, wavefront));
+    spawn_paths(world, wavefront);
+}
+
 /// Spawn `count` camera-path entities, idle until a pass hands them samples.
-pub fn spawn_paths(world: &mut World, count: u32) {
+fn spawn_paths(world: &mut World, count: u32) {
     use crate::components::{PathHit, PathRay, PathState, PathStatus, ShadowRay};
     let idle = PathState { status: PathStatus::Idle, ..PathState::new(0, 0) };
     world.spawn_batch(
         (0..count).map(|_| (PathRay::default(), PathHit::default(), idle, ShadowRay::default())),
     );
+}
+
+/// The photon counters for the report; `dropped` and `maps` are the integrator's own.
+pub fn photon_summary(
+    world: &World,
+    dropped: u64,
+    maps: Vec<crate::resources::PhotonMapSummary>,
+) -> crate::report::PhotonSummary {
+    let stats = world.resource::<crate::resources::PhotonStats>();
+    crate::report::PhotonSummary {
+        emitted: stats.emitted,
+        stored: stats.stored,
+        traced: stats.traced,
+        roulette_kills: stats.roulette_kills,
+        dropped,
+        maps,
+    }
 }
 
 /// Spawn `count` photon entities, idle until a photon pass hands them photons.

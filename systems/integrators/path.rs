@@ -16,16 +16,15 @@
 //! when the camera has an aperture or something moves, and `pt` drops light sampling when there is
 //! no light.
 
-use super::{configure_stages, film_image, paths_busy, spawn_paths, stage_order};
+use super::{configure_stages, film_image, paths_busy, stage_order};
 use crate::PassSystems;
 use crate::emit::emit_camera_paths_for;
 use crate::gather::{learn_light_visibility, splat_paths_to_film};
 use crate::passes::{finish_light_learning, hand_out_samples};
 use crate::plan::{Phase, Plan, Repeat, Unit, When};
-use crate::resources::{FilmResource, SceneFeatures, Workload};
+use crate::resources::SceneFeatures;
 use crate::scatter::scatter_paths;
 use crate::trace::{trace_paths, trace_shadow_rays};
-use crate::world::MAX_WAVEFRONT;
 use bevy_ecs::prelude::*;
 use caustica_core::error::Result;
 use caustica_core::scene::schedule::Stage;
@@ -40,13 +39,7 @@ pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result
     } else {
         super::without_visibility_learning(world, features, "using the light tree")
     };
-    let pixels = {
-        let film = world.resource::<FilmResource>();
-        film.width * film.height
-    };
-    let wavefront = pixels.min(MAX_WAVEFRONT);
-    world.insert_resource(Workload::new(pixels, 0, 0, wavefront));
-    spawn_paths(world, wavefront);
+    super::spawn_path_wavefront(world);
 
     let mut phases = Vec::new();
     if features.learns_visibility {

@@ -16,18 +16,16 @@
 //! for what it has: no caustic pass without specular surfaces.
 
 use super::{
-    add_photon_systems, configure_stages, film_image, paths_busy, photons_busy, spawn_paths, spawn_photons,
-    stage_order,
+    add_photon_systems, configure_stages, film_image, paths_busy, photons_busy, spawn_photons, stage_order,
 };
 use crate::PassSystems;
 use crate::emit::emit_camera_paths_for;
 use crate::gather::splat_paths_to_film;
 use crate::passes::{begin_photon_map, begin_photon_pass, finish_photon_map, hand_out_samples};
 use crate::plan::{Phase, Plan, Repeat, Unit, When};
-use crate::report::{PhotonSummary, Report};
+use crate::report::Report;
 use crate::resources::{
-    FilmResource, PhotonBuffer, PhotonMaps, PhotonStats, PhotonWork, RenderConfig, SceneFeatures,
-    SceneResource, Workload,
+    PhotonBuffer, PhotonMaps, PhotonStats, PhotonWork, RenderConfig, SceneFeatures, SceneResource,
 };
 use crate::scatter::scatter_photon_mapped;
 use crate::trace::{trace_paths, trace_shadow_rays};
@@ -42,13 +40,7 @@ pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result
     let settings = &run.photons;
     let features = super::without_visibility_learning(world, features, "photon mapping uses the light tree");
     let order = stage_order(run);
-    let pixels = {
-        let film = world.resource::<FilmResource>();
-        film.width * film.height
-    };
-    let wavefront = pixels.min(MAX_WAVEFRONT);
-    world.insert_resource(Workload::new(pixels, 0, 0, wavefront));
-    spawn_paths(world, wavefront);
+    super::spawn_path_wavefront(world);
 
     let final_gather = settings.final_gather > 0;
     let mut maps = Vec::new();
@@ -109,13 +101,5 @@ pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result
 
 /// The photon maps built and the photon counters.
 fn report(world: &World, report: &mut Report) {
-    let stats = world.resource::<PhotonStats>();
-    report.photons = Some(PhotonSummary {
-        emitted: stats.emitted,
-        stored: stats.stored,
-        traced: stats.traced,
-        roulette_kills: stats.roulette_kills,
-        dropped: 0,
-        maps: world.resource::<PhotonMaps>().built.clone(),
-    });
+    report.photons = Some(super::photon_summary(world, 0, world.resource::<PhotonMaps>().built.clone()));
 }

@@ -24,7 +24,7 @@ use crate::emit::emit_camera_paths_for;
 use crate::gather::splat_paths_to_film;
 use crate::passes::{begin_camera_pass, begin_photon_pass, begin_progressive_pass, cap_initial_radius};
 use crate::plan::{Phase, Plan, Repeat, Unit, When};
-use crate::report::{HitPointSummary, PhotonSummary, Report};
+use crate::report::{HitPointSummary, Report};
 use crate::resources::{
     FilmResource, PassPhotons, PhotonBuffer, PhotonStats, PhotonWork, ProgressiveConfig, RenderConfig,
     SceneFeatures, SceneResource, Workload,
@@ -235,16 +235,9 @@ fn image(world: &World, passes: u32) -> Image {
 
 /// Photons, hit points and their mean radius.
 fn report(world: &World, report: &mut Report) {
-    let stats = world.resource::<PhotonStats>();
     let config = world.resource::<ProgressiveConfig>();
-    report.photons = Some(PhotonSummary {
-        emitted: stats.emitted,
-        stored: stats.stored,
-        traced: stats.traced,
-        roulette_kills: stats.roulette_kills,
-        dropped: world.resource::<PassPhotons>().dropped.load(Ordering::Relaxed),
-        maps: Vec::new(),
-    });
+    let dropped = world.resource::<PassPhotons>().dropped.load(Ordering::Relaxed);
+    report.photons = Some(super::photon_summary(world, dropped, Vec::new()));
     let (sum, count) = world.try_query::<&HitPoint>().map_or((0.0, 0), |mut q| {
         q.iter(world).fold((0.0f64, 0u64), |(s, c), hp| (s + (hp.r2 as f64).sqrt(), c + 1))
     });
