@@ -69,8 +69,13 @@ pub fn print_report(scene: &Path, report: &Report, total_seconds: f64) {
             hp.count, hp.per_pixel, hp.bytes_each, hp.mean_radius, hp.initial_radius
         );
     }
-    let dropped_photons = report.photons.as_ref().map_or(0, |p| p.dropped);
-    println!("NaN/Inf     {} samples, {dropped_photons} photon contributions dropped", paths.nan_samples);
+    match &report.photons {
+        Some(photons) => println!(
+            "NaN/Inf     {} samples, {} photon contributions dropped",
+            paths.nan_samples, photons.dropped
+        ),
+        None => println!("NaN/Inf     {} samples dropped", paths.nan_samples),
+    }
 }
 
 /// Whole numbers without decimals, fractions (a time limit cut the pass) with two.
