@@ -76,6 +76,20 @@ pub fn print_report(scene: &Path, report: &Report, total_seconds: f64) {
         ),
         None => println!("NaN/Inf     {} samples dropped", paths.nan_samples),
     }
+    if let Some(bad) = &paths.first_bad {
+        let (x, y) = (bad.pixel % report.width, bad.pixel / report.width);
+        let cause = bad.cause.map_or("its radiance".to_owned(), |(what, depth)| {
+            format!("{} at depth {depth}", what.describe())
+        });
+        println!(
+            "            the first: pixel ({x}, {y}), sample {}, {cause} went NaN or infinite; seed {}, pixel and \
+             sample give every random number of it again",
+            bad.sample, report.seed
+        );
+    }
+    if let Some(pass) = report.photons.as_ref().and_then(|p| p.first_dropped_pass) {
+        println!("            the first photon contribution dropped in pass {pass}");
+    }
 }
 
 /// Whole numbers without decimals, fractions (a time limit cut the pass) with two.

@@ -203,6 +203,7 @@ impl Renderer {
             unit: self.plan.unit,
             done: self.progress().done,
             target: self.target,
+            seed: self.world.resource::<crate::resources::RenderConfig>().seed,
             seconds: self.seconds,
             phases: self.phase_times.clone(),
             paths: *self.world.resource::<RenderStats>(),

@@ -16,8 +16,8 @@
 
 use super::components::{AdaptiveStats, Chi2Cells, HitPoint, PathState, PathStatus, PhotonState, ShadowRay};
 use super::resources::{
-    FilmResource, PassPhotons, PassRange, PhotonBuffer, PhotonStats, PhotonWork, RenderStats, SceneResource,
-    Workload, wavefront_batching,
+    BadSample, FilmResource, PassPhotons, PassRange, PhotonBuffer, PhotonStats, PhotonWork,
+    ProgressiveConfig, RenderStats, SceneResource, Workload, wavefront_batching,
 };
 use bevy_ecs::prelude::*;
 use caustica_core::lights::area::luminance;
@@ -45,6 +45,10 @@ pub fn splat_paths_to_film(
             state.path.l
         } else {
             stats.nan_samples += 1;
+            if stats.first_bad.is_none() {
+                stats.first_bad =
+                    Some(BadSample { pixel: state.pixel, sample: state.sample, cause: state.path.first_bad });
+            }
             Vec3::ZERO
         };
         film.add(state.pixel, l);
@@ -144,6 +148,7 @@ pub fn build_pass_photon_map(mut buffer: ResMut<PhotonBuffer>, mut pass: ResMut<
 fn for_each_gathered_photon(
     scene: &RenderScene,
     pass: &PassPhotons,
+    index: u32,
     hp: &HitPoint,
     mut visit: impl FnMut(glam::Vec2, f32, Vec3),
 ) {
@@ -159,6 +164,7 @@ fn for_each_gathered_photon(
     });
     if dropped > 0 {
         pass.dropped.fetch_add(dropped, Ordering::Relaxed);
+        pass.first_dropped_pass.fetch_min(index, Ordering::Relaxed);
     }
 }
 
@@ -167,6 +173,7 @@ fn for_each_gathered_photon(
 /// sums do not depend on the thread count.
 pub fn gather_photons_into_hit_points(
     scene: Res<SceneResource>,
+    config: Res<ProgressiveConfig>,
     pass: Res<PassPhotons>,
     mut hit_points: Query<&mut HitPoint>,
 ) {
@@ -175,7 +182,7 @@ pub fn gather_photons_into_hit_points(
             return;
         }
         let (mut m, mut phi) = (0u32, Vec3::ZERO);
-        for_each_gathered_photon(&scene, &pass, &hp, |_, _, contribution| {
+        for_each_gathered_photon(&scene, &pass, config.pass, &hp, |_, _, contribution| {
             m += 1;
             phi += contribution;
         });
@@ -188,6 +195,7 @@ pub fn gather_photons_into_hit_points(
 /// of the disc for the χ² test (Lin et al. 2020).
 pub fn gather_photons_into_chi2_cells(
     scene: Res<SceneResource>,
+    config: Res<ProgressiveConfig>,
     pass: Res<PassPhotons>,
     mut hit_points: Query<(&mut HitPoint, &mut Chi2Cells)>,
 ) {
@@ -196,7 +204,7 @@ pub fn gather_photons_into_chi2_cells(
             return;
         }
         let (mut m, mut phi, r2) = (0u32, Vec3::ZERO, hp.r2);
-        for_each_gathered_photon(&scene, &pass, &hp, |offset, d2, contribution| {
+        for_each_gathered_photon(&scene, &pass, config.pass, &hp, |offset, d2, contribution| {
             m += 1;
             phi += contribution;
             cells.counts[chi2_cell(offset, d2, r2)] += 1;
@@ -210,6 +218,7 @@ pub fn gather_photons_into_chi2_cells(
 /// reflected radiance's luminance with the biweight kernel's Laplacian (Kaplanyan & Dachsbacher 2013).
 pub fn gather_photons_with_laplacian(
     scene: Res<SceneResource>,
+    config: Res<ProgressiveConfig>,
     pass: Res<PassPhotons>,
     mut hit_points: Query<(&mut HitPoint, &mut AdaptiveStats)>,
 ) {
@@ -218,7 +227,7 @@ pub fn gather_photons_with_laplacian(
             return;
         }
         let (mut m, mut phi, mut laplacian, r2) = (0u32, Vec3::ZERO, 0.0f32, hp.r2);
-        for_each_gathered_photon(&scene, &pass, &hp, |_, d2, contribution| {
+        for_each_gathered_photon(&scene, &pass, config.pass, &hp, |_, d2, contribution| {
             m += 1;
             phi += contribution;
             laplacian += luminance(contribution) * biweight_laplacian(d2, r2);
@@ -227,4 +236,42 @@ pub fn gather_photons_with_laplacian(
         hp.phi += phi;
         stats.0.laplacian += laplacian;
     });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::components::PathState;
+    use bevy_ecs::system::RunSystemOnce;
+    use caustica_core::film::Film;
+    use caustica_core::kernel::Quantity;
+
+    /// The film drops non-finite samples, counts them, and remembers the first in entity order with
+    /// what the kernel saw go bad.
+    #[test]
+    fn a_non_finite_sample_is_dropped_counted_and_the_first_is_named() {
+        let mut world = World::new();
+        world.insert_resource(PassRange::default());
+        world.insert_resource(Workload::new(4, 0, 1, 4));
+        world.insert_resource(FilmResource(Film::new(2, 2)));
+        world.insert_resource(RenderStats::default());
+        let finished = |pixel, l: Vec3, first_bad| {
+            let mut state = PathState::new(pixel, 7);
+            state.status = PathStatus::Finished;
+            (state.path.l, state.path.first_bad) = (l, first_bad);
+            state
+        };
+        world.spawn(finished(0, Vec3::ONE, None));
+        world.spawn(finished(1, Vec3::NAN, Some((Quantity::Throughput, 2))));
+        world.spawn(finished(2, Vec3::INFINITY, Some((Quantity::Emission, 0))));
+        world.run_system_once(splat_paths_to_film).unwrap();
+        let stats = *world.resource::<RenderStats>();
+        assert_eq!((stats.samples, stats.nan_samples), (3, 2));
+        assert_eq!(
+            stats.first_bad,
+            Some(BadSample { pixel: 1, sample: 7, cause: Some((Quantity::Throughput, 2)) })
+        );
+        let image = world.resource::<FilmResource>().image();
+        assert_eq!(image.pixels[..3], [Vec3::ONE, Vec3::ZERO, Vec3::ZERO]);
+    }
 }

@@ -47,6 +47,8 @@ pub struct PhotonSummary {
     pub roulette_kills: u64,
     /// Photon contributions to hit points dropped for being NaN or infinite.
     pub dropped: u64,
+    /// The first pass that dropped one.
+    pub first_dropped_pass: Option<u32>,
     /// `pm`'s maps.
     pub maps: Vec<PhotonMapSummary>,
 }
@@ -81,6 +83,8 @@ pub struct Report {
     pub done: f64,
     /// Progress aimed at.
     pub target: u32,
+    /// The sampler seed.
+    pub seed: u64,
     /// Seconds spent rendering.
     pub seconds: f64,
     /// Where the time went.

@@ -133,10 +133,24 @@ pub struct RenderStats {
     pub lookups: u64,
     /// Samples whose radiance was NaN or infinite, dropped (counted as black).
     pub nan_samples: u64,
+    /// The first of them, in the order samples reach the film (the same for any thread count).
+    pub first_bad: Option<BadSample>,
     /// Paths still working (not idle) after the last step.
     pub active_paths: u32,
     /// Schedule runs (bounce steps).
     pub steps: u64,
+}
+
+/// A camera sample whose radiance was not finite: enough to find it again, since every random number
+/// of a sample is a function of the seed, its pixel and its index.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BadSample {
+    /// Pixel index (row-major).
+    pub pixel: u32,
+    /// Sample index within the pixel.
+    pub sample: u32,
+    /// Depth and quantity that went bad first, when the kernel saw it happen.
+    pub cause: Option<(caustica_core::kernel::Quantity, u8)>,
 }
 
 /// What the scene uses (decided once; it picks the systems of the schedule).
@@ -283,11 +297,23 @@ pub struct ProgressiveConfig {
 }
 
 /// The photons of the running progressive pass, as a kd-tree for the hit points' radius queries.
-#[derive(Resource, Debug, Default)]
+#[derive(Resource, Debug)]
 pub struct PassPhotons {
     /// This pass's photons.
     pub map: PhotonMap,
     /// Photon contributions that were NaN or infinite, dropped before they reached a hit point (all
     /// passes). Incremented only on that rare event, so the atomic costs nothing in the gather loop.
     pub dropped: AtomicU64,
+    /// The first pass that dropped one (`u32::MAX`: none).
+    pub first_dropped_pass: std::sync::atomic::AtomicU32,
+}
+
+impl Default for PassPhotons {
+    fn default() -> Self {
+        Self {
+            map: PhotonMap::default(),
+            dropped: AtomicU64::new(0),
+            first_dropped_pass: std::sync::atomic::AtomicU32::new(u32::MAX),
+        }
+    }
 }

@@ -24,7 +24,7 @@ use caustica_core::geometry::bvh::Hit;
 use caustica_core::kernel::dimensions::photon_sampler;
 use caustica_core::kernel::emission::{add_escaped_radiance, add_surface_emission};
 use caustica_core::kernel::photon::scatter_photon;
-use caustica_core::kernel::{EmissionWeight, Vertex, VertexSampler, continue_path, sample_light};
+use caustica_core::kernel::{EmissionWeight, Quantity, Vertex, VertexSampler, continue_path, sample_light};
 use caustica_core::photon::estimate::radiance_estimate;
 use caustica_core::photon::{Neighbors, PhotonMap};
 use caustica_core::render_scene::RenderScene;
@@ -171,7 +171,8 @@ fn photon_mapped_vertex(
         if state.gathering {
             // The end of a final-gather ray: everything the global map knows.
             if let Some(global) = &maps.global {
-                state.path.l += state.path.beta * estimate(global, &mut state.lookups);
+                let l = state.path.beta * estimate(global, &mut state.lookups);
+                state.path.add(l, Quantity::PhotonEstimate);
             }
             return false;
         }
@@ -180,11 +181,13 @@ fn photon_mapped_vertex(
             shadow.queue(sample);
         }
         if let Some(caustic) = &maps.caustic {
-            state.path.l += state.path.beta * estimate(caustic, &mut state.lookups);
+            let l = state.path.beta * estimate(caustic, &mut state.lookups);
+            state.path.add(l, Quantity::PhotonEstimate);
         }
         match (&maps.indirect, maps.final_gather) {
             (Some(indirect), false) => {
-                state.path.l += state.path.beta * estimate(indirect, &mut state.lookups);
+                let l = state.path.beta * estimate(indirect, &mut state.lookups);
+                state.path.add(l, Quantity::PhotonEstimate);
                 return false;
             }
             (_, true) => state.gathering = true,

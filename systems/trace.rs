@@ -9,6 +9,7 @@ use super::components::{
 };
 use super::resources::{SceneResource, wavefront_batching};
 use bevy_ecs::prelude::*;
+use caustica_core::kernel::Quantity;
 
 /// Find the closest hit of every active path's ray.
 pub fn trace_paths(scene: Res<SceneResource>, mut paths: Query<(&PathRay, &mut PathHit, &PathState)>) {
@@ -31,7 +32,7 @@ pub fn trace_shadow_rays(scene: Res<SceneResource>, mut paths: Query<(&mut Shado
         state.shadow_rays += 1;
         shadow.visible = !scene.geometry.occluded(&shadow.ray);
         if shadow.visible {
-            state.path.l += shadow.contribution;
+            state.path.add(shadow.contribution, Quantity::LightSample);
         }
     });
 }

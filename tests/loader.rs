@@ -621,6 +621,41 @@ fn sphere_with_negative_radius_is_rejected() {
     assert!(error.to_string().contains("sphere 'bad'"), "{error}");
 }
 
+/// Radiance that would overflow single-precision sums is refused at load, naming the object: an
+/// emitter of 3e38 once loaded and rendered black where the glass ball should glow.
+#[test]
+fn radiance_and_power_beyond_what_f32_sums_hold_are_refused_naming_the_object() {
+    let dir = temp_dir("overflow");
+    let lamp = |emission: &str, radius: &str| {
+        format!(
+            "[[sphere]]\nname = \"lamp\"\ncenter = [0, 0, 0]\nradius = {radius}\n\
+             material = {{ emission = [{emission}, 1, 1] }}\n"
+        )
+    };
+    let path = write(&dir, "hot.toml", &lamp("3e38", "0.1"));
+    let error = scene::load(&path).expect_err("radiance 3e38").to_string();
+    assert!(error.contains("material 'lamp'") && error.contains("1e20") && error.contains("3e38"), "{error}");
+    assert_names_file(&scene::load(&path).unwrap_err(), &path);
+
+    // 1e20 is allowed, but a sphere of 100 km radiating it has a power of 3.9e31 W.
+    let path = write(&dir, "big.toml", &lamp("1e20", "1e5"));
+    let error = scene::load(&path).expect_err("power").to_string();
+    assert!(error.contains("sphere 'lamp'") && error.contains("total power"), "{error}");
+    assert!(scene::load(&write(&dir, "ok.toml", &lamp("1e20", "0.1"))).is_ok());
+
+    let path =
+        write(&dir, "sky.toml", &format!("{}\n[environment]\ncolor = [1e25, 1, 1]\n", lamp("1", "0.1")));
+    let error = scene::load(&path).expect_err("environment 1e25").to_string();
+    assert!(error.contains("environment") && error.contains("1e20"), "{error}");
+    let path = write(
+        &dir,
+        "strong.toml",
+        &format!("{}\n[environment]\ncolor = [1e10, 1, 1]\nstrength = 1e15\n", lamp("1", "0.1")),
+    );
+    let error = scene::load(&path).expect_err("strength × colour").to_string();
+    assert!(error.contains("with its strength"), "{error}");
+}
+
 #[test]
 fn unknown_file_extension_is_rejected() {
     let path = write(&temp_dir("extension"), "scene.obj", "v 0 0 0\n");

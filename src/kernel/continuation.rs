@@ -1,7 +1,7 @@
 //! The BSDF sample that continues a camera path, and the one Russian-roulette rule every integrator
 //! uses.
 
-use super::{CameraPath, Vertex, VertexSampler};
+use super::{CameraPath, Quantity, Vertex, VertexSampler};
 use crate::geometry::Ray;
 use crate::geometry::offset::offset_ray_origin;
 use crate::materials::TransportMode;
@@ -70,6 +70,7 @@ pub fn continue_path(
     }
     if !path.beta.is_finite() {
         path.l = Vec3::NAN;
+        path.mark_bad(Quantity::Throughput);
         return None;
     }
     // A path whose every channel carries nothing can add nothing more.

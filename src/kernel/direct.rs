@@ -38,7 +38,14 @@ pub fn sample_light(
     let si = &v.si;
     let normal = v.n_side();
     let (light, ls) = scene.lights.sample(si.p, normal, time, u.light_select(), u.light_point())?;
+    // A light never lights its own surface: a sphere is convex and a triangle flat, so the sample's
+    // contribution is zero. Sampled from its own surface a sphere's cone is the whole hemisphere and
+    // every sample collapses onto the shading point itself (a zero-length, NaN direction).
+    if light == si.light {
+        return None;
+    }
     let wi_world = (ls.p - si.p).normalize();
+    debug_assert!(wi_world.is_finite(), "light {light} sampled at the shading point {} itself", si.p);
     let wi = v.frame.to_local(wi_world);
     let f = v.bsdf.eval(v.wo, wi, TransportMode::Radiance) * wi.z.abs();
     if !(f.max_element() > 0.0 && ls.pdf > 0.0) {

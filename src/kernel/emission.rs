@@ -1,8 +1,8 @@
 //! Light that a path finds by BSDF sampling: emission at a surface it hits and the environment when
 //! it escapes, weighted by what else in the integrator counts the same light.
 
-use super::CameraPath;
 use super::mis::power_heuristic;
+use super::{CameraPath, Quantity};
 use crate::geometry::SurfaceHit;
 use crate::geometry::bvh::NO_LIGHT;
 use crate::render_scene::RenderScene;
@@ -42,7 +42,7 @@ pub fn add_escaped_radiance(scene: &RenderScene, rule: EmissionWeight, path: &mu
     let Some(weight) = rule.of(path, || scene.lights.environment_pdf(d, path.prev_p, path.prev_n)) else {
         return;
     };
-    path.l += path.beta * environment.le(d) * weight;
+    path.add(path.beta * environment.le(d) * weight, Quantity::Environment);
 }
 
 /// Add the emission of the surface `si`, seen from direction `wo` (towards where the ray came from),
@@ -60,7 +60,7 @@ pub fn add_surface_emission(
     if si.light != NO_LIGHT && si.ng.dot(wo) > 0.0 {
         let light_pdf = || scene.lights.pdf(si.light, path.prev_p, path.prev_n, si.p, si.ng, time);
         if let Some(weight) = rule.of(path, light_pdf) {
-            path.l += path.beta * scene.materials[si.material as usize].emission * weight;
+            path.add(path.beta * scene.materials[si.material as usize].emission * weight, Quantity::Emission);
         }
     }
 }

@@ -55,6 +55,37 @@ pub struct CameraPath {
     pub depth: u32,
     /// Whether the last bounce was a delta lobe (emission found next is counted fully).
     pub specular_bounce: bool,
+    /// What first went NaN or infinite on this path, and at which depth (for the report).
+    pub first_bad: Option<(Quantity, u8)>,
+}
+
+/// A quantity a path adds or carries, named when it goes NaN or infinite so that the report can say
+/// what broke (pbrt-v4 reports the pixel and sample of a bad radiance value; this also says where).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Quantity {
+    /// Emission found on a surface.
+    Emission,
+    /// The environment found by a ray that left the scene.
+    Environment,
+    /// A light sample's contribution (NEE).
+    LightSample,
+    /// The throughput after a BSDF sample.
+    Throughput,
+    /// A photon-map radiance estimate.
+    PhotonEstimate,
+}
+
+impl Quantity {
+    /// What the report calls it.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Self::Emission => "the emission of a surface it hit",
+            Self::Environment => "the environment's radiance",
+            Self::LightSample => "a light sample's contribution",
+            Self::Throughput => "the throughput after a BSDF sample",
+            Self::PhotonEstimate => "a photon-map estimate",
+        }
+    }
 }
 
 impl CameraPath {
@@ -68,7 +99,26 @@ impl CameraPath {
         prev_n: Vec3::ZERO,
         depth: 0,
         specular_bounce: false,
+        first_bad: None,
     };
+
+    /// Add `radiance` (already weighted by the throughput) to the path; the first that is not
+    /// finite is remembered as `what`, at the current depth.
+    #[inline]
+    pub fn add(&mut self, radiance: Vec3, what: Quantity) {
+        self.l += radiance;
+        if !radiance.is_finite() {
+            self.mark_bad(what);
+        }
+    }
+
+    /// Remember `what` as the first quantity that went bad, unless one already did.
+    #[cold]
+    pub fn mark_bad(&mut self, what: Quantity) {
+        if self.first_bad.is_none() {
+            self.first_bad = Some((what, self.depth.min(u8::MAX as u32) as u8));
+        }
+    }
 
     /// Whether the last vertex was the camera or a delta bounce: emission found now was not
     /// reachable by light sampling, nor by photons stored at non-specular surfaces.

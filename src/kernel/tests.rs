@@ -206,3 +206,52 @@ fn russian_roulette_divides_the_eta_scale_out_of_the_throughput() {
     assert_eq!(continue_path(&mut path, &v, 0.0, &u, PathLimits { max_depth: 3, rr_depth: 0 }), None);
     assert_eq!(path, CameraPath { depth: 3, ..CameraPath::START });
 }
+
+/// A shading point on an emissive sphere, the sphere its only light: a sphere seen from its own
+/// surface fills the hemisphere below, and sampling it collapses every point onto the shading point
+/// (a zero-length direction, NaN). A light never lights itself, so no sample is made, and no NaN.
+#[test]
+fn a_vertex_on_an_emissive_sphere_does_not_sample_that_sphere() {
+    let scene = Scene {
+        spheres: vec![crate::scene::Sphere {
+            name: "lamp".into(),
+            center: Vec3::ZERO,
+            radius: 0.1,
+            material: 0,
+            motion: None,
+        }],
+        materials: vec![diffuse("lamp", Vec3::ZERO, Vec3::splat(LE))],
+        ..Scene::default()
+    };
+    let scene = RenderScene::build(&scene, LightSelection::Uniform);
+    // Hit points land just inside or just outside the surface; from inside a sphere light gives
+    // nothing anyway, so look at those outside, where the sample collapsed.
+    let mut outside = 0;
+    for i in 0..64 {
+        let o = crate::sampling::warp::uniform_sphere(Sampler::new(6, i, 0).get2d(0));
+        let (_, v) = vertex_along(&scene, o, -o);
+        assert_ne!(v.si.light, crate::geometry::bvh::NO_LIGHT, "the hit is on the lamp");
+        if v.si.p.length_squared() <= 0.01 {
+            continue;
+        }
+        outside += 1;
+        for sample in 0..16 {
+            let u = VertexSampler::new(Sampler::new(5, i, sample), 0);
+            assert_eq!(sample_light(&scene, &v, Vec3::ONE, 0.0, &u, true), None);
+            assert_eq!(sample_light(&scene, &v, Vec3::ONE, 0.0, &u, false), None);
+        }
+    }
+    assert!(outside > 8, "{outside} of 64 hits lie outside the sphere");
+}
+
+#[test]
+fn the_first_quantity_that_goes_bad_is_remembered_with_its_depth() {
+    let mut path = CameraPath { depth: 3, ..CameraPath::START };
+    path.add(Vec3::ONE, Quantity::Emission);
+    assert_eq!(path.first_bad, None);
+    path.add(Vec3::new(f32::NAN, 0.0, 0.0), Quantity::LightSample);
+    path.depth = 4;
+    path.add(Vec3::INFINITY, Quantity::PhotonEstimate);
+    assert_eq!(path.first_bad, Some((Quantity::LightSample, 3)));
+    assert!(!path.l.is_finite());
+}

@@ -49,10 +49,22 @@ pub struct EnvironmentDesc {
 }
 
 impl EnvironmentDesc {
+    /// The largest radiance in any direction, strength included (in f64, so that it cannot overflow
+    /// on the way).
+    pub fn max_radiance(&self) -> f64 {
+        let brightest = match &self.radiance {
+            EnvironmentRadiance::Constant(c) => c.max_element(),
+            EnvironmentRadiance::Map(image) => {
+                image.pixels.iter().map(|p| p.max_element()).fold(0.0, f32::max)
+            }
+        };
+        brightest as f64 * self.strength as f64
+    }
+
     /// A uniform environment of radiance `color`.
     pub fn constant(color: Vec3) -> Self {
         Self {
-            name: format!("constant ({}, {}, {})", color.x, color.y, color.z),
+            name: format!("constant ({:?}, {:?}, {:?})", color.x, color.y, color.z),
             radiance: EnvironmentRadiance::Constant(color),
             strength: 1.0,
             rotation: Quat::IDENTITY,

@@ -30,6 +30,15 @@ pub struct ValidationSummary {
 /// and the BVH's quantised child boxes no longer nest in their parents (obvhs's validation fails).
 pub const MAX_COORDINATE: f32 = 1e6;
 
+/// Largest radiance an emitter or the environment may have, W/(sr·m²) per channel. The sun's is
+/// about 2·10⁷; a path's contribution multiplies radiance by throughputs and divides it by pdfs,
+/// and lights' powers are summed, all in f32 (up to 3.4·10³⁸): 10²⁰ leaves 10¹⁸ of headroom, so
+/// nothing that loads can overflow into an infinite or NaN image.
+pub const MAX_RADIANCE: f32 = 1e20;
+
+/// Largest total power of the emitters, W (the sum light selection and photon emission divide by).
+pub const MAX_POWER: f64 = 1e30;
+
 /// Checks `scene` (read from `path`) and drops degenerate triangles and empty meshes. A scene that
 /// emits nothing is not an error: `systems::resources::scene_lights` lights it with a default
 /// environment when it is built.
@@ -132,6 +141,21 @@ pub fn validate(scene: &mut Scene, path: &Path) -> Result<ValidationSummary> {
             summary.emitter_triangles += mesh.indices.len();
         }
     }
+    check_emitted_power(scene).map_err(|(object, problem)| invalid(mesh_file, &object, problem))?;
+    if let Some(environment) = &scene.environment {
+        let brightest = environment.max_radiance();
+        if brightest.is_nan() || brightest > MAX_RADIANCE as f64 {
+            let object = format!("environment '{}'", environment.name);
+            return Err(invalid(
+                path,
+                &object,
+                format!(
+                    "radiance up to {brightest:.3e} (with its strength), above {MAX_RADIANCE:e} W/(sr·m²), the \
+                     most Caustica accepts: scale the map or its strength down"
+                ),
+            ));
+        }
+    }
     let before = scene.meshes.len();
     scene.meshes.retain(|m| !m.indices.is_empty());
     summary.removed_meshes = before - scene.meshes.len();
@@ -173,6 +197,52 @@ pub fn validate(scene: &mut Scene, path: &Path) -> Result<ValidationSummary> {
     Ok(summary)
 }
 
+/// The emitters' total power, Σ max(Le) · π · area, must stay below [`MAX_POWER`]: light selection and
+/// photon emission sum and divide by it. The error names the brightest emitter.
+fn check_emitted_power(scene: &Scene) -> Result<(), (String, String)> {
+    let radiance = |material: u32| {
+        scene.materials.get(material as usize).map_or(0.0, |m| m.emission.max_element() as f64)
+    };
+    let mut total = 0.0f64;
+    let mut brightest = (0.0f64, String::new());
+    let mut add = |power: f64, name: &str| {
+        total += power;
+        if power > brightest.0 {
+            brightest = (power, name.to_owned());
+        }
+    };
+    for mesh in &scene.meshes {
+        let le = radiance(mesh.material);
+        if le > 0.0 {
+            let area: f64 = mesh
+                .indices
+                .iter()
+                .map(|&[a, b, c]| {
+                    let (a, b, c) =
+                        (mesh.positions[a as usize], mesh.positions[b as usize], mesh.positions[c as usize]);
+                    0.5 * (b - a).as_dvec3().cross((c - a).as_dvec3()).length()
+                })
+                .sum();
+            add(le * std::f64::consts::PI * area, &mesh.name);
+        }
+    }
+    for sphere in &scene.spheres {
+        let area = 4.0 * std::f64::consts::PI * (sphere.radius as f64).powi(2);
+        add(radiance(sphere.material) * std::f64::consts::PI * area, &format!("sphere '{}'", sphere.name));
+    }
+    if total > MAX_POWER {
+        return Err((
+            brightest.1,
+            format!(
+                "the emitters' total power is {total:.3e} W, above {MAX_POWER:e} W, the most Caustica accepts; \
+                 this emitter alone radiates {:.3e} W: scale the radiance or the scene down",
+                brightest.0
+            ),
+        ));
+    }
+    Ok(())
+}
+
 fn check_material(m: &MaterialDesc, textures: usize) -> Result<(), String> {
     let unit = |name: &str, v: f32| {
         if (0.0..=1.0).contains(&v) { Ok(()) } else { Err(format!("{name} is {v}, must be in [0, 1]")) }
@@ -191,6 +261,13 @@ fn check_material(m: &MaterialDesc, textures: usize) -> Result<(), String> {
     unit("specular", m.specular)?;
     non_negative("specular colour", m.specular_color)?;
     non_negative("emission", m.emission)?;
+    if m.emission.max_element() > MAX_RADIANCE {
+        return Err(format!(
+            "emission is [{:e}, {:e}, {:e}], above {MAX_RADIANCE:e} W/(sr·m²), the most Caustica accepts: \
+             sums of it would overflow single precision; scale the scene's radiance down",
+            m.emission.x, m.emission.y, m.emission.z
+        ));
+    }
     if !(m.ior > 0.0 && m.ior.is_finite()) {
         return Err(format!("ior is {}, must be positive and finite", m.ior));
     }

@@ -137,7 +137,7 @@ fn spawn_paths(world: &mut World, count: u32) {
 /// The photon counters for the report; `dropped` and `maps` are the integrator's own.
 pub fn photon_summary(
     world: &World,
-    dropped: u64,
+    (dropped, first_dropped_pass): (u64, Option<u32>),
     maps: Vec<crate::resources::PhotonMapSummary>,
 ) -> crate::report::PhotonSummary {
     let stats = world.resource::<crate::resources::PhotonStats>();
@@ -147,6 +147,7 @@ pub fn photon_summary(
         traced: stats.traced,
         roulette_kills: stats.roulette_kills,
         dropped,
+        first_dropped_pass,
         maps,
     }
 }

@@ -101,5 +101,6 @@ pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result
 
 /// The photon maps built and the photon counters.
 fn report(world: &World, report: &mut Report) {
-    report.photons = Some(super::photon_summary(world, 0, world.resource::<PhotonMaps>().built.clone()));
+    report.photons =
+        Some(super::photon_summary(world, (0, None), world.resource::<PhotonMaps>().built.clone()));
 }

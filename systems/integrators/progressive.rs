@@ -236,7 +236,9 @@ fn image(world: &World, passes: u32) -> Image {
 /// Photons, hit points and their mean radius.
 fn report(world: &World, report: &mut Report) {
     let config = world.resource::<ProgressiveConfig>();
-    let dropped = world.resource::<PassPhotons>().dropped.load(Ordering::Relaxed);
+    let pass_photons = world.resource::<PassPhotons>();
+    let first = pass_photons.first_dropped_pass.load(Ordering::Relaxed);
+    let dropped = (pass_photons.dropped.load(Ordering::Relaxed), (first != u32::MAX).then_some(first));
     report.photons = Some(super::photon_summary(world, dropped, Vec::new()));
     let (sum, count) = world.try_query::<&HitPoint>().map_or((0.0, 0), |mut q| {
         q.iter(world).fold((0.0f64, 0u64), |(s, c), hp| (s + (hp.r2 as f64).sqrt(), c + 1))
@@ -265,5 +267,5 @@ fn reset(world: &mut World) {
     for mut state in world.query::<&mut PathState>().iter_mut(world) {
         state.status = PathStatus::Idle;
     }
-    world.resource::<PassPhotons>().dropped.store(0, Ordering::Relaxed);
+    world.insert_resource(PassPhotons::default());
 }
