@@ -2,6 +2,7 @@
 
 use caustica::Choice;
 use caustica::density::Kernel;
+use caustica::sampling::SamplerKind;
 use caustica::scene::{FilterKind, IntegratorKind, LightSelection, RunFile};
 use clap::{Args, Parser, Subcommand};
 use std::path::PathBuf;
@@ -134,6 +135,9 @@ pub struct RenderArgs {
     /// Sampler seed; overrides the run file.
     #[arg(long)]
     pub seed: Option<u64>,
+    /// How sample numbers are drawn (default sobol); overrides the run file.
+    #[arg(long, value_parser = choice::<SamplerKind>())]
+    pub sampler: Option<SamplerKind>,
     /// Worker threads (default: all cores). The image does not depend on it.
     #[arg(long)]
     pub threads: Option<usize>,
@@ -242,6 +246,7 @@ impl RenderArgs {
         r.integrator = self.integrator.unwrap_or(r.integrator);
         r.light_selection = self.light_selection.unwrap_or(r.light_selection);
         r.seed = self.seed.unwrap_or(r.seed);
+        r.sampler = self.sampler.unwrap_or(r.sampler);
         r.max_depth = self.max_depth.or(r.max_depth);
         r.rr_depth = self.rr_depth.unwrap_or(r.rr_depth);
         r.time_limit = self.time_limit.or(r.time_limit);

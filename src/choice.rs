@@ -52,6 +52,7 @@ mod tests {
         names_match_serde::<LightSelection>();
         names_match_serde::<FilterKind>();
         names_match_serde::<Kernel>();
+        names_match_serde::<crate::sampling::SamplerKind>();
         assert_eq!(IntegratorKind::CHOICES.len(), IntegratorKind::ALL.len());
     }
 }

@@ -12,8 +12,8 @@ use bevy_ecs::prelude::*;
 use caustica_core::kernel::CameraPath;
 use caustica_core::kernel::dimensions::{camera as dim, photon_sampler};
 use caustica_core::kernel::photon::{emit_photon, photon_time};
-use caustica_core::sampling::Sampler;
 use caustica_core::sampling::net::net_point;
+use caustica_core::sampling::{Sampler, SamplerKind};
 use glam::Vec2;
 
 /// Generate camera rays for paths that need one. `LENS`: sample the aperture; `MOTION`: sample the shutter.
@@ -27,11 +27,20 @@ pub fn emit_camera_paths<const LENS: bool, const MOTION: bool>(
             if state.status != PathStatus::NeedsCamera {
                 return;
             }
-            let sampler = Sampler::new(config.seed, state.pixel, state.sample);
+            let sampler = Sampler::of(config.sampler, config.seed, state.pixel, state.sample);
             let x = state.pixel % camera.width;
             let y = state.pixel / camera.width;
-            let u_filter =
-                stratified(sampler.get2d(dim::FILTER), config.seed, state.pixel, state.sample, config.strata);
+            let u_filter = match config.sampler {
+                // The sequence itself is a (0, m, 2)-net over any 2^m consecutive samples.
+                SamplerKind::Sobol => sampler.get2d(dim::FILTER),
+                SamplerKind::Independent => stratified(
+                    sampler.get2d(dim::FILTER),
+                    config.seed,
+                    state.pixel,
+                    state.sample,
+                    config.strata,
+                ),
+            };
             let u_lens = if LENS { sampler.get2d(dim::LENS) } else { Vec2::splat(0.5) };
             let time =
                 if MOTION { config.pass_time.unwrap_or_else(|| sampler.get1d(dim::TIME)) } else { 0.0 };
@@ -43,9 +52,9 @@ pub fn emit_camera_paths<const LENS: bool, const MOTION: bool>(
     );
 }
 
-/// The filter sample of camera sample `sample` when `strata` samples of a pixel share a pass (its
-/// hit points): point `sample mod strata` of a (0, m, 2)-net scrambled per pixel, so that they cover
-/// the pixel evenly in every direction; `u` itself when there is one.
+/// The filter sample of camera sample `sample` of the independent sampler when `strata` samples of a
+/// pixel share a pass (its hit points): point `sample mod strata` of a (0, m, 2)-net scrambled per
+/// pixel, so that they cover the pixel evenly in every direction; `u` itself when there is one.
 #[inline]
 fn stratified(u: Vec2, seed: u64, pixel: u32, sample: u32, strata: u32) -> Vec2 {
     if strata <= 1 {
@@ -81,7 +90,8 @@ pub fn emit_photons(
             if state.status != PathStatus::NeedsCamera {
                 return;
             }
-            let sampler = photon_sampler(work.seed, work.pass, work.settings.kind as u32, state.index);
+            let sampler =
+                photon_sampler(work.sampler, work.seed, work.pass, work.settings.kind as u32, state.index);
             let time = photon_time(work.time, work.motion, &sampler);
             state.deposit = None;
             match emit_photon(&scene, &work.settings, &sampler, time) {

@@ -56,7 +56,7 @@ pub fn begin_progressive_pass(
 ) -> impl FnMut(Res<PassRange>, ResMut<RenderConfig>, ResMut<PhotonWork>, ResMut<ProgressiveConfig>) {
     move |range, mut config, mut work, mut progressive| {
         let pass = range.index;
-        let time = motion.then(|| Sampler::new(config.seed, u32::MAX, pass).get1d(0));
+        let time = motion.then(|| Sampler::of(config.sampler, config.seed, u32::MAX, pass).get1d(0));
         config.pass_time = time;
         work.time = time;
         work.pass = pass;

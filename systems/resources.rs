@@ -54,6 +54,8 @@ pub struct RenderConfig {
     pub integrator: IntegratorKind,
     /// Sampler seed.
     pub seed: u64,
+    /// How sample numbers are drawn.
+    pub sampler: caustica_core::sampling::SamplerKind,
     /// Maximum depth and Russian roulette.
     pub limits: PathLimits,
     /// One shutter time for every camera ray of this pass (stochastic PPM), instead of one per sample.
@@ -197,6 +199,8 @@ pub struct PhotonWork {
     pub next: u32,
     /// Sampler seed.
     pub seed: u64,
+    /// How the photons' numbers are drawn.
+    pub sampler: caustica_core::sampling::SamplerKind,
     /// Whether anything moves (photons then draw a shutter time).
     pub motion: bool,
     /// One shutter time for the whole pass (stochastic PPM: the camera pass uses the same one).
@@ -215,7 +219,7 @@ impl PhotonWork {
             max_depth: config.limits.max_depth,
             rr_depth: config.limits.rr_depth,
         };
-        Self { settings, next: 0, seed: config.seed, motion, time: None, pass: 0 }
+        Self { settings, next: 0, seed: config.seed, sampler: config.sampler, motion, time: None, pass: 0 }
     }
 }
 

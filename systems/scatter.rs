@@ -72,7 +72,8 @@ fn path_vertex<const NEE: bool>(
         return false;
     }
     let v = Vertex::new(scene, ray, si);
-    let u = VertexSampler::new(Sampler::new(config.seed, state.pixel, state.sample), path.depth);
+    let u =
+        VertexSampler::new(Sampler::of(config.sampler, config.seed, state.pixel, state.sample), path.depth);
     if NEE
         && !v.bsdf.is_delta()
         && let Some(sample) = sample_light(scene, &v, path.beta, ray.time, &u, true)
@@ -176,7 +177,10 @@ fn photon_mapped_vertex(
             }
             return false;
         }
-        let u = VertexSampler::new(Sampler::new(config.seed, state.pixel, state.sample), state.path.depth);
+        let u = VertexSampler::new(
+            Sampler::of(config.sampler, config.seed, state.pixel, state.sample),
+            state.path.depth,
+        );
         if let Some(sample) = sample_light(scene, &v, state.path.beta, ray.time, &u, false) {
             shadow.queue(sample);
         }
@@ -194,7 +198,10 @@ fn photon_mapped_vertex(
             (None, false) => return false,
         }
     }
-    let u = VertexSampler::new(Sampler::new(config.seed, state.pixel, state.sample), state.path.depth);
+    let u = VertexSampler::new(
+        Sampler::of(config.sampler, config.seed, state.pixel, state.sample),
+        state.path.depth,
+    );
     continue_from(ray, continue_path(&mut state.path, &v, ray.time, &u, config.limits))
 }
 
@@ -252,7 +259,10 @@ fn visible_point_vertex<const NEE: bool>(
     let si = scene.geometry.surface_hit(ray, hit);
     add_surface_emission(scene, rule, &mut state.path, &si, -ray.d, ray.time);
     let v = Vertex::new(scene, ray, si);
-    let u = VertexSampler::new(Sampler::new(config.seed, state.pixel, state.sample), state.path.depth);
+    let u = VertexSampler::new(
+        Sampler::of(config.sampler, config.seed, state.pixel, state.sample),
+        state.path.depth,
+    );
     if v.bsdf.is_delta() {
         return continue_from(ray, continue_path(&mut state.path, &v, ray.time, &u, config.limits));
     }
@@ -275,7 +285,8 @@ pub fn scatter_photons(
             return;
         }
         state.bounces += 1;
-        let sampler = photon_sampler(work.seed, work.pass, work.settings.kind as u32, state.index);
+        let sampler =
+            photon_sampler(work.sampler, work.seed, work.pass, work.settings.kind as u32, state.index);
         let bounce = scatter_photon(&scene, &work.settings, &mut state.path, &ray.0, &hit.0, &sampler);
         state.deposit = bounce.deposit;
         state.roulette_kills += bounce.roulette_kill as u32;

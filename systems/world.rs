@@ -97,6 +97,7 @@ pub fn scene_world(scene: Scene, run: &RunFile) -> Result<(World, SceneFeatures)
     world.insert_resource(RenderConfig {
         integrator: settings.integrator,
         seed: settings.seed,
+        sampler: settings.sampler,
         limits: PathLimits { max_depth: settings.max_depth.unwrap_or(u32::MAX), rr_depth: settings.rr_depth },
         pass_time: None,
         strata: 1,

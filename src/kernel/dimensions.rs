@@ -2,7 +2,7 @@
 //! for photons. Every integrator draws through these, so two integrators that make the same decision
 //! at the same vertex use the same number.
 
-use crate::sampling::Sampler;
+use crate::sampling::{Sampler, SamplerKind};
 use glam::Vec2;
 
 /// The camera's 5-D sample: pixel filter (2), lens (2), shutter time (1).
@@ -108,9 +108,14 @@ pub mod photon {
 
 /// The sampler of photon `index` of progressive pass `pass` in a map of kind number `map`: the map
 /// keeps a caustic and a global pass independent of each other, the pass number successive passes.
+/// With a Sobol sampler a pass's photons are the points of one sequence, stratified over the lights'
+/// area and directions (pbrt-v4's SPPM uses Halton points for its photons).
 #[inline]
-pub fn photon_sampler(seed: u64, pass: u32, map: u32, index: u32) -> Sampler {
-    Sampler::new(seed ^ ((pass as u64) << 32), index, (map + 1) << 16)
+pub fn photon_sampler(kind: SamplerKind, seed: u64, pass: u32, map: u32, index: u32) -> Sampler {
+    match kind {
+        SamplerKind::Independent => Sampler::new(seed ^ ((pass as u64) << 32), index, (map + 1) << 16),
+        SamplerKind::Sobol => Sampler::of(kind, seed ^ ((pass as u64) << 32), u32::MAX - 1 - map, index),
+    }
 }
 
 #[cfg(test)]

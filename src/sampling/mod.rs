@@ -7,9 +7,10 @@ pub mod chi2;
 pub mod distribution;
 pub mod net;
 pub mod rng;
+pub mod sobol;
 pub mod warp;
 
-pub use rng::Sampler;
+pub use rng::{Sampler, SamplerKind};
 
 /// Largest f32 below one: keeps remapped random numbers in [0, 1).
 pub const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;

@@ -5,6 +5,7 @@
 //! (Kollig & Keller 2002, "Efficient multidimensional sampling"). XOR with random bits keeps the net's
 //! stratification (a random digit scrambling).
 
+use super::sobol::sobol_second_dimension;
 use glam::Vec2;
 
 /// Point `index` of the net, scrambled by `scramble` (random bits per axis), in [0, 1)².
@@ -14,21 +15,6 @@ pub fn net_point(index: u32, scramble: [u32; 2]) -> Vec2 {
     let y = sobol_second_dimension(index) ^ scramble[1];
     // 24 bits: every value below one, and exactly representable.
     Vec2::new((x >> 8) as f32, (y >> 8) as f32) * (1.0 / (1u32 << 24) as f32)
-}
-
-/// Sobol's second dimension of `index`: the XOR of the direction numbers of its set bits, whose
-/// generator matrix is Pascal's triangle mod 2 (v₀ = 2³¹, vᵢ = vᵢ₋₁ ⊕ vᵢ₋₁ ≫ 1).
-#[inline]
-fn sobol_second_dimension(mut index: u32) -> u32 {
-    let (mut v, mut result) = (1u32 << 31, 0u32);
-    while index != 0 {
-        if index & 1 != 0 {
-            result ^= v;
-        }
-        index >>= 1;
-        v ^= v >> 1;
-    }
-    result
 }
 
 #[cfg(test)]

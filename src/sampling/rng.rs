@@ -1,40 +1,96 @@
-//! Counter-based random numbers: a stateless hash of (seed, pixel, sample, dimension).
+//! Counter-based random numbers: each a pure function of (seed, pixel, sample, dimension), drawn
+//! either independently (a hash) or from an Owen-scrambled Sobol sequence over the samples of a pixel
+//! (`sobol`), which stratifies every dimension and every pair of them.
 //!
 //! Which dimension feeds what is `kernel::dimensions`.
 //!
 //! A counter-based generator needs no per-path state beyond the counters the path already carries, so a
 //! path can be suspended, moved between threads or regenerated without changing its numbers.
 
+use super::sobol::{owen_sobol_1d, owen_sobol_2d};
+use crate::choice::Choice;
 use glam::Vec2;
+use serde::Deserialize;
 
-/// An independent sampler: each call hashes its coordinates; nothing is stored between calls.
-///
-/// `Sampler` identifies one sample of one pixel; `get1d(dim)` returns the number for a dimension.
+/// How the numbers of a pixel's samples are drawn.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SamplerKind {
+    /// Each number a hash of its coordinates: independent uniform samples.
+    Independent,
+    /// Owen-scrambled Sobol points over the samples of a pixel, each dimension (or pair) with its own
+    /// scramble (Burley 2020; pbrt-v4's `PaddedSobolSampler`): the first 2^k samples are stratified
+    /// in every dimension and every 2-D projection, which lowers the error of smooth integrands
+    /// faster than 1/N.
+    #[default]
+    Sobol,
+}
+
+impl Choice for SamplerKind {
+    const CHOICES: &'static [(Self, &'static str, &'static str)] = &[
+        (Self::Independent, "independent", "independent uniform numbers"),
+        (Self::Sobol, "sobol", "Owen-scrambled Sobol: stratified in every dimension and pair"),
+    ];
+}
+
+/// Golden-ratio increment that spreads dimension numbers over the hash's input.
+const DIMENSION_STEP: u64 = 0x9E37_79B9_7F4A_7C15;
+
+/// The numbers of one sample of one pixel (or one photon of one stream): `get1d(dim)` and
+/// `get2d(dim)` return them by dimension. Nothing is stored between calls.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Sampler {
     key: u64,
+    index: u32,
+    kind: SamplerKind,
 }
 
 impl Sampler {
-    /// The sampler for sample `sample` of pixel `pixel` under `seed`.
+    /// The independent sampler for sample `sample` of pixel `pixel` under `seed`.
     #[inline]
     pub fn new(seed: u64, pixel: u32, sample: u32) -> Self {
-        let key = mix64(seed ^ mix64(((pixel as u64) << 32) | sample as u64));
-        Self { key }
+        Self::of(SamplerKind::Independent, seed, pixel, sample)
+    }
+
+    /// The sampler of `kind` for sample `sample` of pixel `pixel` under `seed`.
+    #[inline]
+    pub fn of(kind: SamplerKind, seed: u64, pixel: u32, sample: u32) -> Self {
+        let key = match kind {
+            SamplerKind::Independent => mix64(seed ^ mix64(((pixel as u64) << 32) | sample as u64)),
+            // One scramble per pixel: its samples are the points of one sequence.
+            SamplerKind::Sobol => mix64(seed ^ mix64(pixel as u64 ^ 0x50b0_1000_0000_0000)),
+        };
+        Self { key, index: sample, kind }
+    }
+
+    /// The hash of this sampler's key and dimension `dim`.
+    #[inline]
+    fn dimension_hash(&self, dim: u32) -> u64 {
+        mix64(self.key.wrapping_add((dim as u64).wrapping_mul(DIMENSION_STEP)))
     }
 
     /// A uniform number in [0, 1) for dimension `dim`.
     #[inline]
     pub fn get1d(&self, dim: u32) -> f32 {
-        let bits = mix64(self.key.wrapping_add((dim as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)));
-        // 24 high bits give every float in [0, 1) a spacing of 2^-24, so 1.0 is never returned.
-        (bits >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
+        let bits = self.dimension_hash(dim);
+        match self.kind {
+            // 24 high bits give every float in [0, 1) a spacing of 2^-24, so 1.0 is never returned.
+            SamplerKind::Independent => (bits >> 40) as f32 * (1.0 / (1u64 << 24) as f32),
+            SamplerKind::Sobol => owen_sobol_1d(self.index, [bits as u32, (bits >> 32) as u32]),
+        }
     }
 
-    /// Two uniform numbers for dimensions `dim` and `dim + 1`.
+    /// Two uniform numbers for dimensions `dim` and `dim + 1` (one 2-D point of the sequence).
     #[inline]
     pub fn get2d(&self, dim: u32) -> Vec2 {
-        Vec2::new(self.get1d(dim), self.get1d(dim + 1))
+        match self.kind {
+            SamplerKind::Independent => Vec2::new(self.get1d(dim), self.get1d(dim + 1)),
+            SamplerKind::Sobol => {
+                let bits = self.dimension_hash(dim);
+                let more = mix64(bits);
+                owen_sobol_2d(self.index, [bits as u32, (bits >> 32) as u32, more as u32])
+            }
+        }
     }
 }
 

@@ -117,6 +117,8 @@ pub struct RenderSettings {
     pub rr_depth: u32,
     /// Light selection for next-event estimation.
     pub light_selection: LightSelection,
+    /// How sample numbers are drawn.
+    pub sampler: crate::sampling::SamplerKind,
     /// Wall-clock budget in seconds: rendering stops at the first of this and the sample/pass count.
     pub time_limit: Option<f64>,
 }
@@ -131,6 +133,7 @@ impl Default for RenderSettings {
             max_depth: None,
             rr_depth: 5,
             light_selection: LightSelection::Power,
+            sampler: crate::sampling::SamplerKind::Sobol,
             time_limit: None,
         }
     }
