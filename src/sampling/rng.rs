@@ -130,4 +130,65 @@ mod tests {
         assert_ne!(s.get1d(0), t.get1d(0));
         assert_eq!(s.get1d(4), Sampler::new(1, 5, 0).get1d(4));
     }
+
+    /// Every dimension the kernel draws, as it draws it (`kernel::dimensions`): the first 2^k samples
+    /// of a pixel are stratified in each 1-D dimension and are a (0, k, 2)-net in each 2-D pair.
+    #[test]
+    fn sobol_samples_of_a_pixel_are_stratified_in_every_dimension_the_kernel_uses() {
+        use crate::kernel::dimensions::{bounce, bounce_dimension, camera};
+        let mut pairs = vec![camera::FILTER, camera::LENS];
+        let mut singles = vec![camera::TIME];
+        for depth in 0..3 {
+            let base = bounce_dimension(depth);
+            pairs.extend([base + bounce::LIGHT_POINT, base + bounce::BSDF_DIRECTION]);
+            singles.extend([base + bounce::LIGHT_SELECT, base + bounce::BSDF_LOBE, base + bounce::ROULETTE]);
+        }
+        for (pixel, k) in [(0u32, 4u32), (12_345, 6), (7, 8)] {
+            let n = 1u32 << k;
+            let sampler = |i| Sampler::of(SamplerKind::Sobol, 42, pixel, i);
+            for &dim in &singles {
+                let mut strata = vec![0; n as usize];
+                (0..n).for_each(|i| strata[(sampler(i).get1d(dim) * n as f32) as usize] += 1);
+                assert!(strata.iter().all(|&c| c == 1), "pixel {pixel}, dimension {dim}, 2^{k}");
+            }
+            for &dim in &pairs {
+                for a in 0..=k {
+                    let (columns, rows) = (1u32 << a, 1u32 << (k - a));
+                    let mut cells = vec![0; n as usize];
+                    for i in 0..n {
+                        let p = sampler(i).get2d(dim);
+                        cells[((p.y * rows as f32) as u32 * columns + (p.x * columns as f32) as u32)
+                            as usize] += 1;
+                    }
+                    assert!(cells.iter().all(|&c| c == 1), "pixel {pixel}, pair {dim}, {columns}×{rows}");
+                }
+            }
+        }
+    }
+
+    /// On a smooth integrand, ∫∫ exp(−x)·cos(y) over [0, 1]², the mean squared error over 512 pixels
+    /// (independent scrambles) falls from 16 to 256 samples by far more than the 16× of independent
+    /// sampling (Owen-scrambled nets converge as N^−3 on smooth functions), and the mean estimate is
+    /// unbiased within four standard errors.
+    #[test]
+    fn sobol_error_on_a_smooth_integrand_falls_faster_than_one_over_n() {
+        let f = |p: Vec2| (-p.x).exp() * p.y.cos();
+        let exact = (1.0 - (-1.0f64).exp()) * 1f64.sin();
+        let mse = |kind: SamplerKind, n: u32| {
+            let (mut sum_sq, mut sum) = (0.0f64, 0.0f64);
+            for pixel in 0..512 {
+                let estimate =
+                    (0..n).map(|i| f(Sampler::of(kind, 9, pixel, i).get2d(3)) as f64).sum::<f64>() / n as f64;
+                sum_sq += (estimate - exact).powi(2);
+                sum += estimate - exact;
+            }
+            (sum_sq / 512.0, sum / 512.0)
+        };
+        let (sobol_16, bias_16) = mse(SamplerKind::Sobol, 16);
+        let (sobol_256, _) = mse(SamplerKind::Sobol, 256);
+        let (independent_256, _) = mse(SamplerKind::Independent, 256);
+        assert!(sobol_256 < sobol_16 / 64.0, "MSE {sobol_16} at 16, {sobol_256} at 256");
+        assert!(sobol_256 < independent_256 / 100.0, "Sobol {sobol_256}, independent {independent_256}");
+        assert!(bias_16.abs() < 4.0 * (sobol_16 / 512.0).sqrt(), "mean error {bias_16}");
+    }
 }
