@@ -62,14 +62,30 @@ fn unknown_output_format_fails_before_rendering() {
     assert!(!target.exists());
 }
 
+/// Two constant images, 1 and 1.5 in every channel but one pixel at 3: RMSE, relMSE
+/// = mean((a − b)² / (b² + 0.01)) and MAE computed by hand.
 #[test]
-fn compare_prints_the_three_metrics_and_zero_for_identical_files() {
-    let reference = common::data("cornell-box.ref.exr");
-    let r = reference.to_str().unwrap();
-    let out = caustica(&["compare", r, r]);
-    assert!(out.status.success());
+fn compare_prints_the_three_metrics_of_two_images() {
+    use caustica::film::{Image, output::write_image};
+    let dir = scratch("compare");
+    let mut a = Image { width: 4, height: 2, pixels: vec![glam::Vec3::splat(1.5); 8] };
+    a.pixels[5] = glam::Vec3::splat(3.0);
+    let b = Image { width: 4, height: 2, pixels: vec![glam::Vec3::ONE; 8] };
+    let (pa, pb) = (dir.join("a.exr"), dir.join("b.exr"));
+    write_image(&a, &pa, 0.0).unwrap();
+    write_image(&b, &pb, 0.0).unwrap();
+    let out = caustica(&["compare", pa.to_str().unwrap(), pb.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let stdout = String::from_utf8_lossy(&out.stdout);
-    for metric in ["RMSE 0.000000", "relMSE 0.000000", "MAE 0.000000"] {
-        assert!(stdout.contains(metric), "missing {metric}: {stdout}");
+    let squared: f64 = (7.0 * 0.25 + 4.0) / 8.0;
+    let expected = [
+        format!("RMSE {:.6}", squared.sqrt()),
+        format!("relMSE {:.6}", squared / 1.01),
+        format!("MAE {:.6}", (7.0 * 0.5 + 2.0) / 8.0),
+    ];
+    for metric in expected {
+        assert!(stdout.contains(&metric), "missing {metric}: {stdout}");
     }
+    let same = caustica(&["compare", pb.to_str().unwrap(), pb.to_str().unwrap()]);
+    assert!(String::from_utf8_lossy(&same.stdout).contains("RMSE 0.000000"));
 }

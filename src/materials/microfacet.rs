@@ -154,14 +154,40 @@ mod tests {
         }
     }
 
+    /// Smith's masking is defined by the microsurface's projected area: G1(ω) ∫ max(0, ω·ωm) D(ωm) dωm
+    /// = cos θ (Heitz 2014, eq. 2). Integrating D numerically gives G1 independently of Λ.
     #[test]
-    fn masking_is_one_at_normal_incidence_and_zero_at_the_horizon() {
+    fn masking_makes_the_projected_microsurface_area_equal_the_macrosurface() {
+        for roughness in [0.3f32, 0.7, 1.0] {
+            let ggx = Ggx::from_roughness(roughness);
+            for cos in [1.0f32, 0.8, 0.5, 0.2] {
+                let w = Vec3::new((1.0 - cos * cos).sqrt(), 0.0, cos);
+                let projected = integrate_sphere(|wm| w.dot(wm).max(0.0) * ggx.d(wm));
+                let expected = cos / projected;
+                assert!(
+                    (ggx.g1(w) - expected).abs() < 0.02 * expected,
+                    "α² {roughness}, cos {cos}: G1 {} vs {expected}",
+                    ggx.g1(w)
+                );
+            }
+        }
+        assert_eq!(Ggx::from_roughness(0.7).g1(Vec3::X), 0.0, "nothing is seen at the horizon");
+    }
+
+    /// Height-correlated masking-shadowing lies strictly between the uncorrelated product G1·G1 and
+    /// min(G1, G1) away from normal incidence (Heitz 2014, §6), and is symmetric.
+    #[test]
+    fn height_correlated_shadowing_lies_between_the_product_and_the_minimum() {
         let ggx = Ggx::from_roughness(0.7);
-        assert_eq!(ggx.g1(Vec3::Z), 1.0);
-        assert_eq!(ggx.g1(Vec3::X), 0.0);
-        let (a, b) = (Vec3::new(0.6, 0.0, 0.8), Vec3::new(0.0, 0.8, -0.6));
-        assert_eq!(ggx.g(a, b), ggx.g(b, a));
-        assert!(ggx.g(a, b) <= ggx.g1(a).min(ggx.g1(b)));
+        for (a, b) in [
+            (Vec3::new(0.6, 0.0, 0.8), Vec3::new(0.0, 0.8, 0.6)),
+            (Vec3::new(0.9, 0.0, 0.436), Vec3::new(-0.3, 0.0, 0.954)),
+        ] {
+            let (a, b) = (a.normalize(), b.normalize());
+            let g = ggx.g(a, b);
+            assert_eq!(g, ggx.g(b, a));
+            assert!(g > ggx.g1(a) * ggx.g1(b) && g < ggx.g1(a).min(ggx.g1(b)), "{g}");
+        }
     }
 
     #[test]

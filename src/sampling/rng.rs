@@ -123,12 +123,36 @@ mod tests {
     }
 
     #[test]
-    fn dimensions_and_samples_are_decorrelated() {
-        let s = Sampler::new(1, 5, 0);
-        let t = Sampler::new(1, 5, 1);
-        assert_ne!(s.get1d(0), s.get1d(1));
-        assert_ne!(s.get1d(0), t.get1d(0));
-        assert_eq!(s.get1d(4), Sampler::new(1, 5, 0).get1d(4));
+    fn dimensions_samples_and_pixels_are_decorrelated() {
+        // Pearson's r of 20 000 pairs: 4 standard errors of an uncorrelated pair is 4/√n = 0.028.
+        let n = 20_000u32;
+        let bound = 4.0 / (n as f64).sqrt();
+        for kind in [SamplerKind::Independent, SamplerKind::Sobol] {
+            let pairs: [(&str, fn(SamplerKind, u32) -> (f32, f32)); 3] = [
+                ("dimensions", |k, i| (Sampler::of(k, 1, i, 0).get1d(0), Sampler::of(k, 1, i, 0).get1d(1))),
+                ("samples", |k, i| (Sampler::of(k, 1, i, 0).get1d(3), Sampler::of(k, 1, i, 1).get1d(3))),
+                ("pixels", |k, i| {
+                    (Sampler::of(k, 1, 2 * i, 7).get1d(5), Sampler::of(k, 1, 2 * i + 1, 7).get1d(5))
+                }),
+            ];
+            for (what, pair) in pairs {
+                // A Sobol sequence's consecutive samples are anti-correlated on purpose: stratified.
+                if kind == SamplerKind::Sobol && what == "samples" {
+                    continue;
+                }
+                let values: Vec<(f64, f64)> =
+                    (0..n).map(|i| pair(kind, i)).map(|(a, b)| (a as f64, b as f64)).collect();
+                let mean = |f: fn(&(f64, f64)) -> f64| values.iter().map(f).sum::<f64>() / n as f64;
+                let (ma, mb) = (mean(|v| v.0), mean(|v| v.1));
+                let cov = values.iter().map(|v| (v.0 - ma) * (v.1 - mb)).sum::<f64>() / n as f64;
+                let var = |m: f64, f: fn(&(f64, f64)) -> f64| {
+                    values.iter().map(|v| (f(v) - m).powi(2)).sum::<f64>() / n as f64
+                };
+                let r = cov / (var(ma, |v| v.0) * var(mb, |v| v.1)).sqrt();
+                assert!(r.abs() < bound, "{kind:?}: {what} correlate, r = {r}");
+            }
+        }
+        assert_eq!(Sampler::new(1, 5, 0).get1d(4), Sampler::new(1, 5, 0).get1d(4), "a pure function");
     }
 
     /// Every dimension the kernel draws, as it draws it (`kernel::dimensions`): the first 2^k samples

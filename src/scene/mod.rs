@@ -234,6 +234,9 @@ impl Texture {
         if self.texels.is_empty() {
             return Vec4::ONE;
         }
+        // An infinite or NaN coordinate (from broken UVs or transforms) has no position in the texture:
+        // read it as 0 rather than interpolate with a NaN weight.
+        let uv = Vec2::select(uv.is_finite_mask(), uv, Vec2::ZERO);
         let x = uv.x * self.width as f32 - 0.5;
         let y = uv.y * self.height as f32 - 0.5;
         let (x0, y0) = (x.floor(), y.floor());
