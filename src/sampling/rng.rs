@@ -128,7 +128,8 @@ mod tests {
         let n = 20_000u32;
         let bound = 4.0 / (n as f64).sqrt();
         for kind in [SamplerKind::Independent, SamplerKind::Sobol] {
-            let pairs: [(&str, fn(SamplerKind, u32) -> (f32, f32)); 3] = [
+            type Pair = fn(SamplerKind, u32) -> (f32, f32);
+            let pairs: [(&str, Pair); 3] = [
                 ("dimensions", |k, i| (Sampler::of(k, 1, i, 0).get1d(0), Sampler::of(k, 1, i, 0).get1d(1))),
                 ("samples", |k, i| (Sampler::of(k, 1, i, 0).get1d(3), Sampler::of(k, 1, i, 1).get1d(3))),
                 ("pixels", |k, i| {
