@@ -102,11 +102,7 @@ fn theory_albedo(lobe: &str, roughness: f32, cos: f32, separable: bool) -> (f64,
     let (w, eta) = if cos > 0.0 { (1.0, 1.5) } else { (-1.0, 1.0 / 1.5) };
     let wo = Vec3::new((1.0 - cos * cos).sqrt(), 0.0, cos) * w;
     let shadowing = |wi: Vec3| {
-        if separable {
-            ggx.g1(wi)
-        } else {
-            (1.0 + ggx.lambda(wo)) / (1.0 + ggx.lambda(wo) + ggx.lambda(wi))
-        }
+        if separable { ggx.g1(wi) } else { (1.0 + ggx.lambda(wo)) / (1.0 + ggx.lambda(wo) + ggx.lambda(wi)) }
     };
     let n = 200_000u32;
     let (mut sum, mut sum2) = (0.0f64, 0.0f64);
@@ -132,7 +128,12 @@ fn theory_albedo(lobe: &str, roughness: f32, cos: f32, separable: bool) -> (f64,
     (mean, ((sum2 / n as f64 - mean * mean) / n as f64).sqrt())
 }
 
-fn check(what: &str, rows: &[Row], mut expected: impl FnMut(&Row) -> (f64, f64), mut got: impl FnMut(&Row) -> (f64, f64)) {
+fn check(
+    what: &str,
+    rows: &[Row],
+    mut expected: impl FnMut(&Row) -> (f64, f64),
+    mut got: impl FnMut(&Row) -> (f64, f64),
+) {
     let mut failures = Vec::new();
     for row in rows {
         let ((want, want_se), (have, have_se)) = (expected(row), got(row));
