@@ -170,3 +170,54 @@ fn our_conductor_and_dielectric_albedos_match_the_theory() {
         |row| our_albedo(&Bsdf::new(&params(&row.lobe, row.roughness)), row.cos),
     );
 }
+
+/// glTF's dielectric base (our `plastic`): the GGX layer with Schlick's Fresnel F(μ) = F0 + (F90 − F0)(1 − μ)⁵
+/// (F0 = 0.04 for IOR 1.5, F90 = 1) over a Lambertian coupled by (1 − F(cos θo))(1 − F(cos θi)). Its
+/// albedo is the layer's by microfacet theory (as above, with Schlick) plus the diffuse part in
+/// closed form: base · (1 − F(cos θo)) · 2∫₀¹ (1 − F(μ)) μ dμ = base · (1 − F(cos θo)) · (1 − F0 −
+/// (F90 − F0)/21). With base 0 the layer is checked alone; with 0.5 the coupling too.
+#[test]
+fn our_plastic_albedo_is_its_layer_by_microfacet_theory_plus_the_coupled_diffuse_in_closed_form() {
+    let (f0, f90) = (0.04f32, 1.0f32);
+    let schlick = |mu: f32| f0 + (f90 - f0) * (1.0 - mu).powi(5);
+    let mut failures = Vec::new();
+    for roughness in [0.3f32, 0.5, 0.7, 1.0] {
+        let ggx = Ggx::from_roughness(roughness);
+        for cos in [0.2f32, 0.5, 0.8, 1.0] {
+            let wo = Vec3::new((1.0 - cos * cos).sqrt(), 0.0, cos);
+            let n = 200_000u32;
+            let (mut sum, mut sum2) = (0.0f64, 0.0f64);
+            for i in 0..n {
+                let m = ggx.sample_wm(wo, Sampler::new(29, i, 0).get2d(0));
+                let wr = 2.0 * wo.dot(m) * m - wo;
+                let v = if wr.z > 0.0 {
+                    schlick(wo.dot(m)) * (1.0 + ggx.lambda(wo)) / (1.0 + ggx.lambda(wo) + ggx.lambda(wr))
+                } else {
+                    0.0
+                };
+                sum += v as f64;
+                sum2 += (v * v) as f64;
+            }
+            let layer = sum / n as f64;
+            let layer_se = ((sum2 / n as f64 - layer * layer) / n as f64).sqrt();
+            for base in [0.0f32, 0.5] {
+                let diffuse = base * (1.0 - schlick(cos)) * (1.0 - f0 - (f90 - f0) / 21.0);
+                let expected = layer + diffuse as f64;
+                let params = ShadingParams {
+                    base_color: Vec3::splat(base),
+                    roughness,
+                    ..params("conductor", roughness)
+                };
+                let plastic = Bsdf::new(&ShadingParams { metallic: 0.0, ..params });
+                let (ours, se) = our_albedo(&plastic, cos);
+                let bound = 4.0 * (se * se + layer_se * layer_se).sqrt() + 0.002 * expected;
+                if (ours - expected).abs() > bound {
+                    failures.push(format!(
+                        "roughness {roughness} cos {cos} base {base}: ours {ours:.5} ± {se:.5}, expected {expected:.5}"
+                    ));
+                }
+            }
+        }
+    }
+    assert!(failures.is_empty(), "plastic albedos that differ:\n{}", failures.join("\n"));
+}
