@@ -139,8 +139,8 @@ pub struct RenderArgs {
     #[arg(long, value_parser = choice::<SamplerKind>())]
     pub sampler: Option<SamplerKind>,
     /// Worker threads (default: all cores). The image does not depend on it.
-    #[arg(long)]
-    pub threads: Option<usize>,
+    #[arg(long, visible_alias = "nthreads", value_parser = clap::value_parser!(u16).range(1..))]
+    pub threads: Option<u16>,
     /// Image width; overrides the run file and the glTF's extras.
     #[arg(long)]
     pub width: Option<u32>,

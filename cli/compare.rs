@@ -9,7 +9,17 @@ pub fn compare_files(image: &Path, reference: &Path, window: Option<&[u32]>) -> 
     let mut a = output::read_exr(image)?;
     let mut b = output::read_exr(reference)?;
     match window {
-        Some(&[x0, y0, x1, y1]) => (a, b) = (a.crop(x0, y0, x1, y1), b.crop(x0, y0, x1, y1)),
+        Some(&[x0, y0, x1, y1]) => {
+            if !(x0 < x1 && y0 < y1 && x1 <= a.width && y1 <= a.height) {
+                anyhow::bail!(
+                    "--window {x0},{y0},{x1},{y1} is not a non-empty rectangle inside {} ({}x{})",
+                    image.display(),
+                    a.width,
+                    a.height
+                );
+            }
+            (a, b) = (a.crop(x0, y0, x1, y1), b.crop(x0, y0, x1, y1))
+        }
         Some(w) => anyhow::bail!("--window takes X0,Y0,X1,Y1 (four numbers), got {} numbers", w.len()),
         None => {}
     }

@@ -21,7 +21,7 @@ fn default_scene() -> PathBuf {
 /// Render the scene `args` name (or the default one) and write its outputs.
 pub fn render(args: &RenderArgs) -> Result<()> {
     let start = Instant::now();
-    init_thread_pools(args.threads);
+    init_thread_pools(args.threads.map(usize::from));
     let scene_path = args.scene.clone().unwrap_or_else(default_scene);
     let (scene, run) = scene::load_with(&scene_path, |run| args.apply(run))?;
     let outputs = output_paths(args, &run, &scene_path);

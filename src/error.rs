@@ -53,6 +53,13 @@ pub enum Error {
         /// The constraint that failed.
         problem: String,
     },
+    /// A setting given on the command line or by a host is out of range (the run file's own are
+    /// `RunFile` errors naming the file).
+    #[error("invalid setting: {problem} (given on the command line or by the caller)")]
+    Override {
+        /// The key and the constraint that failed.
+        problem: String,
+    },
     /// A setting is out of range (spp 0, width 0, ...).
     #[error("invalid setting {name}: {problem}")]
     Setting {

@@ -89,3 +89,64 @@ fn compare_prints_the_three_metrics_of_two_images() {
     let same = caustica(&["compare", pb.to_str().unwrap(), pb.to_str().unwrap()]);
     assert!(String::from_utf8_lossy(&same.stdout).contains("RMSE 0.000000"));
 }
+
+/// Every setting is checked the same way whether it comes from the run file or the command line, before
+/// anything renders: each of these once rendered something silently wrong (a black image, an image
+/// with no photons, a budget overflowed to 0) or hung.
+#[test]
+fn out_of_range_settings_are_refused_before_rendering_naming_the_key() {
+    let dir = scratch("settings");
+    let scene = common::data("cornell-box.gltf");
+    let scene = scene.to_str().unwrap();
+    let target = dir.join("x.exr");
+    let o = target.to_str().unwrap();
+    for (flags, key) in [
+        (&["--integrator", "pm", "--k", "0"][..], "photons.k"),
+        (&["--integrator", "pm", "--k", "1"], "photons.k"),
+        (&["--integrator", "pm", "--max-radius", "0"], "photons.max_radius"),
+        (&["--integrator", "pm", "--max-radius", "NaN"], "photons.max_radius"),
+        (&["--integrator", "pm", "--max-radius=-1"], "photons.max_radius"),
+        (&["--time-limit", "0"], "render.time_limit"),
+        (&["--time-limit=-1"], "render.time_limit"),
+        (&["--time-limit", "NaN"], "render.time_limit"),
+        (&["--exposure", "NaN"], "film.exposure"),
+        (&["--threads", "0"], "--threads"),
+        (&["--integrator", "sppm", "--memory-budget-mib", "17592186044416"], "memory_budget_mib"),
+        (&["--write-every", "0"], "write_every"),
+    ] {
+        let mut args = vec!["render", scene, "-q", "--spp", "1", "-o", o];
+        args.extend_from_slice(flags);
+        let out = caustica(&args);
+        assert_fails_naming(&out, key);
+        assert!(!target.exists(), "{flags:?} wrote an image");
+    }
+    let run = dir.join("bad-photons.toml");
+    let gltf = common::data("cornell-box.gltf");
+    std::fs::write(&run, format!("gltf = {:?}\n[photons]\nmax_radius = -1.0\n", gltf.to_str().unwrap()))
+        .unwrap();
+    assert_fails_naming(&caustica(&["render", run.to_str().unwrap(), "-q", "-o", o]), "max_radius");
+    std::fs::write(&run, format!("gltf = {:?}\n[photons]\nk = 0\n", gltf.to_str().unwrap())).unwrap();
+    assert_fails_naming(&caustica(&["render", run.to_str().unwrap(), "-q", "-o", o]), "photons.k");
+}
+
+#[test]
+fn a_compare_window_outside_the_image_and_a_nan_bench_budget_are_refused() {
+    let reference = common::data("cornell-box.ref.exr");
+    let r = reference.to_str().unwrap();
+    let out = caustica(&["compare", r, r, "--window", "0,0,9999,10"]);
+    assert_fails_naming(&out, "--window");
+    let out = caustica(&["compare", r, r, "--window", "10,10,10,20"]);
+    assert_fails_naming(&out, "not a non-empty rectangle");
+    let dir = scratch("bench-nan");
+    let out = caustica(&[
+        "bench",
+        common::data("cornell-box.gltf").to_str().unwrap(),
+        "--time",
+        "1",
+        "--reference-time",
+        "NaN",
+        "--out-dir",
+        dir.to_str().unwrap(),
+    ]);
+    assert_fails_naming(&out, "--reference-time");
+}

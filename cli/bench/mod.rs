@@ -49,8 +49,12 @@ pub struct BenchReport {
 
 /// Run the benchmark that `args` describes.
 pub fn run(args: &BenchArgs) -> Result<BenchReport> {
-    if !(args.time.is_finite() && args.time > 0.0) {
-        return Err(Error::Setting { name: "time".into(), problem: format!("{} must be > 0", args.time) });
+    for (name, value) in [("--time", Some(args.time)), ("--reference-time", args.reference_time)] {
+        if let Some(v) = value
+            && !(v.is_finite() && v > 0.0)
+        {
+            return Err(Error::Setting { name: name.into(), problem: format!("{v} must be finite and > 0") });
+        }
     }
     std::fs::create_dir_all(&args.out_dir)
         .map_err(|source| Error::Io { path: args.out_dir.clone(), source })?;

@@ -36,7 +36,8 @@ pub fn load_with(path: &Path, overrides: impl FnOnce(&mut RunFile)) -> Result<(S
         }
     };
     overrides(&mut run);
-    run.environment.check().map_err(|problem| Error::Setting { name: "environment".into(), problem })?;
+    // The run file's own values were checked as it was read; what fails now came with the overrides.
+    run.check_settings().map_err(|problem| Error::Override { problem })?;
     let mut scene = match extension.as_deref() {
         Some("toml") => run.load_scene(path)?,
         _ => {

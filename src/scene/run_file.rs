@@ -452,8 +452,9 @@ impl RunFile {
         Ok(())
     }
 
-    /// Ranges serde cannot express; the message names the key.
-    fn check_settings(&self) -> Result<(), String> {
+    /// Ranges serde cannot express; the message names the key. Run after the command line's
+    /// overrides too (`scene::load_with`), so a setting is checked the same way however it arrives.
+    pub fn check_settings(&self) -> Result<(), String> {
         let finite = |key: &str, values: &[f32]| {
             if values.iter().all(|v| v.is_finite()) { Ok(()) } else { Err(format!("{key} must be finite")) }
         };
@@ -500,6 +501,10 @@ impl RunFile {
             finite(&format!("motion[{i}].translate"), &motion.translate)?;
         }
         self.progressive.check().map_err(|e| format!("progressive.{e}"))?;
+        self.photons.check().map_err(|e| format!("photons.{e}"))?;
+        if self.output.write_every == Some(0) {
+            return Err("output.write_every is 0, must be at least 1 (or absent)".to_owned());
+        }
         self.schedule.check(self.render.integrator)?;
         if let Some(t) = self.render.time_limit
             && !(t.is_finite() && t > 0.0)
@@ -509,6 +514,26 @@ impl RunFile {
         Ok(())
     }
 }
+
+impl PhotonSettings {
+    /// Which setting is out of range, if any (named as in the run file, without the table).
+    pub fn check(&self) -> Result<(), String> {
+        // With k = 1 the one photon lies on the rim of its own disc, where every kernel but the
+        // uniform one is zero: the estimate would be black.
+        if self.k < 2 {
+            return Err(format!("k is {}, must be at least 2 (100 by default)", self.k));
+        }
+        if let Some(r) = self.max_radius
+            && !(r.is_finite() && r > 0.0)
+        {
+            return Err(format!("max_radius is {r}, must be finite and > 0"));
+        }
+        Ok(())
+    }
+}
+
+/// Largest memory budget, MiB: 2^40 MiB = 1 EiB, so that its bytes fit a u64 (and no machine has more).
+pub const MAX_MEMORY_BUDGET_MIB: u64 = 1 << 40;
 
 /// Most hit points a pixel may have.
 pub const MAX_HIT_POINTS_PER_PIXEL: u32 = 256;
@@ -536,6 +561,11 @@ impl ProgressiveSettings {
             && !(r.is_finite() && r > 0.0)
         {
             return Err(format!("initial_radius is {r}, must be finite and > 0"));
+        }
+        if let Some(mib) = self.memory_budget_mib
+            && mib > MAX_MEMORY_BUDGET_MIB
+        {
+            return Err(format!("memory_budget_mib is {mib}, more than {MAX_MEMORY_BUDGET_MIB} (1 EiB)"));
         }
         if let Some(n) = self.hit_points_per_pixel
             && !(n.is_power_of_two() && n <= MAX_HIT_POINTS_PER_PIXEL)
