@@ -24,9 +24,13 @@ fn main() -> Result<()> {
     let _chrome_guard = logging::install_subscriber(profile.as_ref(), render_args.trace_chrome.as_deref())?;
     match cli.command {
         None | Some(Command::Render(_)) => {
-            render::render(&render_args)?;
+            let finished = render::render(&render_args)?;
             if let Some(profile) = profile {
                 println!("\nper-system profile (tracing spans)\n{}", profile.table());
+            }
+            if !finished {
+                drop(_chrome_guard);
+                std::process::exit(render::INTERRUPTED_EXIT);
             }
             Ok(())
         }

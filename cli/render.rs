@@ -4,6 +4,7 @@ use crate::args::RenderArgs;
 use crate::report::print_report;
 use anyhow::{Context, Result};
 use caustica::Renderer;
+use caustica::driver::StopReason;
 use caustica::driver::init_thread_pools;
 use caustica::film::output;
 use caustica::scene::{self, RunFile};
@@ -18,57 +19,138 @@ fn default_scene() -> PathBuf {
     if here.exists() { here } else { Path::new(env!("CARGO_MANIFEST_DIR")).join(DEFAULT_SCENE) }
 }
 
-/// Render the scene `args` name (or the default one) and write its outputs.
-pub fn render(args: &RenderArgs) -> Result<()> {
+/// Exit status of a render that a signal stopped: the image so far was written, but the render is not
+/// what was asked for (128 + SIGINT, as shells report it).
+pub const INTERRUPTED_EXIT: i32 = 130;
+
+/// Render the scene `args` name (or the default one) and write its outputs. Returns whether the render
+/// ran to its end (false: a signal stopped it, and the image so far was written).
+pub fn render(args: &RenderArgs) -> Result<bool> {
     let start = Instant::now();
     init_thread_pools(args.threads.map(usize::from));
     let scene_path = args.scene.clone().unwrap_or_else(default_scene);
+    if scene_path.is_dir() {
+        anyhow::bail!(
+            "{} is a directory: name a run file (.toml) or a glTF file (.gltf, .glb)",
+            scene_path.display()
+        );
+    }
     let (scene, run) = scene::load_with(&scene_path, |run| args.apply(run))?;
     let outputs = output_paths(args, &run, &scene_path);
-    for path in &outputs {
-        output::check_output_path(path)?;
-    }
+    check_outputs(&outputs, &inputs(args, &run, &scene_path))?;
     let reference = args.reference.as_deref().map(output::read_exr).transpose()?;
     let mut renderer =
         Renderer::new(scene, &run).with_context(|| format!("preparing {}", scene_path.display()))?;
+    if let Some(reference) = &reference {
+        let film = renderer.report();
+        if (reference.width, reference.height) != (film.width, film.height) {
+            anyhow::bail!(
+                "the reference {} is {}x{} but the image will be {}x{}",
+                args.reference.as_deref().unwrap_or(Path::new("")).display(),
+                reference.width,
+                reference.height,
+                film.width,
+                film.height
+            );
+        }
+    }
+    watch_for_signals(&renderer);
+    renderer.set_max_pass(run.output.write_every);
 
     let bar = if args.quiet { ProgressBar::hidden() } else { ProgressBar::new(renderer.target() as u64) };
-    let template = format!("{{bar:40}} {{pos}}/{{len}} {}  {{msg}}  ETA {{eta}}", renderer.plan.unit.name());
+    let template = format!("{{bar:40}} {{pos}}/{{len}} {}  ETA {{eta}}", renderer.plan.unit.name());
     bar.set_style(ProgressStyle::with_template(&template).expect("valid template"));
-    let (mut written_after, mut write_error) = (0, None);
+    let mut written_marks = 0;
     let report = renderer.run(run.render.time_limit, |renderer| {
-        bar.set_position(renderer.progress().done as u64);
-        // The image so far every K passes, so that a long render can be looked at while it runs.
-        let passes = renderer.passes();
-        if let Some(k) = run.output.write_every.filter(|&k| k > 0)
-            && passes % k == 0
-            && passes > written_after
-            && write_error.is_none()
-        {
-            written_after = passes;
+        let progress = renderer.progress();
+        bar.set_position(progress.done as u64);
+        // The image so far every K samples per pixel or passes, so that a long render can be looked at
+        // while it runs. A write that fails is reported and the render goes on: the final write
+        // tries again.
+        let Some(k) = run.output.write_every else { return };
+        let marks = progress.done as u32 / k;
+        if marks > written_marks && progress.done < progress.target as f64 {
+            written_marks = marks;
             let image = renderer.image();
-            write_error = outputs
-                .iter()
-                .map(|p| output::write_image(&image, p, run.film.exposure))
-                .find_map(|r| r.err());
+            for path in &outputs {
+                if let Err(e) = output::write_image(&image, path, run.film.exposure) {
+                    bar.suspend(|| tracing::warn!("{e}; rendering goes on"));
+                }
+            }
         }
     });
     bar.finish_and_clear();
-    if let Some(e) = write_error {
-        return Err(e.into());
-    }
     let image = renderer.image();
-    for path in &outputs {
-        output::write_image(&image, path, run.film.exposure)?;
-    }
+    let failed: Vec<String> = outputs
+        .iter()
+        .filter_map(|path| output::write_image(&image, path, run.film.exposure).err())
+        .map(|e| e.to_string())
+        .collect();
     print_report(&scene_path, &report, start.elapsed().as_secs_f64());
     if let Some(reference) = &reference {
-        let e = caustica::film::compare::compare(&image, reference)
-            .context("the reference's size differs from the image")?;
+        let e = caustica::film::compare::compare(&image, reference).expect("sizes checked before rendering");
         println!("error       RMSE {:.5}  relMSE {:.5}  MAE {:.5}", e.rmse, e.relmse, e.mae);
     }
     for path in &outputs {
         println!("wrote       {}", path.display());
+    }
+    if !failed.is_empty() {
+        anyhow::bail!("{}", failed.join("; "));
+    }
+    Ok(report.stopped_by != Some(StopReason::Interrupted))
+}
+
+/// SIGINT and SIGTERM raise the renderer's interrupt flag: the render stops at its next step and the
+/// image so far is written. A second signal exits at once.
+fn watch_for_signals(renderer: &Renderer) {
+    let flag = renderer.interrupt_flag();
+    let result = ctrlc::set_handler(move || {
+        if flag.swap(true, std::sync::atomic::Ordering::Relaxed) {
+            eprintln!("\nstopped at once: nothing more is written");
+            std::process::exit(INTERRUPTED_EXIT);
+        }
+        eprintln!(
+            "\nstopping: finishing the paths in flight and writing the image so far (again to quit now)"
+        );
+    });
+    if let Err(e) = result {
+        tracing::warn!("cannot watch for Ctrl-C: {e}; an interrupted render will not write its image");
+    }
+}
+
+/// The files a render reads: its outputs must not be any of them.
+fn inputs(args: &RenderArgs, run: &RunFile, scene_path: &Path) -> Vec<PathBuf> {
+    let beside = |p: &Path| scene_path.parent().unwrap_or(Path::new("")).join(p);
+    [
+        Some(scene_path.to_path_buf()),
+        run.gltf.as_deref().map(beside),
+        args.reference.clone(),
+        run.environment.file.as_deref().map(beside),
+    ]
+    .into_iter()
+    .flatten()
+    .collect()
+}
+
+/// Every output is a format we write, in a place we can write, and not one of the inputs (a reference
+/// or an environment map overwritten by the render it was meant for is lost).
+fn check_outputs(outputs: &[PathBuf], inputs: &[PathBuf]) -> Result<()> {
+    let same = |a: &Path, b: &Path| match (std::fs::canonicalize(a), std::fs::canonicalize(b)) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => false,
+    };
+    for (i, path) in outputs.iter().enumerate() {
+        if let Some(input) = inputs.iter().find(|input| same(path, input)) {
+            anyhow::bail!(
+                "{}: the output is also an input ({}): refusing to overwrite it",
+                path.display(),
+                input.display()
+            );
+        }
+        if outputs[..i].iter().any(|other| other == path || same(other, path)) {
+            anyhow::bail!("{}: named twice as an output", path.display());
+        }
+        output::check_output_path(path)?;
     }
     Ok(())
 }

@@ -19,6 +19,13 @@ pub fn print_report(scene: &Path, report: &Report, total_seconds: f64) {
         report.height
     );
     println!("time        {total_seconds:.3} s total, {:.3} s rendering", report.seconds);
+    match report.stopped_by {
+        Some(caustica::driver::StopReason::TimeLimit) => println!("stopped     by the time limit"),
+        Some(caustica::driver::StopReason::Interrupted) => {
+            println!("stopped     by a signal (Ctrl-C or SIGTERM): the image so far")
+        }
+        None => {}
+    }
     println!("phases      {}", phases(report));
     let paths = &report.paths;
     println!("samples/s   {:.3} M", report.samples_per_second() / 1e6);

@@ -12,6 +12,8 @@ use bevy_ecs::prelude::*;
 use caustica_core::error::Result;
 use caustica_core::film::Image;
 use caustica_core::scene::{RunFile, Scene};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 pub use crate::world::{DEFAULT_RESOLUTION, MAX_WAVEFRONT, init_thread_pools, resolution, scene_world};
@@ -50,6 +52,21 @@ pub struct Renderer {
     phase_times: Vec<PhaseTime>,
     /// Camera samples per pixel that one unit of progress stands for (`pm`: its final-gather rays).
     samples_per_unit: u32,
+    /// Set from outside (a signal handler, a host's UI) to stop the render at the next step.
+    interrupt: Arc<AtomicBool>,
+    /// Largest pass, in units (`None`: what the plan chooses).
+    max_pass: Option<u32>,
+    /// Why the last `run` ended early, if it did.
+    stopped_by: Option<StopReason>,
+}
+
+/// Why a render ended before its target.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StopReason {
+    /// The time limit passed.
+    TimeLimit,
+    /// The interrupt flag was raised (Ctrl-C, SIGTERM, a host).
+    Interrupted,
 }
 
 impl Renderer {
@@ -77,6 +94,9 @@ impl Renderer {
             seconds: 0.0,
             phase_times,
             samples_per_unit,
+            interrupt: Arc::new(AtomicBool::new(false)),
+            max_pass: None,
+            stopped_by: None,
         })
     }
 
@@ -90,6 +110,24 @@ impl Renderer {
     pub fn set_target(&mut self, target: u32) {
         self.target = target;
         self.stopped = false;
+        self.stopped_by = None;
+    }
+
+    /// The flag that stops the render at its next step when raised (from a signal handler or another
+    /// thread): no new work starts, what is in flight finishes, and the image so far stays valid.
+    pub fn interrupt_flag(&self) -> Arc<AtomicBool> {
+        self.interrupt.clone()
+    }
+
+    /// Cut passes to at most `units` samples per pixel (or passes), so that a caller gets control —
+    /// to write the image so far — that often; the sample integrators otherwise run one pass to the end.
+    pub fn set_max_pass(&mut self, units: Option<u32>) {
+        self.max_pass = units.filter(|&u| u > 0);
+    }
+
+    /// Why the last run stopped before its target, if it did.
+    pub fn stopped_by(&self) -> Option<StopReason> {
+        self.stopped_by
     }
 
     /// Passes run so far.
@@ -117,6 +155,7 @@ impl Renderer {
     pub fn run(&mut self, time_limit: Option<f64>, mut on_step: impl FnMut(&Renderer)) -> Report {
         let start = Instant::now();
         let deadline = time_limit.map(|limit| (start, limit));
+        self.stopped_by = None;
         while self.done < self.target && !self.stopped {
             self.run_pass(deadline, &mut on_step);
         }
@@ -127,7 +166,10 @@ impl Renderer {
     pub fn run_pass(&mut self, deadline: Option<(Instant, f64)>, on_step: &mut impl FnMut(&Renderer)) {
         let pass_start = Instant::now();
         let (index, begin) = (self.passes, self.done);
-        let end = (self.plan.pass_end)(begin, self.target).clamp(begin + 1, self.target.max(begin + 1));
+        let mut end = (self.plan.pass_end)(begin, self.target).clamp(begin + 1, self.target.max(begin + 1));
+        if let Some(units) = self.max_pass {
+            end = end.min(begin.saturating_add(units));
+        }
         self.world.insert_resource(PassRange { index, begin, end, stop: false });
         let _span = tracing::info_span!("pass", index).entered();
         for i in 0..self.plan.phases.len() {
@@ -141,9 +183,10 @@ impl Renderer {
                 self.plan.phases[i].schedule.run(&mut self.world);
                 runs += 1;
                 let Repeat::WhileBusy(busy) = self.plan.phases[i].repeat else { break };
-                if deadline.is_some_and(|(start, limit)| start.elapsed().as_secs_f64() >= limit) {
+                if let Some(reason) = self.should_stop(deadline) {
                     self.world.resource_mut::<PassRange>().stop = true;
                     self.stopped = true;
+                    self.stopped_by = Some(reason);
                 }
                 on_step(self);
                 if !busy(&self.world) {
@@ -158,10 +201,24 @@ impl Renderer {
         self.passes += 1;
         self.done = end;
         self.seconds += pass_start.elapsed().as_secs_f64();
-        if deadline.is_some_and(|(start, limit)| start.elapsed().as_secs_f64() >= limit) {
+        if let Some(reason) = self.should_stop(deadline)
+            && self.done < self.target
+        {
             self.stopped = true;
+            self.stopped_by.get_or_insert(reason);
         }
         on_step(self);
+    }
+
+    /// Whether to stop now, and why: the interrupt flag first, then the time limit.
+    fn should_stop(&self, deadline: Option<(Instant, f64)>) -> Option<StopReason> {
+        if self.interrupt.load(Ordering::Relaxed) {
+            Some(StopReason::Interrupted)
+        } else if deadline.is_some_and(|(start, limit)| start.elapsed().as_secs_f64() >= limit) {
+            Some(StopReason::TimeLimit)
+        } else {
+            None
+        }
     }
 
     /// The image so far.
@@ -185,6 +242,8 @@ impl Renderer {
         self.passes = 0;
         self.done = 0;
         self.stopped = false;
+        self.stopped_by = None;
+        self.interrupt.store(false, Ordering::Relaxed);
         self.seconds = 0.0;
         self.phase_times.iter_mut().for_each(|t| (t.seconds, t.runs) = (0.0, 0));
     }
@@ -210,6 +269,7 @@ impl Renderer {
             wavefront,
             photons: None,
             hit_points: None,
+            stopped_by: self.stopped_by,
         };
         (self.plan.report)(&self.world, &mut report);
         report

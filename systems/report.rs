@@ -97,6 +97,8 @@ pub struct Report {
     pub photons: Option<PhotonSummary>,
     /// Hit points, for the progressive integrators.
     pub hit_points: Option<HitPointSummary>,
+    /// Why the render stopped before its target, if it did.
+    pub stopped_by: Option<crate::driver::StopReason>,
 }
 
 impl Report {

@@ -5,43 +5,79 @@ use crate::error::{Error, Result};
 use glam::Vec3;
 use std::path::Path;
 
-/// Check that `path` names a format we write (.exr or .png), before any work is done.
+/// Check, before any work is done, that `path` names a format we write (.exr or .png) and a place we
+/// can write to: not a directory, in a directory that exists or can be made, where a file can be
+/// created (one is, and removed again).
 pub fn check_output_path(path: &Path) -> Result<()> {
-    match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
-        Some("exr" | "png") => Ok(()),
-        _ => Err(Error::Output {
-            path: path.to_path_buf(),
-            message: "unknown image format: use .exr or .png".into(),
-        }),
+    let out_err = |message: String| Error::Output { path: path.to_path_buf(), message };
+    match extension(path).as_deref() {
+        Some("exr" | "png") => {}
+        _ => return Err(out_err("unknown image format: use .exr or .png".into())),
     }
+    if path.is_dir() {
+        return Err(out_err("is a directory: name an image file inside it".into()));
+    }
+    let dir = output_dir(path);
+    std::fs::create_dir_all(dir).map_err(|e| out_err(format!("cannot create its folder: {e}")))?;
+    tempfile::Builder::new()
+        .prefix(".caustica-check-")
+        .tempfile_in(dir)
+        .map(drop)
+        .map_err(|e| out_err(format!("cannot write in {}: {e}", dir.display())))
 }
 
 /// Write `image` to `path`, choosing the format by extension (.exr linear, .png sRGB with
-/// `exposure` stops). The file is written to a temporary name first and renamed, so a failed write
-/// leaves no partial file behind.
+/// `exposure` stops). The bytes go to a file of a unique name beside `path`, which is then renamed
+/// over it: a failed write leaves the previous file as it was and nothing else, and two runs writing
+/// the same output cannot mix their bytes. The same image always gives the same bytes.
 pub fn write_image(image: &Image, path: &Path, exposure: f32) -> Result<()> {
     let out_err = |message: String| Error::Output { path: path.to_path_buf(), message };
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|e| out_err(format!("cannot create folder: {e}")))?;
-    }
-    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
-    let tmp = path.with_extension(format!("partial.{}", ext.as_deref().unwrap_or("tmp")));
-    let result = match ext.as_deref() {
-        Some("exr") => write_exr(image, &tmp),
-        Some("png") => write_png(image, &tmp, exposure),
+    let dir = output_dir(path);
+    std::fs::create_dir_all(dir).map_err(|e| out_err(format!("cannot create folder: {e}")))?;
+    let name = path.file_name().map_or("image".into(), |n| n.to_string_lossy().into_owned());
+    let prefix = format!(".{name}.");
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(&prefix).suffix(".partial");
+    // An image is an ordinary file: readable as the umask allows, not the 0600 of a temporary one.
+    #[cfg(unix)]
+    builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
+    let mut file = builder
+        .tempfile_in(dir)
+        .map_err(|e| out_err(format!("cannot create a file in {}: {e}", dir.display())))?;
+    match extension(path).as_deref() {
+        Some("exr") => write_exr(image, &mut file),
+        Some("png") => write_png(image, &mut file, exposure),
         _ => return Err(out_err("unknown image format: use .exr or .png".into())),
-    };
-    result.map_err(out_err)?;
-    std::fs::rename(&tmp, path).map_err(|e| out_err(e.to_string()))
+    }
+    .map_err(out_err)?;
+    file.as_file().sync_all().map_err(|e| out_err(e.to_string()))?;
+    file.persist(path).map(drop).map_err(|e| out_err(e.error.to_string()))
 }
 
-fn write_exr(image: &Image, path: &Path) -> Result<(), String> {
+/// The lower-case extension of `path`.
+fn extension(path: &Path) -> Option<String> {
+    path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase)
+}
+
+/// The directory an output goes to (the working directory for a bare file name).
+fn output_dir(path: &Path) -> &Path {
+    path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."))
+}
+
+fn write_exr(image: &Image, out: &mut (impl std::io::Write + std::io::Seek)) -> Result<(), String> {
+    use exr::prelude::{SpecificChannels, Vec2, WritableImage};
     let w = image.width as usize;
-    exr::prelude::write_rgb_file(path, w, image.height as usize, |x, y| {
-        let p = image.pixels[y * w + x];
+    let pixels: &[Vec3] = &image.pixels;
+    let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
+        let p: Vec3 = pixels[y * w + x];
         (p.x, p.y, p.z)
-    })
-    .map_err(|e| e.to_string())
+    });
+    // One thread: compressed blocks in a fixed order, so identical images write identical bytes.
+    exr::prelude::Image::from_channels((w, image.height as usize), channels)
+        .write()
+        .non_parallel()
+        .to_buffered(out)
+        .map_err(|e| e.to_string())
 }
 
 /// The sRGB transfer function (IEC 61966-2-1).
@@ -49,7 +85,11 @@ pub fn linear_to_srgb(v: f32) -> f32 {
     if v <= 0.003_130_8 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 }
 }
 
-fn write_png(image: &Image, path: &Path, exposure: f32) -> Result<(), String> {
+fn write_png(
+    image: &Image,
+    out: &mut (impl std::io::Write + std::io::Seek),
+    exposure: f32,
+) -> Result<(), String> {
     let scale = 2f32.powf(exposure);
     let bytes: Vec<u8> = image
         .pixels
@@ -59,8 +99,8 @@ fn write_png(image: &Image, path: &Path, exposure: f32) -> Result<(), String> {
             [c.x, c.y, c.z].map(|v| (linear_to_srgb(v.clamp(0.0, 1.0)) * 255.0 + 0.5) as u8)
         })
         .collect();
-    image::save_buffer_with_format(
-        path,
+    image::write_buffer_with_format(
+        &mut std::io::BufWriter::new(out),
         &bytes,
         image.width,
         image.height,

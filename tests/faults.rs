@@ -1,0 +1,239 @@
+//! Faults lose nothing: outputs are checked before rendering and never overwrite an input; a signal
+//! stops a render at its next step and writes the image so far; writes go through a unique temporary
+//! file and a rename, so a failed or killed writer leaves the previous file and nothing else; one
+//! failing output never stops the others; identical runs write identical bytes.
+
+mod common;
+
+use caustica::film::output::read_exr;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::time::Duration;
+
+fn caustica(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_caustica")).args(args).output().expect("caustica runs")
+}
+
+fn spawn(args: &[&str]) -> Child {
+    Command::new(env!("CARGO_BIN_EXE_caustica"))
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("caustica starts")
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("caustica-faults-{}-{name}", std::process::id()));
+    std::fs::remove_dir_all(&dir).ok();
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn box_scene() -> String {
+    common::data("cornell-box.gltf").to_str().unwrap().to_owned()
+}
+
+fn signal(child: &Child, name: &str) {
+    let status = Command::new("kill").args([&format!("-{name}"), &child.id().to_string()]).status().unwrap();
+    assert!(status.success(), "kill -{name}");
+}
+
+/// Files in `dir` whose name says they are a temporary write.
+fn leftovers(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".partial") || n.starts_with(".caustica-check-"))
+        .collect()
+}
+
+#[test]
+fn an_output_that_cannot_be_written_is_refused_before_rendering() {
+    let dir = scratch("unwritable");
+    let good = dir.join("a.exr");
+    for bad in ["/proc/caustica.exr", dir.to_str().unwrap()] {
+        let out =
+            caustica(&["render", &box_scene(), "-q", "--spp", "1", "-o", good.to_str().unwrap(), "-o", bad]);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && stderr.contains(bad), "{bad}: {stderr}");
+        assert!(String::from_utf8_lossy(&out.stdout).is_empty(), "{bad}: it rendered");
+        assert!(!good.exists(), "{bad}: the other output was written before the check");
+    }
+}
+
+#[test]
+fn an_input_is_never_overwritten_by_an_output() {
+    let dir = scratch("inputs");
+    let reference = dir.join("ref.exr");
+    std::fs::copy(common::data("cornell-box.ref.exr"), &reference).unwrap();
+    let before = std::fs::read(&reference).unwrap();
+    let r = reference.to_str().unwrap();
+    let out = caustica(&["render", &box_scene(), "-q", "--spp", "1", "--reference", r, "-o", r]);
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("also an input"));
+    let sky = dir.join("sky.exr");
+    std::fs::copy(common::data("cornell-box.ref.exr"), &sky).unwrap();
+    let s = sky.to_str().unwrap();
+    let out = caustica(&["render", &box_scene(), "-q", "--spp", "1", "--environment", s, "-o", s]);
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("also an input"));
+    assert_eq!(std::fs::read(&reference).unwrap(), before, "the reference was changed");
+    assert_eq!(std::fs::read(&sky).unwrap(), before, "the map was changed");
+}
+
+/// SIGINT or SIGTERM: the render stops at its next step, writes a valid image of the samples or
+/// passes so far, says so, and exits 130; nothing temporary is left.
+#[test]
+fn a_signal_stops_the_render_and_writes_the_image_so_far() {
+    for (integrator, unit, sig) in [("pt", "--spp", "INT"), ("sppm", "--passes", "TERM")] {
+        let dir = scratch(&format!("signal-{integrator}"));
+        let target = dir.join("out.exr");
+        let child = spawn(&[
+            "render",
+            &box_scene(),
+            "-q",
+            "--integrator",
+            integrator,
+            unit,
+            "1000000",
+            "--width",
+            "48",
+            "--height",
+            "48",
+            "--photons-per-pass",
+            "5000",
+            "-o",
+            target.to_str().unwrap(),
+        ]);
+        std::thread::sleep(Duration::from_millis(1500));
+        signal(&child, sig);
+        let out = child.wait_with_output().unwrap();
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert_eq!(out.status.code(), Some(130), "{integrator}: {stdout}");
+        assert!(stdout.contains("stopped     by a signal"), "{integrator}: {stdout}");
+        let image = read_exr(&target).unwrap_or_else(|e| panic!("{integrator}: {e}"));
+        assert!(image.pixels.iter().all(|p| p.is_finite()) && image.mean().max_element() > 0.0);
+        assert!(leftovers(&dir).is_empty(), "{integrator}: {:?}", leftovers(&dir));
+    }
+}
+
+/// `--write-every` writes the image so far for every integrator (for `pt` every K samples per pixel):
+/// a render killed outright (SIGKILL, nothing can run) leaves the last complete image.
+#[test]
+fn write_every_leaves_a_complete_image_when_the_process_is_killed() {
+    let dir = scratch("killed");
+    let target = dir.join("out.exr");
+    let child = spawn(&[
+        "render",
+        &box_scene(),
+        "-q",
+        "--spp",
+        "1000000",
+        "--write-every",
+        "1",
+        "--width",
+        "48",
+        "--height",
+        "48",
+        "-o",
+        target.to_str().unwrap(),
+    ]);
+    std::thread::sleep(Duration::from_millis(1500));
+    signal(&child, "KILL");
+    child.wait_with_output().unwrap();
+    let image = read_exr(&target).expect("a periodic write left a complete image");
+    assert!(image.mean().max_element() > 0.0);
+}
+
+/// An output whose folder turns into a file while the render runs: its periodic and final writes
+/// fail and are reported, the render goes on to its end, and the other output gets the final image.
+#[test]
+fn one_failing_output_does_not_stop_the_render_or_the_others() {
+    let dir = scratch("one-fails");
+    let (lost, kept) = (dir.join("lost"), dir.join("kept"));
+    std::fs::create_dir_all(&lost).unwrap();
+    let (a, b) = (lost.join("a.exr"), kept.join("b.exr"));
+    let child = spawn(&[
+        "render",
+        &box_scene(),
+        "-q",
+        "--integrator",
+        "sppm",
+        "--passes",
+        "60",
+        "--photons-per-pass",
+        "20000",
+        "--width",
+        "48",
+        "--height",
+        "48",
+        "--write-every",
+        "1",
+        "-o",
+        a.to_str().unwrap(),
+        "-o",
+        b.to_str().unwrap(),
+    ]);
+    std::thread::sleep(Duration::from_millis(800));
+    std::fs::remove_dir_all(&lost).unwrap();
+    std::fs::write(&lost, "now a file").unwrap();
+    let out = child.wait_with_output().unwrap();
+    let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert!(!out.status.success(), "a lost output is a failure");
+    assert!(stderr.contains("a.exr"), "{stderr}");
+    assert!(stdout.contains("sppm, 60 passes"), "the render ran to its end: {stdout}");
+    assert!(read_exr(&b).is_ok(), "the other output has the final image");
+}
+
+/// Two runs writing the same output at once both succeed and leave one complete image, and a file of
+/// the name the old fixed temporary name used is not touched.
+#[test]
+fn concurrent_writers_of_one_output_do_not_collide() {
+    let dir = scratch("concurrent");
+    let target = dir.join("same.exr");
+    let bystander = dir.join("same.partial.exr");
+    std::fs::write(&bystander, "mine").unwrap();
+    let args = [
+        "render",
+        &box_scene(),
+        "-q",
+        "--spp",
+        "8",
+        "--width",
+        "64",
+        "--height",
+        "64",
+        "-o",
+        target.to_str().unwrap(),
+    ];
+    let (first, second) = (spawn(&args), spawn(&args));
+    assert!(first.wait_with_output().unwrap().status.success());
+    assert!(second.wait_with_output().unwrap().status.success());
+    assert!(read_exr(&target).is_ok());
+    assert_eq!(std::fs::read_to_string(&bystander).unwrap(), "mine");
+    assert!(leftovers(&dir).is_empty(), "{:?}", leftovers(&dir));
+}
+
+/// The same render twice writes the same bytes (the EXR's compressed blocks were written in thread
+/// order, so two runs at 600×600 differed though their pixels did not).
+#[test]
+fn identical_runs_write_identical_bytes() {
+    let dir = scratch("bytes");
+    let (a, b) = (dir.join("a.exr"), dir.join("b.exr"));
+    for path in [&a, &b] {
+        let out = caustica(&[
+            "render",
+            &box_scene(),
+            "-q",
+            "--spp",
+            "1",
+            "--width",
+            "600",
+            "--height",
+            "600",
+            "-o",
+            path.to_str().unwrap(),
+        ]);
+        assert!(out.status.success());
+    }
+    assert!(std::fs::read(&a).unwrap() == std::fs::read(&b).unwrap(), "the two files differ");
+}
