@@ -210,7 +210,8 @@ pub struct RenderArgs {
     /// Progressive photon mapping: first gather radius in scene units; overrides the run file.
     #[arg(long)]
     pub initial_radius: Option<f32>,
-    /// Progressive photon mapping: memory budget for hit points and photons, MiB; overrides the run file.
+    /// Memory the film, paths, photons and hit points may take, MiB (default: half the RAM); checked
+    /// before anything is allocated; overrides the run file.
     #[arg(long)]
     pub memory_budget_mib: Option<u64>,
     /// Progressive photon mapping: hit points per pixel, a power of two, stratified over the pixel
@@ -238,6 +239,14 @@ pub struct RenderArgs {
     pub quiet: bool,
 }
 
+/// A budget on the command line replaces the run file's, wherever the run file put it.
+fn apply_memory_budget(run: &mut RunFile, mib: Option<u64>) {
+    if let Some(mib) = mib {
+        run.render.memory_budget_mib = Some(mib);
+        run.progressive.memory_budget_mib = None;
+    }
+}
+
 impl RenderArgs {
     /// Apply the command-line overrides to a run file.
     pub fn apply(&self, run: &mut RunFile) {
@@ -255,7 +264,6 @@ impl RenderArgs {
         g.photons_per_pass = self.photons_per_pass.unwrap_or(g.photons_per_pass);
         g.alpha = self.alpha.unwrap_or(g.alpha);
         g.initial_radius = self.initial_radius.or(g.initial_radius);
-        g.memory_budget_mib = self.memory_budget_mib.or(g.memory_budget_mib);
         g.hit_points_per_pixel = self.hit_points_per_pixel.or(g.hit_points_per_pixel);
         run.output.write_every = self.write_every.or(run.output.write_every);
         let p = &mut run.photons;
@@ -279,6 +287,7 @@ impl RenderArgs {
         c.up = self.up.map(|t| t.0).or(c.up);
         c.yfov_degrees = self.yfov.or(c.yfov_degrees);
         self.environment.apply(&mut run.environment);
+        apply_memory_budget(run, self.memory_budget_mib);
     }
 }
 

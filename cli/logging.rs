@@ -6,6 +6,43 @@ use anyhow::{Context, Result};
 use std::path::Path;
 use tracing_subscriber::EnvFilter;
 
+/// Whether writing the Chrome trace failed (the trace's writer thread cannot return an error).
+pub static TRACE_FAILED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// The Chrome trace's file: a write error (a full disk) is reported once and recorded instead of
+/// panicking the writer thread, and the command then exits non-zero.
+struct TraceWriter {
+    file: std::io::BufWriter<std::fs::File>,
+    path: std::path::PathBuf,
+}
+
+impl TraceWriter {
+    fn record<T>(&self, result: std::io::Result<T>, len: usize) -> std::io::Result<usize> {
+        if let Err(e) = result
+            && !TRACE_FAILED.swap(true, std::sync::atomic::Ordering::Relaxed)
+        {
+            eprintln!("error: {}: cannot write the Chrome trace: {e}", self.path.display());
+        }
+        Ok(len)
+    }
+}
+
+impl std::io::Write for TraceWriter {
+    fn write(&mut self, bytes: &[u8]) -> std::io::Result<usize> {
+        let result = if TRACE_FAILED.load(std::sync::atomic::Ordering::Relaxed) {
+            Ok(())
+        } else {
+            self.file.write_all(bytes)
+        };
+        self.record(result, bytes.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        let result = self.file.flush();
+        self.record(result, 0).map(drop)
+    }
+}
+
 /// Log to stderr (RUST_LOG, default warn), plus the profile and Chrome-trace layers when asked for.
 /// The log filter applies to the log layer only, so the others see every system span.
 pub fn install_subscriber(
@@ -25,7 +62,7 @@ pub fn install_subscriber(
             let file = std::fs::File::create(path)
                 .with_context(|| format!("{}: cannot create the Chrome trace", path.display()))?;
             let (layer, guard) = tracing_chrome::ChromeLayerBuilder::new()
-                .writer(std::io::BufWriter::new(file))
+                .writer(TraceWriter { file: std::io::BufWriter::new(file), path: path.to_path_buf() })
                 .name_fn(Box::new(|event_or_span| match event_or_span {
                     tracing_chrome::EventOrSpan::Span(span) => span_label(span),
                     tracing_chrome::EventOrSpan::Event(event) => event.metadata().name().to_owned(),

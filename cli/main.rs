@@ -14,7 +14,18 @@ use args::{Cli, Command, RenderArgs};
 use clap::Parser;
 use profile::SystemProfile;
 
-fn main() -> Result<()> {
+fn main() -> std::process::ExitCode {
+    match run() {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(error) => {
+            // The cause chain on one line, and no backtrace: these are the user's errors to fix.
+            eprintln!("error: {error:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+fn run() -> Result<()> {
     let cli = Cli::parse();
     let render_args = match &cli.command {
         Some(Command::Render(args)) => (**args).clone(),
@@ -28,9 +39,13 @@ fn main() -> Result<()> {
             if let Some(profile) = profile {
                 println!("\nper-system profile (tracing spans)\n{}", profile.table());
             }
+            // Flush the trace before judging it.
+            drop(_chrome_guard);
             if !finished {
-                drop(_chrome_guard);
                 std::process::exit(render::INTERRUPTED_EXIT);
+            }
+            if logging::TRACE_FAILED.load(std::sync::atomic::Ordering::Relaxed) {
+                anyhow::bail!("the Chrome trace could not be written");
             }
             Ok(())
         }

@@ -237,3 +237,93 @@ fn identical_runs_write_identical_bytes() {
     }
     assert!(std::fs::read(&a).unwrap() == std::fs::read(&b).unwrap(), "the two files differ");
 }
+
+fn assert_fails_naming(out: &Output, needle: &str) {
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "expected a failure naming {needle:?}: {stderr}");
+    assert!(stderr.contains(needle), "stderr does not name {needle:?}: {stderr}");
+    assert!(!stderr.contains("panicked") && !stderr.contains("backtrace"), "{stderr}");
+}
+
+/// What used to abort, hang or panic now fails with a message, before allocating.
+#[test]
+fn oversized_requests_and_hostile_files_fail_with_a_message() {
+    let dir = scratch("hostile");
+    let o = dir.join("x.exr");
+    let o = o.to_str().unwrap();
+    let scene = box_scene();
+    // A 32768² film is 28 GiB; photon maps of 2^32 photons far more: both over a 1 GiB budget.
+    let out = caustica(&[
+        "render",
+        &scene,
+        "-q",
+        "--width",
+        "32768",
+        "--height",
+        "32768",
+        "--memory-budget-mib",
+        "1024",
+        "-o",
+        o,
+    ]);
+    assert_fails_naming(&out, "memory_budget_mib");
+    let out = caustica(&["render", &scene, "-q", "--integrator", "pm", "--photons", "4294967295", "-o", o]);
+    assert_fails_naming(&out, "photons");
+    // A POSITION accessor with no bufferView (all zeros) declaring 2^40 vertices.
+    let gltf = dir.join("huge.gltf");
+    std::fs::write(
+        &gltf,
+        r#"{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],
+        "meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],
+        "accessors":[{"componentType":5126,"count":1099511627776,"type":"VEC3","min":[0,0,0],"max":[0,0,0]}]}"#,
+    )
+    .unwrap();
+    let out = caustica(&["render", gltf.to_str().unwrap(), "-q", "-o", o]);
+    assert_fails_naming(&out, "huge.gltf");
+    // A buffer naming a device, which never ends.
+    let device = dir.join("device.gltf");
+    std::fs::write(
+        &device,
+        r#"{"asset":{"version":"2.0"},"buffers":[{"uri":"../../../../../../dev/zero","byteLength":64}]}"#,
+    )
+    .unwrap();
+    let out = caustica(&["render", device.to_str().unwrap(), "-q", "-o", o]);
+    assert_fails_naming(&out, "not a regular file");
+    // Data whose spread overflows; a trace that cannot be written.
+    let traced = dir.join("traced.exr");
+    let data = dir.join("wide.txt");
+    std::fs::write(&data, "1e308 -1e308 0").unwrap();
+    let out = caustica(&["density", data.to_str().unwrap(), "-o", dir.join("d.png").to_str().unwrap()]);
+    assert_fails_naming(&out, "wide.txt");
+    let out = caustica(&[
+        "render",
+        &scene,
+        "-q",
+        "--spp",
+        "1",
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "--trace-chrome",
+        "/dev/full",
+        "-o",
+        traced.to_str().unwrap(),
+    ]);
+    assert_fails_naming(&out, "/dev/full");
+    assert!(read_exr(&traced).is_ok(), "the image is written all the same");
+    // A PNG renamed .hdr is not a map.
+    let png = dir.join("sky.png");
+    caustica::film::output::write_image(
+        &caustica::film::Image { width: 4, height: 2, pixels: vec![glam::Vec3::ONE; 8] },
+        &png,
+        0.0,
+    )
+    .unwrap();
+    let fake = dir.join("sky.hdr");
+    std::fs::rename(&png, &fake).unwrap();
+    let out =
+        caustica(&["render", &scene, "-q", "--spp", "1", "--environment", fake.to_str().unwrap(), "-o", o]);
+    assert_fails_naming(&out, "not a Radiance HDR");
+    assert!(!Path::new(o).exists());
+}

@@ -25,5 +25,16 @@ pub fn read_data(path: &Path) -> Result<Vec<f64>> {
     if data.len() < 2 {
         return Err(Error::Data { path: path.into(), message: "needs at least two numbers".into() });
     }
+    // Bandwidths, plots and their axes take differences and squares of the data: they must stay finite.
+    let (lo, hi) =
+        data.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+    if !((hi - lo) * (hi - lo)).is_finite() || !(hi.abs().max(lo.abs()) * 2.0).powi(2).is_finite() {
+        return Err(Error::Data {
+            path: path.into(),
+            message: format!(
+                "the numbers span {lo:e} to {hi:e}: too wide for their spread to be computed (keep them within ±1e150)"
+            ),
+        });
+    }
     Ok(data)
 }

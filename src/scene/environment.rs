@@ -109,10 +109,18 @@ impl EnvironmentDesc {
 }
 
 fn read_hdr(path: &Path) -> Result<Image> {
-    let decoded = image::ImageReader::open(path)
+    let reader = image::ImageReader::open(path)
         .map_err(|source| Error::Io { path: path.to_path_buf(), source })?
         .with_guessed_format()
-        .map_err(|source| Error::Io { path: path.to_path_buf(), source })?
+        .map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+    // Guessing from the content would decode a PNG renamed .hdr as an 8-bit map, clipped at 1.
+    if let Some(format) = reader.format().filter(|&f| f != image::ImageFormat::Hdr) {
+        return Err(Error::Image {
+            path: path.to_path_buf(),
+            message: format!("named .hdr but its content is {format:?}, not a Radiance HDR image"),
+        });
+    }
+    let decoded = reader
         .decode()
         .map_err(|e| Error::Image { path: path.to_path_buf(), message: format!("not a readable HDR: {e}") })?
         .into_rgb32f();

@@ -121,6 +121,9 @@ pub struct RenderSettings {
     pub sampler: crate::sampling::SamplerKind,
     /// Wall-clock budget in seconds: rendering stops at the first of this and the sample/pass count.
     pub time_limit: Option<f64>,
+    /// Memory the film, the paths, photons and hit points may take, in MiB; `None` is half the
+    /// machine's memory. Checked before anything is allocated.
+    pub memory_budget_mib: Option<u64>,
 }
 
 impl Default for RenderSettings {
@@ -135,6 +138,7 @@ impl Default for RenderSettings {
             light_selection: LightSelection::Power,
             sampler: crate::sampling::SamplerKind::Sobol,
             time_limit: None,
+            memory_budget_mib: None,
         }
     }
 }
@@ -300,7 +304,7 @@ pub struct ProgressiveSettings {
     pub alpha: f32,
     /// First gather radius in scene units; `None` picks it from the scene's area and the photon count.
     pub initial_radius: Option<f32>,
-    /// Memory the hit points and photons may take, in MiB; `None` is half the machine's memory.
+    /// The same budget as `[render] memory_budget_mib` (kept here for the run files that set it here).
     pub memory_budget_mib: Option<u64>,
     /// Hit points per pixel, a power of two: the points of a (0, m, 2)-net over the pixel filter, each
     /// with its own radius and statistics. `None`: 32 for `ppm`, whose hit points are traced once and
@@ -511,6 +515,13 @@ impl RunFile {
         {
             return Err(format!("render.time_limit is {t}, must be finite and > 0"));
         }
+        if let Some(mib) = self.render.memory_budget_mib
+            && mib > MAX_MEMORY_BUDGET_MIB
+        {
+            return Err(format!(
+                "render.memory_budget_mib is {mib}, more than {MAX_MEMORY_BUDGET_MIB} (1 EiB)"
+            ));
+        }
         Ok(())
     }
 }
@@ -534,6 +545,13 @@ impl PhotonSettings {
 
 /// Largest memory budget, MiB: 2^40 MiB = 1 EiB, so that its bytes fit a u64 (and no machine has more).
 pub const MAX_MEMORY_BUDGET_MIB: u64 = 1 << 40;
+
+impl RunFile {
+    /// The memory budget in bytes: `[render]`'s, else `[progressive]`'s, else `default`.
+    pub fn memory_budget_bytes(&self, default: u64) -> u64 {
+        self.render.memory_budget_mib.or(self.progressive.memory_budget_mib).map_or(default, |mib| mib << 20)
+    }
+}
 
 /// Most hit points a pixel may have.
 pub const MAX_HIT_POINTS_PER_PIXEL: u32 = 256;

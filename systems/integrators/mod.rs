@@ -25,12 +25,58 @@ pub fn check(pixels: u64, scene: &Scene, run: &RunFile) -> Result<()> {
     let kind = run.render.integrator;
     run.schedule.check(kind).map_err(|problem| Error::Setting { name: "schedule".into(), problem })?;
     if kind.is_progressive() {
-        progressive::check(pixels, scene, run)
-    } else if run.render.spp == 0 {
-        Err(Error::Setting { name: "spp".into(), problem: "must be at least 1".into() })
-    } else {
-        Ok(())
+        return progressive::check(pixels, scene, run);
     }
+    if run.render.spp == 0 {
+        return Err(Error::Setting { name: "spp".into(), problem: "must be at least 1".into() });
+    }
+    check_memory(run, sample_integrator_bytes(pixels, run), || match kind {
+        IntegratorKind::Pm => format!(
+            "a {pixels}-pixel film, its paths and the maps of {} + {} photons",
+            run.photons.photons, run.photons.caustic_photons
+        ),
+        _ => format!("a {pixels}-pixel film and its paths"),
+    })
+}
+
+/// Bytes a sample integrator needs: the film (f64 sums and counts per pixel), its wavefront of paths,
+/// and for `pm` its photon maps (each stored photon twice while its kd-tree is built; a photon is
+/// stored about 1/(1 − albedo) times, counted as 4).
+fn sample_integrator_bytes(pixels: u64, run: &RunFile) -> u64 {
+    use crate::components::{PathHit, PathRay, PathState, ShadowRay};
+    const STORES_PER_PHOTON: u64 = 4;
+    let film = pixels * (size_of::<glam::DVec3>() + size_of::<u32>()) as u64;
+    let path = (size_of::<PathRay>() + size_of::<PathHit>() + size_of::<PathState>() + size_of::<ShadowRay>())
+        as u64;
+    let paths = pixels.min(crate::world::MAX_WAVEFRONT as u64) * path;
+    let photons = if run.render.integrator == IntegratorKind::Pm {
+        (run.photons.photons as u64 + run.photons.caustic_photons as u64)
+            * STORES_PER_PHOTON
+            * 2
+            * size_of::<caustica_core::photon::Photon>() as u64
+    } else {
+        0
+    };
+    film + paths + photons
+}
+
+/// Refuse a render whose `needed` bytes exceed the memory budget (the run's, else half the machine's),
+/// before anything is allocated; `what` says what needs them.
+pub fn check_memory(run: &RunFile, needed: u64, what: impl FnOnce() -> String) -> Result<()> {
+    let budget = run.memory_budget_bytes(crate::world::physical_memory_bytes() / 2);
+    if needed > budget {
+        return Err(Error::Setting {
+            name: "render.memory_budget_mib".into(),
+            problem: format!(
+                "{} need {} MiB, over the budget of {} MiB: lower the resolution or the photon counts, or raise \
+                 the budget (--memory-budget-mib)",
+                what(),
+                needed >> 20,
+                budget >> 20
+            ),
+        });
+    }
+    Ok(())
 }
 
 /// Build the integrator the run asks for in `world` (which holds the scene's resources, as

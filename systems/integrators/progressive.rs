@@ -32,7 +32,6 @@ use crate::resources::{
 use crate::scatter::scatter_to_visible_points;
 use crate::trace::{trace_paths, trace_shadow_rays};
 use crate::world::MAX_WAVEFRONT;
-use crate::world::physical_memory_bytes;
 use bevy_ecs::prelude::*;
 use caustica_core::error::{Error, Result};
 use caustica_core::film::Image;
@@ -86,20 +85,12 @@ pub fn check(pixels: u64, scene: &Scene, run: &RunFile) -> Result<()> {
         + settings.photons_per_pass as u64 * BYTES_PER_PHOTON as u64
         + photon_wavefront as u64
             * (size_of::<PhotonState>() + size_of::<PhotonRay>() + size_of::<PhotonHit>()) as u64;
-    let budget = settings.memory_budget_mib.map_or(physical_memory_bytes() / 2, |mib| mib << 20);
-    if needed > budget {
-        return Err(Error::Setting {
-            name: "progressive.memory_budget_mib".into(),
-            problem: format!(
-                "{hit_points} hit points ({BYTES_PER_HIT_POINT} bytes each) and {} photons per pass need {} MiB, over \
-                 the budget of {} MiB: lower the resolution, hit_points_per_pixel or photons_per_pass, or raise the budget",
-                settings.photons_per_pass,
-                needed >> 20,
-                budget >> 20
-            ),
-        });
-    }
-    Ok(())
+    super::check_memory(run, needed, || {
+        format!(
+            "{hit_points} hit points ({BYTES_PER_HIT_POINT} bytes each, see hit_points_per_pixel) and {} photons per pass",
+            settings.photons_per_pass
+        )
+    })
 }
 
 /// The plan of a progressive integrator for the scene in `world`.

@@ -261,6 +261,10 @@ fn check_normalized(accessor: &Accessor, what: &str) -> Result<(), String> {
     ))
 }
 
+/// Most elements an accessor without a bufferView (all zeros) may declare: 2^28, beyond any mesh a
+/// renderer of this machine's memory can hold.
+const MAX_ZERO_ACCESSOR_COUNT: usize = 1 << 28;
+
 /// Collects an accessor's values; `values` is `None` when its data lies outside its buffer, or when it has no
 /// bufferView, which glTF defines as all zeros.
 fn read<T: Default + Clone>(
@@ -271,6 +275,15 @@ fn read<T: Default + Clone>(
     match values {
         Some(values) => Ok(values.collect()),
         None if accessor.view().is_none() && accessor.sparse().is_none() => {
+            // No data behind it bounds the count of an all-zeros accessor, so the file's word must be
+            // checked before it is allocated.
+            if accessor.count() > MAX_ZERO_ACCESSOR_COUNT {
+                return Err(format!(
+                    "{what} ({}) has no bufferView and a count of {}, over the {MAX_ZERO_ACCESSOR_COUNT} a mesh may have",
+                    label("accessor", accessor.name(), accessor.index()),
+                    accessor.count()
+                ));
+            }
             Ok(vec![T::default(); accessor.count()])
         }
         None => Err(format!(

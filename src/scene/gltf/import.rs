@@ -43,6 +43,12 @@ pub(super) fn import(
         let object = label("buffer", buffer.name(), buffer.index());
         if let gltf::buffer::Source::Uri(uri) = buffer.source() {
             check_uri(uri).map_err(|problem| gltf_error(format!("{object}: {problem}")))?;
+            if let Some(file) = read_external(uri, base, buffer.length())
+                .map_err(|problem| gltf_error(format!("{object} ({}): {problem}", describe_uri(uri, base))))?
+            {
+                buffers.push(file);
+                continue;
+            }
         }
         let data = gltf::buffer::Data::from_source_and_blob(buffer.source(), Some(base), &mut blob).map_err(
             |e| {
@@ -93,6 +99,14 @@ pub(super) fn import(
     }
     let mut images = Vec::with_capacity(document.images().len());
     for image in document.images() {
+        if let gltf::image::Source::Uri { uri, .. } = image.source()
+            && !uri.starts_with("data:")
+        {
+            let object = label("image", image.name(), image.index());
+            check_regular_file(&base.join(decode_uri(uri)), MAX_IMAGE_FILE_BYTES).map_err(|problem| {
+                gltf_error(format!("{object} ({}): {problem}", describe_uri(uri, base)))
+            })?;
+        }
         let data = gltf::image::Data::from_source(image.source(), Some(base), &buffers).map_err(|e| {
             let source = match image.source() {
                 gltf::image::Source::Uri { uri, .. } => describe_uri(uri, base),
@@ -145,12 +159,53 @@ fn describe(error: &gltf::Error) -> String {
     }
 }
 
-/// The gltf crate unwraps the UTF-8 decoding of a percent-encoded relative URI, so reject those it would panic on.
-fn check_uri(uri: &str) -> Result<(), String> {
-    // Only relative references are percent-decoded; `data:` and `file:` URIs are taken as they are.
-    if uri.contains(':') {
-        return Ok(());
+/// Largest image file a glTF may name: decoding reads it whole.
+const MAX_IMAGE_FILE_BYTES: u64 = 1 << 31;
+
+/// An external buffer (a relative or `file:` URI), read to its declared `length` and no further: the
+/// gltf crate would read the whole file, and a URI naming a device (`/dev/zero`) never ends. None for
+/// a `data:` URI, which the gltf crate decodes from the JSON itself.
+fn read_external(uri: &str, base: &Path, length: usize) -> Result<Option<gltf::buffer::Data>, String> {
+    use std::io::Read;
+    if uri.starts_with("data:") {
+        return Ok(None);
     }
+    let path = match uri.strip_prefix("file://") {
+        Some(absolute) => std::path::PathBuf::from(absolute),
+        None => base.join(decode_uri(uri)),
+    };
+    let size = check_regular_file(&path, u64::MAX)?;
+    if size < length as u64 {
+        return Err(format!("holds {size} bytes but byteLength says {length}"));
+    }
+    let mut bytes = Vec::with_capacity(length);
+    std::fs::File::open(&path)
+        .and_then(|file| file.take(length as u64).read_to_end(&mut bytes))
+        .map_err(|e| format!("cannot read it: {e}"))?;
+    // The gltf crate keeps buffers padded to 4 bytes.
+    bytes.resize(length.next_multiple_of(4), 0);
+    Ok(Some(gltf::buffer::Data(bytes)))
+}
+
+/// That `path` is a regular file (not a device, a pipe or a folder) of at most `max` bytes; its size.
+fn check_regular_file(path: &Path, max: u64) -> Result<u64, String> {
+    let meta = std::fs::metadata(path).map_err(|e| format!("cannot read it: {e}"))?;
+    if !meta.is_file() {
+        return Err("is not a regular file".into());
+    }
+    if meta.len() > max {
+        return Err(format!("is {} bytes, over the {max} an image may have", meta.len()));
+    }
+    Ok(meta.len())
+}
+
+/// A relative URI percent-decoded (glTF URIs are; `check_uri` has made sure the bytes are UTF-8).
+fn decode_uri(uri: &str) -> String {
+    String::from_utf8_lossy(&percent_decode(uri)).into_owned()
+}
+
+/// The bytes a percent-encoded URI stands for.
+fn percent_decode(uri: &str) -> Vec<u8> {
     let (bytes, mut decoded) = (uri.as_bytes(), Vec::with_capacity(uri.len()));
     let hex = |i: usize| bytes.get(i).and_then(|&b| char::from(b).to_digit(16));
     let mut i = 0;
@@ -166,7 +221,16 @@ fn check_uri(uri: &str) -> Result<(), String> {
             }
         }
     }
-    match String::from_utf8(decoded) {
+    decoded
+}
+
+/// The gltf crate unwraps the UTF-8 decoding of a percent-encoded relative URI, so reject those it would panic on.
+fn check_uri(uri: &str) -> Result<(), String> {
+    // Only relative references are percent-decoded; `data:` and `file:` URIs are taken as they are.
+    if uri.contains(':') {
+        return Ok(());
+    }
+    match String::from_utf8(percent_decode(uri)) {
         Ok(_) => Ok(()),
         Err(_) => Err(format!("URI '{uri}' percent-decodes to bytes that are not UTF-8")),
     }
