@@ -8,12 +8,21 @@ use clap::{Args, Parser, Subcommand};
 use std::path::PathBuf;
 
 /// Caustica: a physically based renderer on a data-oriented ECS.
+///
+/// `caustica SCENE [flags]` renders, as `caustica render SCENE [flags]` does; with nothing at all it
+/// renders scenes/default.toml.
 #[derive(Parser, Debug)]
-#[command(version, about)]
+#[command(version, about, args_conflicts_with_subcommands = true)]
 pub struct Cli {
-    /// What to do; with none, renders scenes/default.toml.
+    /// What to do; with none, renders.
     #[command(subcommand)]
     pub command: Option<Command>,
+    /// The render flags, when no command is named.
+    #[command(flatten)]
+    pub render: Box<RenderArgs>,
+    /// Log more: loading summaries, and the source of each warning.
+    #[arg(short, long, global = true)]
+    pub verbose: bool,
 }
 
 /// Subcommands.
@@ -178,8 +187,12 @@ pub struct RenderArgs {
     #[command(flatten)]
     pub environment: EnvironmentArgs,
     /// Output image(s), .exr (linear) or .png (sRGB); repeatable; overrides the run file.
-    #[arg(short, long)]
+    #[arg(short, long, visible_alias = "outfile")]
     pub output: Vec<PathBuf>,
+    /// Set any run-file key, KEY=VALUE, as `render.spp=256` or `camera.eye=[0, 1, 3]` (a value that is
+    /// not TOML is taken as a string: `render.integrator=sppm`); repeatable; other flags win over it.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
     /// Photon mapping: photons for the global map.
     #[arg(long)]
     pub photons: Option<u32>,
@@ -218,8 +231,8 @@ pub struct RenderArgs {
     /// filter (default 32 for ppm, 1 for the others); overrides the run file.
     #[arg(long)]
     pub hit_points_per_pixel: Option<u32>,
-    /// Stop after this many seconds of rendering (every integrator; the sample or pass count still
-    /// applies); overrides the run file.
+    /// Stop after this many seconds of rendering (every integrator); without --spp or --passes it
+    /// renders until then, however many samples or passes that is; overrides the run file.
     #[arg(long)]
     pub time_limit: Option<f64>,
     /// Progressive photon mapping: also write the outputs every K passes; overrides the run file.
@@ -259,8 +272,13 @@ impl RenderArgs {
         r.max_depth = self.max_depth.or(r.max_depth);
         r.rr_depth = self.rr_depth.unwrap_or(r.rr_depth);
         r.time_limit = self.time_limit.or(r.time_limit);
+        // A time limit alone on the command line is the budget: render until it, without end.
+        let until_the_limit = self.time_limit.is_some() && self.spp.is_none() && self.passes.is_none();
+        if until_the_limit {
+            r.spp = u32::MAX;
+        }
         let g = &mut run.progressive;
-        g.passes = self.passes.unwrap_or(g.passes);
+        g.passes = self.passes.unwrap_or(if until_the_limit { u32::MAX } else { g.passes });
         g.photons_per_pass = self.photons_per_pass.unwrap_or(g.photons_per_pass);
         g.alpha = self.alpha.unwrap_or(g.alpha);
         g.initial_radius = self.initial_radius.or(g.initial_radius);

@@ -43,20 +43,36 @@ impl std::io::Write for TraceWriter {
     }
 }
 
+/// The log on stderr (RUST_LOG, default warn; info with -v). Warnings read as sentences: timestamps
+/// and the module that logged are for -v.
+fn log_layer<S>(verbose: bool) -> Box<dyn tracing_subscriber::Layer<S> + Send + Sync>
+where
+    S: tracing::Subscriber + for<'a> tracing_subscriber::registry::LookupSpan<'a>,
+{
+    use tracing_subscriber::prelude::*;
+    let default = if verbose { "info" } else { "warn" };
+    let filter = EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new(default));
+    let log = tracing_subscriber::fmt::layer()
+        .with_writer(std::io::stderr)
+        .with_target(verbose)
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()));
+    if verbose { log.with_filter(filter).boxed() } else { log.without_time().with_filter(filter).boxed() }
+}
+
 /// Log to stderr (RUST_LOG, default warn), plus the profile and Chrome-trace layers when asked for.
 /// The log filter applies to the log layer only, so the others see every system span.
 pub fn install_subscriber(
     profile: Option<&SystemProfile>,
     chrome: Option<&Path>,
+    verbose: bool,
 ) -> Result<Option<tracing_chrome::FlushGuard>> {
     use tracing_subscriber::prelude::*;
-    let log_filter = EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new("warn"));
     if profile.is_none() && chrome.is_none() {
-        // A global filter disables the per-system spans at their call sites: no cost at all.
-        tracing_subscriber::fmt().with_env_filter(log_filter).with_writer(std::io::stderr).init();
+        // Only the log's filter: it disables the per-system spans at their call sites, at no cost.
+        tracing_subscriber::registry().with(log_layer(verbose)).init();
         return Ok(None);
     }
-    let log = tracing_subscriber::fmt::layer().with_writer(std::io::stderr).with_filter(log_filter);
+    let log = log_layer(verbose);
     let (chrome_layer, guard) = match chrome {
         Some(path) => {
             let file = std::fs::File::create(path)

@@ -10,7 +10,7 @@ mod render;
 mod report;
 
 use anyhow::Result;
-use args::{Cli, Command, RenderArgs};
+use args::{Cli, Command};
 use clap::Parser;
 use profile::SystemProfile;
 
@@ -29,10 +29,11 @@ fn run() -> Result<()> {
     let cli = Cli::parse();
     let render_args = match &cli.command {
         Some(Command::Render(args)) => (**args).clone(),
-        _ => RenderArgs::default(),
+        _ => (*cli.render).clone(),
     };
     let profile = render_args.profile.then(SystemProfile::default);
-    let _chrome_guard = logging::install_subscriber(profile.as_ref(), render_args.trace_chrome.as_deref())?;
+    let _chrome_guard =
+        logging::install_subscriber(profile.as_ref(), render_args.trace_chrome.as_deref(), cli.verbose)?;
     match cli.command {
         None | Some(Command::Render(_)) => {
             let finished = render::render(&render_args)?;

@@ -35,7 +35,7 @@ pub fn render(args: &RenderArgs) -> Result<bool> {
             scene_path.display()
         );
     }
-    let (scene, run) = scene::load_with(&scene_path, |run| args.apply(run))?;
+    let (scene, run) = scene::load_with_sets(&scene_path, &args.set, |run| args.apply(run))?;
     let outputs = output_paths(args, &run, &scene_path);
     check_outputs(&outputs, &inputs(args, &run, &scene_path))?;
     let reference = args.reference.as_deref().map(output::read_exr).transpose()?;
@@ -57,13 +57,12 @@ pub fn render(args: &RenderArgs) -> Result<bool> {
     watch_for_signals(&renderer);
     renderer.set_max_pass(run.output.write_every);
 
-    let bar = if args.quiet { ProgressBar::hidden() } else { ProgressBar::new(renderer.target() as u64) };
-    let template = format!("{{bar:40}} {{pos}}/{{len}} {}  ETA {{eta}}", renderer.plan.unit.name());
-    bar.set_style(ProgressStyle::with_template(&template).expect("valid template"));
+    let bar = progress_bar(&renderer, args.quiet);
+    let render_start = Instant::now();
     let mut written_marks = 0;
     let report = renderer.run(run.render.time_limit, |renderer| {
         let progress = renderer.progress();
-        bar.set_position(progress.done as u64);
+        show_progress(&bar, &progress, render_start.elapsed().as_secs_f64());
         // The image so far every K samples per pixel or passes, so that a long render can be looked at
         // while it runs. A write that fails is reported and the render goes on: the final write
         // tries again.
@@ -98,6 +97,33 @@ pub fn render(args: &RenderArgs) -> Result<bool> {
         anyhow::bail!("{}", failed.join("; "));
     }
     Ok(report.stopped_by != Some(StopReason::Interrupted))
+}
+
+/// A bar over the samples per pixel or passes aimed at, or a spinner when a time limit alone bounds
+/// the render; its message is updated by [`show_progress`].
+fn progress_bar(renderer: &Renderer, quiet: bool) -> ProgressBar {
+    if quiet {
+        return ProgressBar::hidden();
+    }
+    let target = renderer.target();
+    if target == u32::MAX {
+        let bar = ProgressBar::new_spinner();
+        bar.set_style(ProgressStyle::with_template("{spinner} {msg}  {elapsed}").expect("valid template"));
+        bar.enable_steady_tick(std::time::Duration::from_millis(250));
+        return bar;
+    }
+    let bar = ProgressBar::new(target as u64 * 100);
+    bar.set_style(ProgressStyle::with_template("{bar:40} {msg}  ETA {eta}").expect("valid template"));
+    bar
+}
+
+/// "12.3/64 spp, 5.1 spp/s" or "17/64 passes, 2.3 passes/s".
+fn show_progress(bar: &ProgressBar, progress: &caustica::Progress, seconds: f64) {
+    let unit = progress.unit.name();
+    let target = if progress.target == u32::MAX { String::new() } else { format!("/{}", progress.target) };
+    let rate = progress.done / seconds.max(1e-9);
+    bar.set_message(format!("{:.1}{target} {unit}, {rate:.2} {unit}/s", progress.done));
+    bar.set_position((progress.done * 100.0) as u64);
 }
 
 /// SIGINT and SIGTERM raise the renderer's interrupt flag: the render stops at its next step and the

@@ -14,7 +14,11 @@ pub fn print_report(scene: &Path, report: &Report, total_seconds: f64) {
         report.integrator.name(),
         format_progress(report.done),
         report.unit.name(),
-        if report.done < report.target as f64 { format!(" of {}", report.target) } else { String::new() },
+        match report.target {
+            u32::MAX => String::new(),
+            target if report.done < target as f64 => format!(" of {target}"),
+            _ => String::new(),
+        },
         report.width,
         report.height
     );

@@ -28,7 +28,10 @@ pub fn hand_out_samples(
     camera_samples_per_unit: u32,
 ) -> impl FnMut(Res<PassRange>, ResMut<Workload>, Query<&mut PathState>) {
     move |range, mut workload, mut paths| {
-        let (begin, end) = (range.begin * camera_samples_per_unit, range.end * camera_samples_per_unit);
+        let (begin, end) = (
+            range.begin.saturating_mul(camera_samples_per_unit),
+            range.end.saturating_mul(camera_samples_per_unit),
+        );
         *workload = Workload::new(workload.pixels, begin, end, workload.wavefront);
         if range.stop {
             return;

@@ -150,3 +150,57 @@ fn a_compare_window_outside_the_image_and_a_nan_bench_budget_are_refused() {
     ]);
     assert_fails_naming(&out, "--reference-time");
 }
+
+/// The command line a user meets: `caustica SCENE` renders, `--outfile` is `-o`, `--set` reaches any
+/// run-file key (and names a wrong one), a time limit alone renders until it and says so, warnings
+/// read as sentences, a directory given as the scene gets its own message.
+#[test]
+fn the_command_line_a_user_meets() {
+    let dir = scratch("user");
+    let scene = common::data("cornell-box.gltf");
+    let scene = scene.to_str().unwrap();
+    let target = dir.join("x.exr");
+    let o = target.to_str().unwrap();
+    let small = ["--width", "16", "--height", "16", "-q"];
+
+    let mut args = vec![scene, "--spp", "1", "--outfile", o];
+    args.extend(small);
+    let out = caustica(&args);
+    assert!(out.status.success() && target.exists(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("integrator  pt, 1 spp"));
+
+    let mut args =
+        vec!["render", scene, "--set", "render.spp=3", "--set", "render.integrator=pt-naive", "-o", o];
+    args.extend(small);
+    let stdout = String::from_utf8_lossy(&caustica(&args).stdout).into_owned();
+    assert!(stdout.contains("integrator  pt-naive, 3 spp"), "{stdout}");
+    let mut args = vec!["render", scene, "--set", "render.spps=3", "-o", o];
+    args.extend(small);
+    assert_fails_naming(&caustica(&args), "spps");
+
+    let mut args = vec!["render", scene, "--time-limit", "0.5", "-o", o];
+    args.extend(small);
+    let stdout = String::from_utf8_lossy(&caustica(&args).stdout).into_owned();
+    assert!(stdout.contains("stopped     by the time limit"), "{stdout}");
+    let spp: f64 = stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("integrator  pt, "))
+        .and_then(|r| r.split_whitespace().next())
+        .and_then(|n| n.parse().ok())
+        .expect("the summary gives the spp");
+    assert!(spp > 64.0, "a time limit alone is not bounded by the default 64 spp: {spp}");
+
+    // A glTF without a camera: its warning is a sentence, with no timestamp or module path.
+    let no_camera = common::data("gltf-samples/BoxTextured.gltf");
+    let mut args = vec!["render", no_camera.to_str().unwrap(), "--spp", "1", "-o", o];
+    args.extend(small);
+    let stderr = String::from_utf8_lossy(&caustica(&args).stderr).into_owned();
+    assert!(stderr.contains("no camera in the file"), "{stderr}");
+    assert!(
+        !stderr.contains("caustica::") && !stderr.contains("2026-") && !stderr.contains("T0"),
+        "{stderr}"
+    );
+
+    let out = caustica(&["render", dir.to_str().unwrap(), "-o", o]);
+    assert_fails_naming(&out, "is a directory");
+}

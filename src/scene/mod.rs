@@ -27,14 +27,30 @@ pub fn load(path: &Path) -> Result<(Scene, RunFile)> {
 /// As [`load`], with `overrides` (the command line's) applied to the run file before the scene is
 /// read: they can pick the glTF's camera or the environment.
 pub fn load_with(path: &Path, overrides: impl FnOnce(&mut RunFile)) -> Result<(Scene, RunFile)> {
+    load_with_sets(path, &[], overrides)
+}
+
+/// As [`load_with`], with `sets` first: `KEY=VALUE` assignments of any run-file key (`render.spp=16`,
+/// `camera.eye=[0, 1, 3]`; a value that is not TOML is a string), as if the run file had them.
+pub fn load_with_sets(
+    path: &Path,
+    sets: &[String],
+    overrides: impl FnOnce(&mut RunFile),
+) -> Result<(Scene, RunFile)> {
     let extension = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
-    let mut run = match extension.as_deref() {
-        Some("toml") => RunFile::load(path)?,
-        Some("gltf" | "glb") => RunFile::default(),
+    let text = match extension.as_deref() {
+        Some("toml") => {
+            std::fs::read_to_string(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?
+        }
+        Some("gltf" | "glb") => String::new(),
         _ => {
             return Err(Error::UnknownFormat { path: path.to_path_buf() });
         }
     };
+    let mut run = RunFile::parse(&text, path)?;
+    if !sets.is_empty() {
+        run = RunFile::parse_with_sets(&text, sets).map_err(|problem| Error::Override { problem })?;
+    }
     overrides(&mut run);
     // The run file's own values were checked as it was read; what fails now came with the overrides.
     run.check_settings().map_err(|problem| Error::Override { problem })?;

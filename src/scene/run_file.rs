@@ -381,6 +381,39 @@ impl RunFile {
         Ok(run)
     }
 
+    /// As [`RunFile::parse`], with `sets` (`KEY=VALUE`, the key dotted through tables) written into
+    /// the text's tables first. The error says which assignment failed.
+    pub fn parse_with_sets(text: &str, sets: &[String]) -> std::result::Result<RunFile, String> {
+        let mut table: toml::Table = toml::from_str(text).map_err(|e| describe_toml_error(&e, text))?;
+        for set in sets {
+            let (key, value) = set
+                .split_once('=')
+                .ok_or_else(|| format!("--set {set}: needs KEY=VALUE, as render.spp=16"))?;
+            let (key, value) = (key.trim(), value.trim());
+            // A TOML value as written (16, true, [0, 1, 3], "pt"), else the text as a string (pt).
+            let value = toml::from_str::<toml::Table>(&format!("v = {value}"))
+                .ok()
+                .and_then(|mut t| t.remove("v"))
+                .unwrap_or_else(|| toml::Value::String(value.to_owned()));
+            let mut parts: Vec<&str> = key.split('.').collect();
+            let last = parts.pop().filter(|p| !p.is_empty()).ok_or_else(|| format!("--set {set}: no key"))?;
+            let mut node = &mut table;
+            for part in parts {
+                node = node
+                    .entry(part)
+                    .or_insert_with(|| toml::Value::Table(toml::Table::new()))
+                    .as_table_mut()
+                    .ok_or_else(|| format!("--set {set}: {part} is not a table"))?;
+            }
+            node.insert(last.to_owned(), value);
+        }
+        let run: RunFile = toml::Value::Table(table)
+            .try_into()
+            .map_err(|e: toml::de::Error| format!("--set {}: {}", sets.join(" "), e.message().trim_end()))?;
+        run.check_settings().map_err(|problem| format!("{problem} (after --set {})", sets.join(" ")))?;
+        Ok(run)
+    }
+
     /// The scene this run file (read from `path`) describes, not yet validated: its glTF, resolved against the run
     /// file's directory and with the camera `[camera] name` picks, plus its `[[sphere]]`s and `[[motion]]`s.
     pub fn load_scene(&self, path: &Path) -> Result<Scene> {
