@@ -244,6 +244,10 @@ pub struct RenderArgs {
     /// Write a Chrome trace (open in ui.perfetto.dev or chrome://tracing) with one event per system run.
     #[arg(long, value_name = "FILE.json")]
     pub trace_chrome: Option<PathBuf>,
+    /// Show the image as it converges in the tev viewer listening at HOST:PORT (tev's default is
+    /// 127.0.0.1:14158).
+    #[arg(long, value_name = "HOST:PORT")]
+    pub display_server: Option<String>,
     /// Reference EXR: print the error of the result against it.
     #[arg(long)]
     pub reference: Option<PathBuf>,

@@ -4,6 +4,7 @@ mod args;
 mod bench;
 mod compare;
 mod density_plot;
+mod display;
 mod logging;
 mod profile;
 mod render;

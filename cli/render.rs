@@ -1,6 +1,7 @@
 //! `caustica render`: load, check the outputs, run the driver with a progress bar, write, report.
 
 use crate::args::RenderArgs;
+use crate::display::DisplayServer;
 use crate::report::print_report;
 use anyhow::{Context, Result};
 use caustica::Renderer;
@@ -55,6 +56,13 @@ pub fn render(args: &RenderArgs) -> Result<bool> {
         }
     }
     watch_for_signals(&renderer);
+    let mut display = args.display_server.as_deref().and_then(|address| {
+        let report = renderer.report();
+        let name = scene_path.file_name().map_or("caustica".into(), |n| n.to_string_lossy().into_owned());
+        DisplayServer::connect(address, &name, report.width, report.height)
+            .map_err(|e| tracing::warn!("no live preview: cannot reach tev at {address}: {e}"))
+            .ok()
+    });
     renderer.set_max_pass(run.output.write_every);
 
     let bar = progress_bar(&renderer, args.quiet);
@@ -63,6 +71,13 @@ pub fn render(args: &RenderArgs) -> Result<bool> {
     let report = renderer.run(run.render.time_limit, |renderer| {
         let progress = renderer.progress();
         show_progress(&bar, &progress, render_start.elapsed().as_secs_f64());
+        if let Some(server) = &mut display
+            && server.due()
+            && let Err(e) = server.update(&renderer.image())
+        {
+            bar.suspend(|| tracing::warn!("the live preview stopped: {e}"));
+            display = None;
+        }
         // The image so far every K samples per pixel or passes, so that a long render can be looked at
         // while it runs. A write that fails is reported and the render goes on: the final write
         // tries again.
@@ -80,6 +95,11 @@ pub fn render(args: &RenderArgs) -> Result<bool> {
     });
     bar.finish_and_clear();
     let image = renderer.image();
+    if let Some(server) = &mut display
+        && let Err(e) = server.update(&image)
+    {
+        tracing::warn!("the live preview did not get the final image: {e}");
+    }
     let failed: Vec<String> = outputs
         .iter()
         .filter_map(|path| output::write_image(&image, path, run.film.exposure).err())

@@ -327,3 +327,92 @@ fn oversized_requests_and_hostile_files_fail_with_a_message() {
     assert_fails_naming(&out, "not a Radiance HDR");
     assert!(!Path::new(o).exists());
 }
+
+/// `--display-server`: a fake tev on a local port receives tev's protocol — a CreateImage of the
+/// render's size with channels R, G, B, then UpdateImage (v3) bands of interleaved RGB — and the last
+/// updates carry exactly the image written to the file.
+#[test]
+fn the_live_preview_speaks_tevs_protocol_and_ends_with_the_final_image() {
+    use std::io::Read;
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let address = listener.local_addr().unwrap().to_string();
+    let dir = scratch("tev");
+    let target = dir.join("out.exr");
+    let child = spawn(&[
+        "render",
+        &box_scene(),
+        "-q",
+        "--spp",
+        "64",
+        "--width",
+        "40",
+        "--height",
+        "100",
+        "--display-server",
+        &address,
+        "-o",
+        target.to_str().unwrap(),
+    ]);
+    let (mut stream, _) = listener.accept().unwrap();
+    let mut bytes = Vec::new();
+    stream.read_to_end(&mut bytes).unwrap();
+    assert!(child.wait_with_output().unwrap().status.success());
+
+    let (mut at, mut packets) = (0usize, Vec::new());
+    while at < bytes.len() {
+        let size = u32::from_le_bytes(bytes[at..at + 4].try_into().unwrap()) as usize;
+        packets.push(&bytes[at + 4..at + size]);
+        at += size;
+    }
+    assert_eq!(at, bytes.len(), "packets end where the stream does");
+    struct Reader<'a>(&'a [u8]);
+    impl Reader<'_> {
+        fn byte(&mut self) -> u8 {
+            let b = self.0[0];
+            self.0 = &self.0[1..];
+            b
+        }
+        fn string(&mut self) -> String {
+            let end = self.0.iter().position(|&b| b == 0).unwrap();
+            let s = String::from_utf8(self.0[..end].to_vec()).unwrap();
+            self.0 = &self.0[end + 1..];
+            s
+        }
+        fn i32(&mut self) -> i32 {
+            let v = i32::from_le_bytes(self.0[..4].try_into().unwrap());
+            self.0 = &self.0[4..];
+            v
+        }
+        fn i64(&mut self) -> i64 {
+            let v = i64::from_le_bytes(self.0[..8].try_into().unwrap());
+            self.0 = &self.0[8..];
+            v
+        }
+    }
+    let mut create = Reader(packets[0]);
+    assert_eq!(create.byte(), 4, "CreateImage first");
+    create.byte();
+    let name = create.string();
+    assert_eq!((create.i32(), create.i32(), create.i32()), (40, 100, 3));
+    assert_eq!([create.string(), create.string(), create.string()], ["R", "G", "B"]);
+    let mut shown = vec![f32::NAN; 40 * 100 * 3];
+    assert!(packets.len() > 1, "updates follow");
+    for packet in &packets[1..] {
+        let mut r = Reader(packet);
+        assert_eq!(r.byte(), 6, "UpdateImage v3");
+        r.byte();
+        assert_eq!(r.string(), name);
+        assert_eq!(r.i32(), 3);
+        assert_eq!([r.string(), r.string(), r.string()], ["R", "G", "B"]);
+        let (x, y, w, h) = (r.i32(), r.i32(), r.i32(), r.i32());
+        assert!(x == 0 && w == 40 && y >= 0 && h > 0 && y + h <= 100, "band {x} {y} {w} {h}");
+        assert_eq!([r.i64(), r.i64(), r.i64(), r.i64(), r.i64(), r.i64()], [0, 1, 2, 3, 3, 3]);
+        assert_eq!(r.0.len(), (w * h * 3 * 4) as usize, "interleaved RGB floats");
+        for (i, chunk) in r.0.chunks(4).enumerate() {
+            shown[(y * w * 3) as usize + i] = f32::from_le_bytes(chunk.try_into().unwrap());
+        }
+    }
+    let written = read_exr(&target).unwrap();
+    let expected: Vec<f32> = written.pixels.iter().flat_map(|p| p.to_array()).collect();
+    assert!(shown == expected, "the last updates are the final image");
+}
