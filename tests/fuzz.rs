@@ -77,8 +77,10 @@ const KEYS: &[(&str, &[(&str, Kind)])] = &[
             ("seed", Kind::Number),
             ("max_depth", Kind::Number),
             ("rr_depth", Kind::Number),
-            ("light_selection", Kind::Word(&["uniform", "power", "best"])),
+            ("light_selection", Kind::Word(&["uniform", "power", "tree", "visibility", "best"])),
+            ("sampler", Kind::Word(&["sobol", "independent", "halton"])),
             ("time_limit", Kind::Number),
+            ("memory_budget_mib", Kind::Number),
         ],
     ),
     (
@@ -122,6 +124,7 @@ const KEYS: &[(&str, &[(&str, Kind)])] = &[
             ("alpha", Kind::Number),
             ("initial_radius", Kind::Number),
             ("memory_budget_mib", Kind::Number),
+            ("hit_points_per_pixel", Kind::Number),
         ],
     ),
     (
