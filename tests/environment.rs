@@ -124,6 +124,14 @@ fn bad_environment_maps_are_errors_naming_the_file() {
     let error = scene::load(&path).expect_err("NaN texel").to_string();
     assert!(error.contains("nan.exr") && error.contains("(7, 5)"), "{error}");
 
+    // A texel of 3e38 is finite, but the map's sums overflow f32 and once gave a black image.
+    let mut sky = sky_map();
+    sky.pixels[3 * 64 + 9] = Vec3::splat(3e38);
+    write_image(&sky, &dir.join("hot.exr"), 0.0).expect("write");
+    let path = outdoor_run_file(&dir, "file = \"hot.exr\"");
+    let error = scene::load(&path).expect_err("3e38 texel").to_string();
+    assert!(error.contains("environment") && error.contains("1e20"), "{error}");
+
     write(&dir, "sky.png", "png");
     let path = outdoor_run_file(&dir, "file = \"sky.png\"");
     let error = scene::load(&path).expect_err("PNG map").to_string();

@@ -80,6 +80,24 @@ fn an_input_is_never_overwritten_by_an_output() {
     assert_eq!(std::fs::read(&sky).unwrap(), before, "the map was changed");
 }
 
+/// A reference whose size is not the image's is refused before rendering, naming it and both sizes
+/// (it was once found only after the render, naming neither).
+#[test]
+fn a_reference_of_the_wrong_size_is_refused_before_rendering() {
+    let reference = common::data("cornell-box.ref.exr");
+    let r = reference.to_str().unwrap();
+    let o = scratch("wrong-size").join("x.exr");
+    let args = ["render", &box_scene(), "-q", "--width", "8", "--height", "6", "--reference", r, "-o"];
+    let out = caustica(&[&args[..], &[o.to_str().unwrap()]].concat());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("cornell-box.ref.exr") && stderr.contains("256x256") && stderr.contains("8x6"),
+        "{stderr}"
+    );
+    assert!(!o.exists(), "it rendered");
+}
+
 /// SIGINT or SIGTERM: the render stops at its next step, writes a valid image of the samples or
 /// passes so far, says so, and exits 130; nothing temporary is left.
 #[test]
