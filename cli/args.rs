@@ -147,8 +147,9 @@ pub struct RenderArgs {
     /// How sample numbers are drawn (default sobol); overrides the run file.
     #[arg(long, value_parser = choice::<SamplerKind>())]
     pub sampler: Option<SamplerKind>,
-    /// Worker threads (default: all cores). The image does not depend on it.
-    #[arg(long, visible_alias = "nthreads", value_parser = clap::value_parser!(u16).range(1..))]
+    /// Worker threads, 1 to 1024 (default: all cores). The image does not depend on it.
+    // The cap: thousands of threads cost seconds of startup and can fail to spawn, for no speed.
+    #[arg(long, visible_alias = "nthreads", value_parser = clap::value_parser!(u16).range(1..=1024))]
     pub threads: Option<u16>,
     /// Image width; overrides the run file and the glTF's extras.
     #[arg(long)]

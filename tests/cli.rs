@@ -111,6 +111,7 @@ fn out_of_range_settings_are_refused_before_rendering_naming_the_key() {
         (&["--time-limit", "NaN"], "render.time_limit"),
         (&["--exposure", "NaN"], "film.exposure"),
         (&["--threads", "0"], "--threads"),
+        (&["--threads", "5000"], "--threads"),
         (&["--integrator", "sppm", "--memory-budget-mib", "17592186044416"], "memory_budget_mib"),
         (&["--write-every", "0"], "write_every"),
     ] {

@@ -9,7 +9,7 @@ mod common;
 use caustica::film::Image;
 use caustica::scene::{IntegratorKind, RunFile, load, validate};
 use proptest::prelude::*;
-use proptest::test_runner::{Config, FileFailurePersistence, RngAlgorithm, TestRng, TestRunner};
+use proptest::test_runner::TestRunner;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::Instant;
@@ -20,14 +20,7 @@ const DEFAULT_CASES: u32 = 2000;
 const MAX_SECONDS: f64 = 10.0;
 
 fn runner() -> TestRunner {
-    let cases = std::env::var("PROPTEST_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(DEFAULT_CASES);
-    let config = Config {
-        cases,
-        failure_persistence: None::<FileFailurePersistence>.map(|p| Box::new(p) as _),
-        max_shrink_iters: 256,
-        ..Config::default()
-    };
-    TestRunner::new_with_rng(config, TestRng::from_seed(RngAlgorithm::ChaCha, &[7; 32]))
+    common::fuzz_runner(DEFAULT_CASES)
 }
 
 /// The settings a case may not raise: the image is 8×8 at 1 spp with few photons and bounded paths,

@@ -5,11 +5,25 @@ use caustica::Renderer;
 use caustica::driver::init_thread_pools;
 use caustica::film::Image;
 use caustica::scene::{RunFile, Scene};
+use proptest::test_runner::{Config, FileFailurePersistence, RngAlgorithm, TestRng, TestRunner};
 use std::path::{Path, PathBuf};
 
 /// A file under tests/data.
 pub fn data(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(name)
+}
+
+/// A proptest runner with a fixed seed and no persisted failures, so CI runs the same cases every
+/// time; `PROPTEST_CASES=N` runs N cases instead of `default_cases`.
+pub fn fuzz_runner(default_cases: u32) -> TestRunner {
+    let cases = std::env::var("PROPTEST_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(default_cases);
+    let config = Config {
+        cases,
+        failure_persistence: None::<FileFailurePersistence>.map(|p| Box::new(p) as _),
+        max_shrink_iters: 256,
+        ..Config::default()
+    };
+    TestRunner::new_with_rng(config, TestRng::from_seed(RngAlgorithm::ChaCha, &[7; 32]))
 }
 
 /// Render a scene with the given run settings and return the image.
