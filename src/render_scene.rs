@@ -89,7 +89,13 @@ impl RenderScene {
 /// by a uniform white environment (radiance 1), as glTF viewers light files made for them, with a
 /// warning: a black image helps nobody.
 pub fn scene_lights(geometry: &mut Geometry, scene: &Scene, light_selection: LightSelection) -> Lights {
-    let lights = Lights::build(geometry, &scene.materials, scene.environment.as_ref(), light_selection);
+    let lights = Lights::build(
+        geometry,
+        &scene.materials,
+        scene.environment.as_ref(),
+        &scene.punctual_lights,
+        light_selection,
+    );
     if !lights.is_empty() {
         return lights;
     }
@@ -99,5 +105,5 @@ pub fn scene_lights(geometry: &mut Geometry, scene: &Scene, light_selection: Lig
         scene.source.display()
     );
     let white = EnvironmentDesc::constant(Vec3::ONE);
-    Lights::build(geometry, &scene.materials, Some(&white), light_selection)
+    Lights::build(geometry, &scene.materials, Some(&white), &scene.punctual_lights, light_selection)
 }

@@ -51,7 +51,8 @@ pub fn sample_light(
     if !(f.max_element() > 0.0 && ls.pdf > 0.0) {
         return None;
     }
-    let contribution = if mis {
+    // A delta light: no BSDF sample can find it, so light sampling takes all of it.
+    let contribution = if mis && !ls.delta {
         let weight = power_heuristic(ls.pdf, v.bsdf.pdf(v.wo, wi));
         beta * f * ls.le * (weight / ls.pdf)
     } else {

@@ -1,6 +1,8 @@
-//! One emitter: a one-sided emissive triangle (uniform area sampling) or an emissive sphere (uniform
-//! sampling of the cone it subtends, pbrt-v4 `Sphere::Sample`).
+//! One emitter: a one-sided emissive triangle (uniform area sampling), an emissive sphere (uniform
+//! sampling of the cone it subtends, pbrt-v4 `Sphere::Sample`), or a punctual light (point, spot,
+//! sun; `punctual.rs`).
 
+use super::punctual::{self, SpotCone};
 use crate::sampling::warp::{Frame, cosine_hemisphere, uniform_sphere, uniform_triangle};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
@@ -24,6 +26,22 @@ pub enum LightShape {
         /// Radius.
         radius: f32,
     },
+    /// A point light (`le` is its radiant intensity, W/sr), a spot when it has a cone.
+    Point {
+        /// Position.
+        position: Vec3,
+        /// The spot's cone; none for a point light.
+        spot: Option<SpotCone>,
+    },
+    /// A sun (`le` is its irradiance, W/m²) over a scene within the sphere `center`, `radius`.
+    Sun {
+        /// Unit direction its rays travel.
+        direction: Vec3,
+        /// The scene's bounding sphere: photons start on a disc as wide, shadow rays end beyond it.
+        center: Vec3,
+        /// Its radius.
+        radius: f32,
+    },
 }
 
 impl LightShape {
@@ -34,24 +52,27 @@ impl LightShape {
         LightShape::Triangle { p, n: c / len, area: 0.5 * len }
     }
 
-    fn area(&self) -> f32 {
-        match *self {
-            LightShape::Triangle { area, .. } => area,
-            LightShape::Sphere { radius, .. } => 4.0 * PI * radius * radius,
-        }
+    /// Whether the light is a Dirac delta (point, spot, sun): no ray hits it, no BSDF sample finds it.
+    pub fn is_delta(&self) -> bool {
+        matches!(self, LightShape::Point { .. } | LightShape::Sun { .. })
+    }
+
+    /// Whether the light is infinitely far away (outside any light tree).
+    pub fn is_infinite(&self) -> bool {
+        matches!(self, LightShape::Sun { .. })
     }
 }
 
-/// An emitter with constant radiance.
+/// An emitter with constant radiance (intensity for a point or spot, irradiance for a sun).
 #[derive(Clone, Copy, Debug)]
 pub struct Light {
     /// Shape at shutter open.
     pub shape: LightShape,
-    /// Emitted radiance.
+    /// Emitted radiance; a point's or spot's radiant intensity (W/sr); a sun's irradiance (W/m²).
     pub le: Vec3,
     /// Displacement over the shutter.
     pub motion: Vec3,
-    /// The primitive that carries it.
+    /// The primitive that carries it (`u32::MAX` for punctual lights).
     pub prim: u32,
 }
 
@@ -62,10 +83,13 @@ pub struct LightSample {
     pub p: Vec3,
     /// Surface normal there (front side).
     pub n: Vec3,
-    /// Radiance leaving the point towards the reference point (zero from the back of a triangle).
+    /// Radiance leaving the point towards the reference point (zero from the back of a triangle); for
+    /// a delta light, the irradiance it brings to a surface facing it.
     pub le: Vec3,
-    /// Solid-angle density at the reference point.
+    /// Solid-angle density at the reference point (a delta light: 1, with `delta`).
     pub pdf: f32,
+    /// A point, spot or sun: `le` is already the irradiance and no other strategy can find the light.
+    pub delta: bool,
 }
 
 /// A photon's start on a light: where it leaves, which way, and how much it carries.
@@ -87,9 +111,17 @@ pub fn luminance(c: Vec3) -> f32 {
 }
 
 impl Light {
-    /// Emitted power, by luminance: π · area · L for a one-sided Lambertian emitter.
+    /// Emitted power, by luminance: π · area · L for a one-sided Lambertian emitter, 4π · I for a
+    /// point, I · (the spot's solid angle) for a spot, E · π r² through the scene for a sun.
     pub fn power(&self) -> f32 {
-        PI * self.shape.area() * luminance(self.le)
+        let scale = match self.shape {
+            LightShape::Triangle { area, .. } => PI * area,
+            LightShape::Sphere { radius, .. } => PI * (4.0 * PI * radius * radius),
+            LightShape::Point { spot: None, .. } => 4.0 * PI,
+            LightShape::Point { spot: Some(s), .. } => s.solid_angle(),
+            LightShape::Sun { radius, .. } => PI * radius * radius,
+        };
+        scale * luminance(self.le)
     }
 
     /// Sample a point as seen from `p_ref` at normalized time `time`.
@@ -106,7 +138,7 @@ impl Light {
                 if cos_l <= 0.0 || dist2 == 0.0 {
                     return None;
                 }
-                Some(LightSample { p: point, n, le: self.le, pdf: dist2 / (cos_l * area) })
+                Some(LightSample { p: point, n, le: self.le, pdf: dist2 / (cos_l * area), delta: false })
             }
             LightShape::Sphere { center, radius } => {
                 let c = center + shift;
@@ -141,7 +173,14 @@ impl Light {
                     n,
                     le: self.le,
                     pdf: 1.0 / (2.0 * PI * one_minus_cos_max),
+                    delta: false,
                 })
+            }
+            LightShape::Point { position, spot } => {
+                punctual::sample_point(position, self.le, spot.as_ref(), p_ref)
+            }
+            LightShape::Sun { direction, center, radius } => {
+                Some(punctual::sample_sun(direction, self.le, center, radius, p_ref))
             }
         }
     }
@@ -151,14 +190,20 @@ impl Light {
     #[inline]
     pub fn sample_emission(&self, time: f32, u_pos: Vec2, u_dir: Vec2) -> Option<EmissionSample> {
         let shift = self.motion * time;
-        let (p, n) = match self.shape {
-            LightShape::Triangle { p, n, .. } => {
+        let (p, n, area) = match self.shape {
+            LightShape::Triangle { p, n, area } => {
                 let b = uniform_triangle(u_pos);
-                ((1.0 - b.x - b.y) * p[0] + b.x * p[1] + b.y * p[2] + shift, n)
+                ((1.0 - b.x - b.y) * p[0] + b.x * p[1] + b.y * p[2] + shift, n, area)
             }
             LightShape::Sphere { center, radius } => {
                 let n = uniform_sphere(u_pos);
-                (center + shift + radius * n, n)
+                (center + shift + radius * n, n, 4.0 * PI * radius * radius)
+            }
+            LightShape::Point { position, spot } => {
+                return punctual::emit_point(position, self.le, spot.as_ref(), u_dir);
+            }
+            LightShape::Sun { direction, center, radius } => {
+                return Some(punctual::emit_sun(direction, self.le, center, radius, u_pos));
             }
         };
         let local = cosine_hemisphere(u_dir);
@@ -166,7 +211,7 @@ impl Light {
             return None;
         }
         let d = Frame::from_z(n).to_world(local);
-        Some(EmissionSample { p, n, d, weight: self.le * (PI * self.shape.area()) })
+        Some(EmissionSample { p, n, d, weight: self.le * (PI * area) })
     }
 
     /// Density of [`Light::sample`] returning `p` (normal `n`) from `p_ref`, per unit solid angle.
@@ -190,6 +235,8 @@ impl Light {
                 let one_minus_cos_max = if sin2_max < 0.000_685_23 { sin2_max / 2.0 } else { 1.0 - cos_max };
                 1.0 / (2.0 * PI * one_minus_cos_max)
             }
+            // No ray hits a delta light.
+            LightShape::Point { .. } | LightShape::Sun { .. } => 0.0,
         }
     }
 }

@@ -194,7 +194,7 @@ impl Environment {
             return None;
         }
         let beyond = (p_ref - self.center).length() + 2.0 * self.radius;
-        Some(LightSample { p: p_ref + wi * beyond, n: -wi, le, pdf })
+        Some(LightSample { p: p_ref + wi * beyond, n: -wi, le, pdf, delta: false })
     }
 
     /// Solid-angle density with which [`Environment::sample`] picks world direction `d` from a point

@@ -3,6 +3,7 @@
 
 pub mod area;
 pub mod environment;
+pub mod punctual;
 pub mod select;
 pub mod tree;
 pub mod visibility;
@@ -17,18 +18,20 @@ use crate::geometry::Geometry;
 use crate::geometry::bvh::PrimitiveShape;
 use crate::sampling::ONE_MINUS_EPSILON;
 use crate::scene::environment::EnvironmentDesc;
+use crate::scene::punctual::{PunctualKind, PunctualLightDesc};
 use crate::scene::{LightSelection, MaterialDesc};
 use glam::{Vec2, Vec3};
 
-/// Share of light-tree selections that go to the environment when there are also area lights: the
-/// tree cannot bound an infinite light, so it is chosen beside the tree's root (pbrt-v4
-/// `BVHLightSampler` with one infinite light).
-const TREE_ENVIRONMENT_SHARE: f32 = 0.5;
+/// Share of light-tree selections that go to the infinite lights (environment, suns) when there are
+/// also lights in the tree: the tree cannot bound an infinite light, so they are chosen beside its
+/// root (pbrt-v4 `BVHLightSampler`'s infinite lights), among themselves by power.
+const TREE_INFINITE_SHARE: f32 = 0.5;
 
 /// Every emitter in the scene and the distribution that picks one for a shadow ray.
 ///
-/// Light indices `0..lights.len()` are the area lights; index `lights.len()` (see
-/// [`Lights::environment_index`]) is the environment, when there is one.
+/// Light indices `0..lights.len()` are the area lights, then the punctual ones (points, spots,
+/// suns); index `lights.len()` (see [`Lights::environment_index`]) is the environment, when there is
+/// one.
 #[derive(Clone, Debug, Default)]
 pub struct Lights {
     /// The area lights; index = light id stored on the emitting primitive.
@@ -42,15 +45,20 @@ pub struct Lights {
     visibility: Option<VisibilityGrid>,
     /// Selection in proportion to power, for photon emission (whatever `selector` does for NEE).
     by_power: LightSelector,
+    /// With a tree: the lights it cannot hold (suns, then the environment) and their selection by
+    /// power among themselves.
+    infinite: Vec<u32>,
+    infinite_selector: LightSelector,
 }
 
 impl Lights {
-    /// Find the emissive primitives, give each a light id in `geometry`, add the environment around
-    /// the geometry's bounds, and build the selector.
+    /// Find the emissive primitives, give each a light id in `geometry`, add the punctual lights and
+    /// the environment around the geometry's bounds, and build the selector.
     pub fn build(
         geometry: &mut Geometry,
         materials: &[MaterialDesc],
         environment: Option<&EnvironmentDesc>,
+        punctual: &[PunctualLightDesc],
         selection: LightSelection,
     ) -> Self {
         let mut lights = Vec::new();
@@ -70,10 +78,9 @@ impl Lights {
         for (i, &prim) in ids.iter().enumerate() {
             geometry.set_light(prim, i as u32);
         }
-        let environment = environment.map(|desc| {
-            let (min, max) = geometry.bounds();
-            Environment::new(desc, min, max)
-        });
+        let (min, max) = geometry.bounds();
+        lights.extend(punctual.iter().map(|desc| punctual_light(desc, min, max)));
+        let environment = environment.map(|desc| Environment::new(desc, min, max));
         // Uniform and power selection treat the environment as one more light, by its power through
         // the scene's cross-section (pbrt-v4 `PowerLightSampler`).
         let power: Vec<f32> =
@@ -85,6 +92,11 @@ impl Lights {
         };
         let uses_tree = matches!(selection, LightSelection::Tree | LightSelection::Visibility);
         let tree = uses_tree.then(|| LightTree::build(&lights));
+        let infinite: Vec<u32> = (0..power.len() as u32)
+            .filter(|&i| lights.get(i as usize).is_none_or(|l| l.shape.is_infinite()))
+            .collect();
+        let infinite_selector =
+            LightSelector::new(&infinite.iter().map(|&i| power[i as usize]).collect::<Vec<_>>());
         let visibility = match (&tree, selection) {
             (Some(tree), LightSelection::Visibility) if !lights.is_empty() => {
                 let (min, max) = geometry.bounds();
@@ -92,7 +104,7 @@ impl Lights {
             }
             _ => None,
         };
-        Self { selector, by_power, lights, environment, tree, visibility }
+        Self { selector, by_power, lights, environment, tree, visibility, infinite, infinite_selector }
     }
 
     /// Whether the scene has no emitter and no environment.
@@ -130,15 +142,20 @@ impl Lights {
             .map_or(0.0, |env| self.pmf(self.environment_index(), p_ref, n_ref) * env.pdf(n_ref, d))
     }
 
-    /// Share of tree selections that go to the environment (all of them when no area light has
+    /// Share of tree selections that go to the infinite lights (all of them when no other light has
     /// power, so none made it into the tree).
-    fn tree_environment_share(&self) -> f32 {
+    fn tree_infinite_share(&self) -> f32 {
         let tree_is_empty = self.tree.as_ref().is_none_or(LightTree::is_empty);
-        match (&self.environment, tree_is_empty) {
-            (None, _) => 0.0,
-            (Some(_), true) => 1.0,
-            (Some(_), false) => TREE_ENVIRONMENT_SHARE,
+        match (self.infinite.is_empty(), tree_is_empty) {
+            (true, _) => 0.0,
+            (false, true) => 1.0,
+            (false, false) => TREE_INFINITE_SHARE,
         }
+    }
+
+    /// Whether light `index` is infinitely far (a sun or the environment).
+    fn is_infinite(&self, index: u32) -> bool {
+        self.lights.get(index as usize).is_none_or(|l| l.shape.is_infinite())
     }
 
     /// Pick a light index for a shading point and its probability.
@@ -147,9 +164,10 @@ impl Lights {
         let Some(tree) = &self.tree else {
             return self.selector.sample(u_select);
         };
-        let share = self.tree_environment_share();
+        let share = self.tree_infinite_share();
         if u_select < share {
-            return Some((self.environment_index(), share));
+            let (i, pmf) = self.infinite_selector.sample((u_select / share).min(ONE_MINUS_EPSILON))?;
+            return Some((self.infinite[i as usize], pmf * share));
         }
         let u = ((u_select - share) / (1.0 - share)).min(ONE_MINUS_EPSILON);
         let (index, pmf) = match &self.visibility {
@@ -214,9 +232,10 @@ impl Lights {
         let Some(tree) = &self.tree else {
             return self.selector.pmf(index);
         };
-        let share = self.tree_environment_share();
-        if index == self.environment_index() {
-            return share;
+        let share = self.tree_infinite_share();
+        if self.is_infinite(index) {
+            let position = self.infinite.iter().position(|&i| i == index);
+            return position.map_or(0.0, |i| share * self.infinite_selector.pmf(i as u32));
         }
         let in_tree = match &self.visibility {
             Some(grid) => grid.pmf(tree, index, p_ref, n_ref),
@@ -233,8 +252,8 @@ impl Lights {
     /// Learn from a shadow ray from `p` (normal `n` on the shaded side) to light `index`: whether it
     /// got through.
     pub fn record_visibility(&mut self, p: Vec3, n: Vec3, index: u32, unoccluded: bool) {
-        // The environment is selected beside the tree, so the grid has nothing to learn about it.
-        if index >= self.environment_index() {
+        // Infinite lights are selected beside the tree, so the grid has nothing to learn about them.
+        if self.is_infinite(index) {
             return;
         }
         if let (Some(tree), Some(grid)) = (&self.tree, &mut self.visibility) {
@@ -248,4 +267,28 @@ impl Lights {
             grid.finish_learning(tree);
         }
     }
+}
+
+/// A punctual light as an emitter, a sun sized to the scene's bounds `min`, `max`.
+fn punctual_light(desc: &PunctualLightDesc, min: Vec3, max: Vec3) -> Light {
+    let shape = match desc.kind {
+        PunctualKind::Point => LightShape::Point { position: desc.position, spot: None },
+        PunctualKind::Spot { inner_cone, outer_cone } => LightShape::Point {
+            position: desc.position,
+            spot: Some(punctual::SpotCone {
+                axis: desc.direction.normalize(),
+                cos_inner: inner_cone.cos(),
+                cos_outer: outer_cone.cos(),
+            }),
+        },
+        PunctualKind::Sun => {
+            let (center, radius) = if min.cmple(max).all() {
+                (0.5 * (min + max), (0.5 * (max - min).length()).max(f32::MIN_POSITIVE))
+            } else {
+                (Vec3::ZERO, 1.0)
+            };
+            LightShape::Sun { direction: desc.direction.normalize(), center, radius }
+        }
+    };
+    Light { shape, le: desc.radiometric(), motion: Vec3::ZERO, prim: u32::MAX }
 }

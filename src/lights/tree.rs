@@ -31,16 +31,34 @@ pub struct LightBounds {
 impl LightBounds {
     /// The bounds of one light.
     pub fn of(light: &Light) -> Self {
-        let (min, max, w, cos_theta_o) = match light.shape {
+        // cos θe: the spread of emission about each normal (a hemisphere for surfaces, none beyond
+        // the cone for a spot, whose θo + θe is its outer angle, as pbrt-v4's SpotLight::Bounds).
+        let (min, max, w, cos_theta_o, cos_theta_e) = match light.shape {
             LightShape::Triangle { p, n, .. } => {
                 let min = p[0].min(p[1]).min(p[2]);
                 let max = p[0].max(p[1]).max(p[2]);
-                (min, max, n, 1.0)
+                (min, max, n, 1.0, 0.0)
             }
-            LightShape::Sphere { center, radius } => (center - radius, center + radius, Vec3::Z, -1.0),
+            LightShape::Sphere { center, radius } => (center - radius, center + radius, Vec3::Z, -1.0, 0.0),
+            LightShape::Point { position, spot: None } => (position, position, Vec3::Z, -1.0, 0.0),
+            LightShape::Point { position, spot: Some(s) } => {
+                let spread = s.cos_outer.clamp(-1.0, 1.0).acos() - s.cos_inner.clamp(-1.0, 1.0).acos();
+                (position, position, s.axis, s.cos_inner, spread.cos())
+            }
+            // Infinitely far: no power in the tree (it is selected beside it, as the environment).
+            LightShape::Sun { .. } => {
+                return Self {
+                    min: Vec3::ZERO,
+                    max: Vec3::ZERO,
+                    phi: 0.0,
+                    w: Vec3::Z,
+                    cos_theta_o: -1.0,
+                    cos_theta_e: 0.0,
+                };
+            }
         };
         let (min, max) = (min.min(min + light.motion), max.max(max + light.motion));
-        Self { min, max, phi: light.power(), w, cos_theta_o, cos_theta_e: 0.0 }
+        Self { min, max, phi: light.power(), w, cos_theta_o, cos_theta_e }
     }
 
     /// The bounds of two groups of lights (pbrt-v4 `Union(LightBounds, LightBounds)`).
@@ -124,7 +142,8 @@ impl NodeBounds {
         if cos_p <= self.cos_theta_e {
             return 0.0;
         }
-        let mut importance = self.phi * cos_p / dist2.max(self.min_d2);
+        // A point light's bounds have no extent: keep a shading point on top of it finite.
+        let mut importance = self.phi * cos_p / dist2.max(self.min_d2).max(f32::MIN_POSITIVE);
         if n != Vec3::ZERO {
             let cos_i = wi.dot(n).abs();
             let sin_i = safe_sqrt(1.0 - cos_i * cos_i);
@@ -423,7 +442,7 @@ mod tests {
         let lights = [tri(Vec3::Y, false), tri(Vec3::Y * 8.0, false), tri(Vec3::Y * 2.0, true)];
         let normal_y = |l: &Light| match l.shape {
             LightShape::Triangle { n, .. } => n.y,
-            LightShape::Sphere { .. } => 0.0,
+            _ => 0.0,
         };
         assert!(normal_y(&lights[0]) < 0.0 && normal_y(&lights[2]) > 0.0);
         let tree = LightTree::build(&lights);

@@ -5,6 +5,7 @@
 
 pub mod environment;
 pub mod gltf;
+pub mod punctual;
 pub mod run_file;
 pub mod schedule;
 pub mod validate;
@@ -87,6 +88,8 @@ pub struct Scene {
     pub resolution: Option<(u32, u32)>,
     /// The environment light, if the run file or command line gives one.
     pub environment: Option<environment::EnvironmentDesc>,
+    /// Point, spot and sun lights (KHR_lights_punctual, run files' `[[light]]`).
+    pub punctual_lights: Vec<punctual::PunctualLightDesc>,
 }
 
 /// A triangle mesh in world space.

@@ -354,6 +354,9 @@ pub struct RunFile {
     pub spheres: Vec<SphereSpec>,
     /// Linear node motions.
     pub motion: Vec<MotionSpec>,
+    /// Punctual lights added to the scene.
+    #[serde(rename = "light")]
+    pub lights: Vec<super::punctual::LightSpec>,
 }
 
 impl MaterialSpec {
@@ -444,6 +447,12 @@ impl RunFile {
             }
         };
         self.add_spheres(&mut scene);
+        for (i, light) in self.lights.iter().enumerate() {
+            // Checked when the run file was parsed.
+            let desc =
+                light.to_desc(i).map_err(|message| Error::RunFile { path: path.to_path_buf(), message })?;
+            scene.punctual_lights.push(desc);
+        }
         self.apply_motions(&mut scene, path)?;
         let origin = format!("{}, relative to its directory", path.display());
         scene.environment = self.environment.load(path.parent().unwrap_or(Path::new("")), &origin)?;
@@ -536,6 +545,9 @@ impl RunFile {
         }
         for (i, motion) in self.motion.iter().enumerate() {
             finite(&format!("motion[{i}].translate"), &motion.translate)?;
+        }
+        for (i, light) in self.lights.iter().enumerate() {
+            light.to_desc(i)?;
         }
         self.progressive.check().map_err(|e| format!("progressive.{e}"))?;
         self.photons.check().map_err(|e| format!("photons.{e}"))?;

@@ -1,6 +1,7 @@
 //! Load-time checks, so that the systems downstream can take the scene as valid: user errors become
 //! [`Error::InvalidScene`], harmless defects (degenerate triangles, empty meshes) are dropped with one warning each.
 
+use super::punctual::PunctualKind;
 use super::{MaterialDesc, Mesh, Scene, TextureRef};
 use crate::error::{Error, Result};
 use glam::{Vec2, Vec3};
@@ -51,6 +52,23 @@ pub fn validate(scene: &mut Scene, path: &Path) -> Result<ValidationSummary> {
         object: object.to_owned(),
         problem,
     };
+
+    for light in &scene.punctual_lights {
+        if let Some(problem) = light.problem() {
+            return Err(invalid(path, &light.name, problem));
+        }
+        let brightest = light.radiometric().max_element();
+        if brightest > MAX_RADIANCE {
+            return Err(invalid(
+                path,
+                &light.name,
+                format!(
+                    "intensity {} ({brightest:e} W/sr or W/m²) is above {MAX_RADIANCE:e}, the most Caustica accepts",
+                    light.intensity
+                ),
+            ));
+        }
+    }
 
     // Check spheres first: a bad radius also makes a bad thickness of its material
     for s in &scene.spheres {
@@ -229,6 +247,10 @@ fn check_emitted_power(scene: &Scene) -> Result<(), (String, String)> {
     for sphere in &scene.spheres {
         let area = 4.0 * std::f64::consts::PI * (sphere.radius as f64).powi(2);
         add(radiance(sphere.material) * std::f64::consts::PI * area, &format!("sphere '{}'", sphere.name));
+    }
+    // A sun's power depends on the scene's extent; its irradiance is bounded in `validate`.
+    for light in scene.punctual_lights.iter().filter(|l| l.kind != PunctualKind::Sun) {
+        add(4.0 * std::f64::consts::PI * light.radiometric().max_element() as f64, &light.name);
     }
     if total > MAX_POWER {
         return Err((

@@ -23,6 +23,7 @@ use tracing::warn;
 
 /// Extensions whose data the loader uses; others listed in `extensionsUsed` are ignored with one warning.
 pub const SUPPORTED_EXTENSIONS: &[&str] = &[
+    "KHR_lights_punctual",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
     "KHR_materials_specular",
@@ -177,6 +178,9 @@ impl Loader<'_> {
             }
             if let Some(mesh) = node.mesh() {
                 self.add_mesh(&node, &mesh, world)?;
+            }
+            if let Some(light) = node.light() {
+                self.add_light(&light, world, &object)?;
             }
             if let Some(camera) = node.camera() {
                 self.add_camera(&node, &camera, world, object);

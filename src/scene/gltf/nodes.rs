@@ -4,6 +4,7 @@
 use super::{Loader, label};
 use crate::error::Result;
 use crate::scene::CameraDesc;
+use crate::scene::punctual::{PunctualKind, PunctualLightDesc};
 use glam::{Mat3, Mat4, Quat, Vec3};
 use tracing::warn;
 
@@ -54,6 +55,43 @@ impl Loader<'_> {
                 ),
             ));
         }
+        Ok(())
+    }
+
+    /// A KHR_lights_punctual light at its node: at the node's origin, shining along its local −Z.
+    pub(super) fn add_light(
+        &mut self,
+        light: &gltf::khr_lights_punctual::Light,
+        world: Mat4,
+        node: &str,
+    ) -> Result<()> {
+        use gltf::khr_lights_punctual::Kind;
+        let name = format!("{node} {}", label("light", light.name(), light.index()));
+        let kind = match light.kind() {
+            Kind::Point => PunctualKind::Point,
+            Kind::Directional => PunctualKind::Sun,
+            Kind::Spot { inner_cone_angle, outer_cone_angle } => {
+                PunctualKind::Spot { inner_cone: inner_cone_angle, outer_cone: outer_cone_angle }
+            }
+        };
+        if light.range().is_some() {
+            warn!(
+                file = %self.path.display(),
+                "{name}: range is a real-time cut-off, ignored (light falls off with the inverse square of distance)"
+            );
+        }
+        let desc = PunctualLightDesc {
+            kind,
+            position: world.transform_point3(Vec3::ZERO),
+            direction: world.transform_vector3(Vec3::NEG_Z).normalize_or_zero(),
+            color: Vec3::from(light.color()),
+            intensity: light.intensity(),
+            name,
+        };
+        if let Some(problem) = desc.problem() {
+            return Err(self.invalid(desc.name, problem));
+        }
+        self.scene.punctual_lights.push(desc);
         Ok(())
     }
 
