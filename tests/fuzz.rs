@@ -132,6 +132,20 @@ const KEYS: &[(&str, &[(&str, Kind)])] = &[
     ),
     ("[motion]", &[("node", Kind::Word(&["short_block", "tall_block", "nope"])), ("translate", Kind::Vec3)]),
     (
+        "[light]",
+        &[
+            ("type", Kind::Word(&["point", "spot", "sun", "area"])),
+            ("intensity", Kind::Number),
+            ("name", Kind::Word(&["lamp", ""])),
+            ("position", Kind::Vec3),
+            ("direction", Kind::Vec3),
+            ("target", Kind::Vec3),
+            ("color", Kind::Vec3),
+            ("inner_cone_degrees", Kind::Number),
+            ("outer_cone_degrees", Kind::Number),
+        ],
+    ),
+    (
         "environment",
         &[
             (

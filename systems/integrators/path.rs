@@ -34,6 +34,9 @@ use caustica_core::scene::{IntegratorKind, RunFile};
 pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
     let kind = run.render.integrator;
     let nee = run.schedule.nee_for(kind);
+    if !nee {
+        warn_unseen_delta_lights(world);
+    }
     let features = if kind == IntegratorKind::Pt && nee {
         features
     } else {
@@ -64,6 +67,19 @@ pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result
         report: |_, _| {},
         reset: |_| {},
     })
+}
+
+/// Point, spot and sun lights are Dirac deltas: a BSDF-sampled ray never finds them, so without
+/// light sampling they light nothing: say so rather than render them black silently.
+fn warn_unseen_delta_lights(world: &World) {
+    let lights = &world.resource::<crate::resources::SceneResource>().lights.lights;
+    let unseen = lights.iter().filter(|l| l.shape.is_delta()).count();
+    if unseen > 0 {
+        tracing::warn!(
+            "{unseen} point, spot or sun light(s) light nothing without light sampling (pt-naive or \
+             schedule.nee = false): no ray can hit a light of no size; use pt or a photon integrator"
+        );
+    }
 }
 
 /// Add one bounce of path tracing to `schedule` (the plan's, or a host's own): the stages in `order`
