@@ -3,7 +3,7 @@
 
 use crate::geometry::bvh::PrimitiveShape;
 use crate::geometry::{Geometry, SurfaceHit};
-use crate::lights::Lights;
+use crate::lights::{LightShape, Lights};
 use crate::materials::{Bsdf, ShadingParams};
 use crate::scene::environment::EnvironmentDesc;
 use crate::scene::{LightSelection, MaterialDesc, Scene, Texture, TextureRef};
@@ -44,13 +44,7 @@ impl RenderScene {
     #[inline]
     pub fn shading_params(&self, hit: &SurfaceHit) -> ShadingParams {
         let m = &self.materials[hit.material as usize];
-        let lookup = |t: &TextureRef| {
-            let mut uv = hit.uv[(t.tex_coord as usize).min(1)];
-            if let Some([x, y, o]) = t.transform {
-                uv = x * uv.x + y * uv.y + o;
-            }
-            self.textures[t.texture as usize].sample(uv)
-        };
+        let lookup = |t: &TextureRef| t.lookup(&self.textures, hit.uv[(t.tex_coord as usize).min(1)]);
         let mut base_color = m.base_color * hit.color;
         if let Some(t) = &m.base_color_texture {
             base_color *= lookup(t).truncate();
@@ -62,6 +56,31 @@ impl RenderScene {
             metallic *= texel.z;
         }
         m.shading_params(base_color, metallic, roughness)
+    }
+
+    /// The radiance a surface emits at a hit: the material's emission times its emissive texture.
+    #[inline]
+    pub fn emission(&self, hit: &SurfaceHit) -> Vec3 {
+        let m = &self.materials[hit.material as usize];
+        match &m.emissive_texture {
+            Some(t) => {
+                m.emission * t.lookup(&self.textures, hit.uv[(t.tex_coord as usize).min(1)]).truncate()
+            }
+            None => m.emission,
+        }
+    }
+
+    /// What light `index`'s emissive texture multiplies its radiance by at point `p` (time `time`):
+    /// one for lights without a texture. Light sampling and photon emission pick points on a
+    /// triangle uniformly and weigh them by this, so a textured light stays unbiased.
+    #[inline]
+    pub fn emissive_texel(&self, index: u32, p: Vec3, time: f32) -> Vec3 {
+        let Some(light) = self.lights.lights.get(index as usize) else { return Vec3::ONE };
+        let (Some(t), LightShape::Triangle { p: v, .. }) = (&light.texture, light.shape) else {
+            return Vec3::ONE;
+        };
+        let b = barycentric(p - light.motion * time, v);
+        t.texture.lookup(&self.textures, b.x * t.uv[0] + b.y * t.uv[1] + b.z * t.uv[2]).truncate()
     }
 
     /// Whether any material is a pure delta (mirror, smooth glass): only then can caustics form.
@@ -85,6 +104,20 @@ impl RenderScene {
     }
 }
 
+/// Barycentric coordinates of `p` in triangle `v` (p on its plane).
+fn barycentric(p: Vec3, v: [Vec3; 3]) -> Vec3 {
+    let (e1, e2, d) = (v[1] - v[0], v[2] - v[0], p - v[0]);
+    let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+    let (d1, d2) = (d.dot(e1), d.dot(e2));
+    let det = d11 * d22 - d12 * d12;
+    if det <= 0.0 || det.is_nan() {
+        return Vec3::new(1.0, 0.0, 0.0);
+    }
+    let b1 = ((d22 * d1 - d12 * d2) / det).clamp(0.0, 1.0);
+    let b2 = ((d11 * d2 - d12 * d1) / det).clamp(0.0, 1.0 - b1);
+    Vec3::new(1.0 - b1 - b2, b1, b2)
+}
+
 /// The lights of `scene` over its built `geometry`. A scene with no emitter and no environment is lit
 /// by a uniform white environment (radiance 1), as glTF viewers light files made for them, with a
 /// warning: a black image helps nobody.
@@ -92,6 +125,7 @@ pub fn scene_lights(geometry: &mut Geometry, scene: &Scene, light_selection: Lig
     let lights = Lights::build(
         geometry,
         &scene.materials,
+        &scene.textures,
         scene.environment.as_ref(),
         &scene.punctual_lights,
         light_selection,
@@ -105,5 +139,12 @@ pub fn scene_lights(geometry: &mut Geometry, scene: &Scene, light_selection: Lig
         scene.source.display()
     );
     let white = EnvironmentDesc::constant(Vec3::ONE);
-    Lights::build(geometry, &scene.materials, Some(&white), &scene.punctual_lights, light_selection)
+    Lights::build(
+        geometry,
+        &scene.materials,
+        &scene.textures,
+        Some(&white),
+        &scene.punctual_lights,
+        light_selection,
+    )
 }

@@ -110,7 +110,7 @@ pub fn scattered_lights(n: u32, extent: f32) -> Vec<crate::lights::Light> {
                 let r = size * (0.05 + 0.2 * s.get1d(10));
                 LightShape::triangle([c, c + f.x * r, c + f.y * r])
             };
-            Light { shape, le, motion: Vec3::ZERO, prim: i }
+            Light::new(shape, le, Vec3::ZERO, i)
         })
         .collect()
 }

@@ -213,6 +213,18 @@ impl Geometry {
         statics.chain(moving)
     }
 
+    /// The texture coordinates of set `set` at triangle `prim`'s vertices (zero where the mesh has no
+    /// such set, or for a sphere).
+    pub fn triangle_uvs(&self, prim: u32, set: u32) -> [Vec2; 3] {
+        let (shape, info, _) = self.primitive(prim);
+        let PrimitiveShape::Triangle(_) = shape else { return [Vec2::ZERO; 3] };
+        let mesh = &self.meshes[info.object as usize];
+        match mesh.uvs.get(set as usize) {
+            Some(uvs) => mesh.indices[info.index as usize].map(|v| uvs[v as usize]),
+            None => [Vec2::ZERO; 3],
+        }
+    }
+
     /// Shape, info and displacement over the shutter of primitive `prim`.
     #[inline]
     pub fn primitive(&self, prim: u32) -> (&PrimitiveShape, &PrimitiveInfo, Vec3) {

@@ -37,7 +37,8 @@ pub fn sample_light(
 ) -> Option<ShadowSample> {
     let si = &v.si;
     let normal = v.n_side();
-    let (light, ls) = scene.lights.sample(si.p, normal, time, u.light_select(), u.light_point())?;
+    let (light, mut ls) = scene.lights.sample(si.p, normal, time, u.light_select(), u.light_point())?;
+    ls.le *= scene.emissive_texel(light, ls.p, time);
     // A light never lights its own surface: a sphere is convex and a triangle flat, so the sample's
     // contribution is zero. Sampled from its own surface a sphere's cone is the whole hemisphere and
     // every sample collapses onto the shading point itself (a zero-length, NaN direction).

@@ -60,7 +60,7 @@ pub fn add_surface_emission(
     if si.light != NO_LIGHT && si.ng.dot(wo) > 0.0 {
         let light_pdf = || scene.lights.pdf(si.light, path.prev_p, path.prev_n, si.p, si.ng, time);
         if let Some(weight) = rule.of(path, light_pdf) {
-            path.add(path.beta * scene.materials[si.material as usize].emission * weight, Quantity::Emission);
+            path.add(path.beta * scene.emission(si) * weight, Quantity::Emission);
         }
     }
 }

@@ -55,12 +55,13 @@ pub fn emit_photon(
     sampler: &Sampler,
     time: f32,
 ) -> Option<(Ray, PhotonPath)> {
-    let (_, e) = scene.lights.sample_emission(
+    let (light, mut e) = scene.lights.sample_emission(
         time,
         sampler.get1d(dim::LIGHT),
         sampler.get2d(dim::POSITION),
         sampler.get2d(dim::DIRECTION),
     )?;
+    e.weight *= scene.emissive_texel(light, e.p, time);
     let ray =
         Ray { o: offset_ray_origin(e.p, e.p.abs() * gamma(4), e.n, e.d), d: e.d, t_max: f32::INFINITY, time };
     Some((ray, PhotonPath { power: e.weight / settings.total as f32, depth: 0, specular_only: true }))

@@ -74,6 +74,20 @@ pub struct Light {
     pub motion: Vec3,
     /// The primitive that carries it (`u32::MAX` for punctual lights).
     pub prim: u32,
+    /// An emissive texture multiplying `le` across a triangle, looked up where a sample lands
+    /// (`RenderScene::emissive_texel`).
+    pub texture: Option<LightTexture>,
+    /// The texture's mean over the light (one without a texture): selection by power uses it.
+    pub mean_texel: Vec3,
+}
+
+/// An emissive texture over a triangle light.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightTexture {
+    /// The texture and its uv set and transform.
+    pub texture: crate::scene::TextureRef,
+    /// The triangle's vertices' coordinates in that uv set.
+    pub uv: [Vec2; 3],
 }
 
 /// A point sampled on a light.
@@ -111,7 +125,13 @@ pub fn luminance(c: Vec3) -> f32 {
 }
 
 impl Light {
-    /// Emitted power, by luminance: π · area · L for a one-sided Lambertian emitter, 4π · I for a
+    /// A light of uniform emission.
+    pub fn new(shape: LightShape, le: Vec3, motion: Vec3, prim: u32) -> Self {
+        Self { shape, le, motion, prim, texture: None, mean_texel: Vec3::ONE }
+    }
+
+    /// Emitted power, by luminance: π · area · L (times the emissive texture's mean) for a one-sided
+    /// Lambertian emitter, 4π · I for a
     /// point, I · (the spot's solid angle) for a spot, E · π r² through the scene for a sun.
     pub fn power(&self) -> f32 {
         let scale = match self.shape {
@@ -121,7 +141,7 @@ impl Light {
             LightShape::Point { spot: Some(s), .. } => s.solid_angle(),
             LightShape::Sun { radius, .. } => PI * radius * radius,
         };
-        scale * luminance(self.le)
+        scale * luminance(self.le * self.mean_texel)
     }
 
     /// Sample a point as seen from `p_ref` at normalized time `time`.
@@ -255,7 +275,7 @@ mod tests {
         Chi2Config { cos_theta_bins: 48, phi_bins: 96, min_expected: 5.0, significance: 0.01, test_count: 4 };
 
     fn light(shape: LightShape) -> Light {
-        Light { shape, le: Vec3::ONE, motion: Vec3::ZERO, prim: 0 }
+        Light::new(shape, Vec3::ONE, Vec3::ZERO, 0)
     }
 
     /// Directions from `p_ref` follow `Light::pdf` evaluated where each direction meets the light.

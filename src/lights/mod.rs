@@ -8,7 +8,7 @@ pub mod select;
 pub mod tree;
 pub mod visibility;
 
-pub use area::{EmissionSample, Light, LightSample, LightShape};
+pub use area::{EmissionSample, Light, LightSample, LightShape, LightTexture};
 pub use environment::Environment;
 pub use select::LightSelector;
 pub use tree::LightTree;
@@ -19,7 +19,7 @@ use crate::geometry::bvh::PrimitiveShape;
 use crate::sampling::ONE_MINUS_EPSILON;
 use crate::scene::environment::EnvironmentDesc;
 use crate::scene::punctual::{PunctualKind, PunctualLightDesc};
-use crate::scene::{LightSelection, MaterialDesc};
+use crate::scene::{LightSelection, MaterialDesc, Texture, TextureRef};
 use glam::{Vec2, Vec3};
 
 /// Share of light-tree selections that go to the infinite lights (environment, suns) when there are
@@ -57,6 +57,7 @@ impl Lights {
     pub fn build(
         geometry: &mut Geometry,
         materials: &[MaterialDesc],
+        textures: &[Texture],
         environment: Option<&EnvironmentDesc>,
         punctual: &[PunctualLightDesc],
         selection: LightSelection,
@@ -73,7 +74,15 @@ impl Lights {
                 PrimitiveShape::Sphere(c, r) => LightShape::Sphere { center: c, radius: r },
             };
             ids.push(prim);
-            lights.push(Light { shape, le, motion, prim });
+            let mut light = Light::new(shape, le, motion, prim);
+            if let (Some(t), LightShape::Triangle { .. }) =
+                (&materials[info.material as usize].emissive_texture, shape)
+            {
+                let uv = geometry.triangle_uvs(prim, t.tex_coord);
+                light.texture = Some(LightTexture { texture: *t, uv });
+                light.mean_texel = mean_texel(t, textures, uv);
+            }
+            lights.push(light);
         }
         for (i, &prim) in ids.iter().enumerate() {
             geometry.set_light(prim, i as u32);
@@ -290,5 +299,18 @@ fn punctual_light(desc: &PunctualLightDesc, min: Vec3, max: Vec3) -> Light {
             LightShape::Sun { direction: desc.direction.normalize(), center, radius }
         }
     };
-    Light { shape, le: desc.radiometric(), motion: Vec3::ZERO, prim: u32::MAX }
+    Light::new(shape, desc.radiometric(), Vec3::ZERO, u32::MAX)
+}
+
+/// The mean of an emissive texture over a triangle with vertex coordinates `uv`, from a stratified
+/// 8 × 8 set of points (what selection by power needs: a good guess, not an exact integral).
+fn mean_texel(t: &TextureRef, textures: &[Texture], uv: [Vec2; 3]) -> Vec3 {
+    const N: u32 = 8;
+    let mut sum = Vec3::ZERO;
+    for i in 0..N * N {
+        let u = Vec2::new(((i % N) as f32 + 0.5) / N as f32, ((i / N) as f32 + 0.5) / N as f32);
+        let b = crate::sampling::warp::uniform_triangle(u);
+        sum += t.lookup(textures, (1.0 - b.x - b.y) * uv[0] + b.x * uv[1] + b.y * uv[2]).truncate();
+    }
+    sum / (N * N) as f32
 }

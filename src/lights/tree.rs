@@ -437,7 +437,7 @@ mod tests {
         let tri = |c: Vec3, up: bool| {
             let (a, b) = (Vec3::X * 0.1, Vec3::Z * 0.1);
             let p = if up { [c, c + b, c + a] } else { [c, c + a, c + b] };
-            Light { shape: LightShape::triangle(p), le: Vec3::ONE, motion: Vec3::ZERO, prim: 0 }
+            Light::new(LightShape::triangle(p), Vec3::ONE, Vec3::ZERO, 0)
         };
         let lights = [tri(Vec3::Y, false), tri(Vec3::Y * 8.0, false), tri(Vec3::Y * 2.0, true)];
         let normal_y = |l: &Light| match l.shape {

@@ -144,6 +144,18 @@ pub struct TextureRef {
     pub transform: Option<[Vec2; 3]>,
 }
 
+impl TextureRef {
+    /// The texel at `uv` (of the set this reference reads), its transform applied.
+    #[inline]
+    pub fn lookup(&self, textures: &[Texture], uv: Vec2) -> Vec4 {
+        let uv = match self.transform {
+            Some([x, y, o]) => x * uv.x + y * uv.y + o,
+            None => uv,
+        };
+        textures[self.texture as usize].sample(uv)
+    }
+}
+
 /// A material as the file describes it (glTF metallic-roughness with extensions); the BSDF is built
 /// from it at each hit after textures are looked up.
 #[derive(Clone, Debug)]
@@ -162,6 +174,8 @@ pub struct MaterialDesc {
     pub metallic_roughness_texture: Option<TextureRef>,
     /// Emitted radiance: emissiveFactor × KHR_materials_emissive_strength.
     pub emission: Vec3,
+    /// sRGB emissive texture multiplying `emission`.
+    pub emissive_texture: Option<TextureRef>,
     /// KHR_materials_transmission factor in [0, 1].
     pub transmission: f32,
     /// KHR_materials_ior (1.5 by default).
@@ -187,6 +201,7 @@ impl Default for MaterialDesc {
             roughness: 1.0,
             metallic_roughness_texture: None,
             emission: Vec3::ZERO,
+            emissive_texture: None,
             transmission: 0.0,
             ior: 1.5,
             specular: 1.0,

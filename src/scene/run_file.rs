@@ -653,6 +653,7 @@ impl MaterialSpec {
             roughness: self.roughness,
             metallic_roughness_texture: None,
             emission: self.emission(),
+            emissive_texture: None,
             transmission: self.transmission,
             ior: self.ior,
             specular: self.specular,

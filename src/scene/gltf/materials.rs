@@ -24,9 +24,12 @@ impl Loader<'_> {
             pbr.base_color_texture().map(|info| self.texture_ref(&info, true)).transpose()?;
         let metallic_roughness_texture =
             pbr.metallic_roughness_texture().map(|info| self.texture_ref(&info, false)).transpose()?;
+        let emissive_texture =
+            material.emissive_texture().map(|info| self.texture_ref(&info, true)).transpose()?;
         for (slot, texture) in [
             ("baseColorTexture", &base_color_texture),
             ("metallicRoughnessTexture", &metallic_roughness_texture),
+            ("emissiveTexture", &emissive_texture),
         ] {
             if let Some(t) = texture.filter(|t| t.tex_coord > 1) {
                 return Err(self.invalid(
@@ -47,9 +50,6 @@ impl Loader<'_> {
         }
         if material.occlusion_texture().is_some() {
             ignored.push("occlusionTexture");
-        }
-        if material.emissive_texture().is_some() {
-            ignored.push("emissiveTexture");
         }
         if material.transmission().is_some_and(|t| t.transmission_texture().is_some()) {
             ignored.push("transmissionTexture");
@@ -83,6 +83,7 @@ impl Loader<'_> {
             roughness: pbr.roughness_factor(),
             metallic_roughness_texture,
             emission: Vec3::from(material.emissive_factor()) * material.emissive_strength().unwrap_or(1.0),
+            emissive_texture,
             transmission: material.transmission().map_or(0.0, |t| t.transmission_factor()),
             ior: material.ior().unwrap_or(1.5),
             specular: specular.as_ref().map_or(1.0, |s| s.specular_factor()),

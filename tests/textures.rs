@@ -1,0 +1,128 @@
+//! Textures real glTF files carry, beyond base colour: emissive textures.
+
+mod common;
+
+use caustica::camera::look_at;
+use caustica::scene::{CameraDesc, IntegratorKind, Mesh, RunFile, Scene, Texture, TextureRef, Wrap};
+use caustica::test_scenes::diffuse;
+use glam::{Vec2, Vec3, Vec4};
+
+/// A floor under a 1 m² lamp facing down whose emissive texture is a 4 × 4 checkerboard of white
+/// and black, seen from the side so that both the floor and the lamp's underside are in view.
+fn checker_lamp() -> Scene {
+    let l = 3.0;
+    let floor = Mesh {
+        name: "floor".into(),
+        positions: vec![
+            Vec3::new(-l, 0.0, -l),
+            Vec3::new(-l, 0.0, l),
+            Vec3::new(l, 0.0, l),
+            Vec3::new(l, 0.0, -l),
+        ],
+        indices: vec![[0, 1, 2], [0, 2, 3]],
+        material: 0,
+        ..Mesh::default()
+    };
+    // Counter-clockwise seen from below: the lamp emits downwards.
+    let lamp = Mesh {
+        name: "lamp".into(),
+        positions: vec![
+            Vec3::new(-0.5, 1.0, -0.5),
+            Vec3::new(0.5, 1.0, -0.5),
+            Vec3::new(0.5, 1.0, 0.5),
+            Vec3::new(-0.5, 1.0, 0.5),
+        ],
+        uvs: vec![vec![Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0), Vec2::new(0.0, 1.0)]],
+        indices: vec![[0, 1, 2], [0, 2, 3]],
+        material: 1,
+        ..Mesh::default()
+    };
+    let texels =
+        (0..16).map(|i| if (i % 4 + i / 4) % 2 == 0 { Vec4::ONE } else { Vec4::new(0.0, 0.0, 0.0, 1.0) });
+    let checker = Texture {
+        name: "checker".into(),
+        width: 4,
+        height: 4,
+        texels: texels.collect(),
+        wrap_s: Wrap::ClampToEdge,
+        wrap_t: Wrap::ClampToEdge,
+    };
+    let mut lamp_material = diffuse("lamp", Vec3::ZERO, Vec3::splat(4.0));
+    lamp_material.double_sided = false;
+    lamp_material.emissive_texture = Some(TextureRef { texture: 0, tex_coord: 0, transform: None });
+    Scene {
+        meshes: vec![floor, lamp],
+        materials: vec![diffuse("floor", Vec3::splat(0.7), Vec3::ZERO), lamp_material],
+        textures: vec![checker],
+        camera: Some(CameraDesc {
+            name: "side".into(),
+            camera_to_world: look_at(Vec3::new(0.0, 0.5, 2.5), Vec3::new(0.0, 0.4, 0.0), Vec3::Y),
+            yfov: 60f32.to_radians(),
+            aspect_ratio: None,
+        }),
+        resolution: Some((48, 36)),
+        source: "checker lamp (procedural)".into(),
+        ..Scene::default()
+    }
+}
+
+fn render(integrator: IntegratorKind, spp: u32, seed: u64) -> caustica::film::Image {
+    let mut run = RunFile::default();
+    run.render.integrator = integrator;
+    run.render.spp = spp;
+    run.render.seed = seed;
+    common::render(checker_lamp(), &run)
+}
+
+/// Light sampling picks points on the lamp uniformly and must weigh each by the texel there:
+/// `pt` (light sampling with MIS) and `pt-naive` (emission found by hitting it, looked up at the
+/// hit) are both unbiased, so their difference is zero within the noise, in the image and in every
+/// block. Sampling the lamp as if it were uniformly white would make `pt`'s floor twice as bright.
+#[test]
+fn an_emissive_texture_lights_the_scene_as_seen_and_as_sampled() {
+    let sampled = render(IntegratorKind::Pt, 64, 1);
+    let hit = render(IntegratorKind::PtNaive, 256, 2);
+    let (mean, se) = common::paired_difference(&sampled, &hit);
+    assert!(mean.abs() < 4.0 * se, "pt − pt-naive = {mean} ± {se}");
+    let worst = common::block_z_scores(&sampled, &hit, 4).into_iter().fold(0.0f64, |m, z| m.max(z.abs()));
+    assert!(worst < 4.5, "a block at z = {worst}");
+    assert!(sampled.mean().max_element() > 0.05, "black: {}", sampled.mean());
+}
+
+/// Seen directly, from below, the lamp shows its checkerboard: pixels at the centres of white
+/// texels are near the full 4, those at black ones near 0 (bilinear filtering blends in between; a
+/// lamp drawn without its texture would be 4 everywhere).
+#[test]
+fn an_emissive_texture_is_seen_directly() {
+    let mut scene = checker_lamp();
+    scene.camera.as_mut().unwrap().camera_to_world = look_at(Vec3::new(0.0, 0.2, 0.0), Vec3::Y, Vec3::Z);
+    let mut run = RunFile::default();
+    run.render.spp = 4;
+    let image = common::render(scene, &run);
+    let brightest = image.pixels.iter().map(|p| p.min_element()).fold(0.0f32, f32::max);
+    let darkest = image.pixels.iter().map(|p| p.max_element()).fold(f32::INFINITY, f32::min);
+    assert!(brightest > 3.5 && darkest < 0.5, "no checkerboard: pixels from {darkest} to {brightest}");
+}
+
+/// Photons leave a textured lamp weighted by the texel where they start: `ppm`, which takes even
+/// direct light from photons, lights the floor as `pt` does, within its blur and noise (5%; photons
+/// leaving the black squares at full power would make the floor twice as bright).
+#[test]
+fn photons_from_an_emissive_texture_carry_its_texels() {
+    let floor = |image: &caustica::film::Image| {
+        let rows = (image.height * 3 / 5)..image.height;
+        let sum: f64 = rows
+            .flat_map(|y| (0..image.width).map(move |x| (y, x)))
+            .map(|(y, x)| image.pixels[(y * image.width + x) as usize].element_sum() as f64)
+            .sum();
+        sum
+    };
+    let reference = floor(&render(IntegratorKind::Pt, 64, 1));
+    let mut run = RunFile::default();
+    run.render.integrator = IntegratorKind::Ppm;
+    run.progressive.passes = 16;
+    run.progressive.photons_per_pass = 50_000;
+    let photons = floor(&common::render(checker_lamp(), &run));
+    let ratio = photons / reference;
+    assert!((ratio - 1.0).abs() < 0.05, "ppm's floor is {ratio} of pt's");
+}
