@@ -1,9 +1,12 @@
-//! Textures real glTF files carry, beyond base colour: emissive textures.
+//! Textures real glTF files carry, beyond base colour: emissive textures and alpha (MASK cut-outs,
+//! BLEND as stochastic transparency).
 
 mod common;
 
 use caustica::camera::look_at;
-use caustica::scene::{CameraDesc, IntegratorKind, Mesh, RunFile, Scene, Texture, TextureRef, Wrap};
+use caustica::scene::{
+    AlphaMode, CameraDesc, IntegratorKind, MaterialDesc, Mesh, RunFile, Scene, Texture, TextureRef, Wrap,
+};
 use caustica::test_scenes::diffuse;
 use glam::{Vec2, Vec3, Vec4};
 
@@ -125,4 +128,131 @@ fn photons_from_an_emissive_texture_carry_its_texels() {
     let photons = floor(&common::render(checker_lamp(), &run));
     let ratio = photons / reference;
     assert!((ratio - 1.0).abs() < 0.05, "ppm's floor is {ratio} of pt's");
+}
+
+/// A floor lit by a small lamp through a black 1 m² screen halfway up, seen from above at a slant,
+/// with the screen's material `screen` (texture 0: a 4 × 4 checkerboard of alpha 0 and 1).
+fn screened_lamp(screen: Option<MaterialDesc>) -> Scene {
+    let quad = |name: &str, y: f32, half: f32, down: bool, material: u32| {
+        let mut positions = vec![
+            Vec3::new(-half, y, -half),
+            Vec3::new(half, y, -half),
+            Vec3::new(half, y, half),
+            Vec3::new(-half, y, half),
+        ];
+        if !down {
+            positions.reverse();
+        }
+        Mesh {
+            name: name.into(),
+            positions,
+            uvs: vec![vec![
+                Vec2::new(0.0, 0.0),
+                Vec2::new(1.0, 0.0),
+                Vec2::new(1.0, 1.0),
+                Vec2::new(0.0, 1.0),
+            ]],
+            indices: vec![[0, 1, 2], [0, 2, 3]],
+            material,
+            ..Mesh::default()
+        }
+    };
+    let mut lamp = diffuse("lamp", Vec3::ZERO, Vec3::splat(10.0));
+    lamp.double_sided = false;
+    let mut meshes = vec![quad("floor", 0.0, 3.0, false, 0), quad("lamp", 1.5, 0.25, true, 1)];
+    let mut materials = vec![diffuse("floor", Vec3::splat(0.7), Vec3::ZERO), lamp];
+    if let Some(screen) = screen {
+        meshes.push(quad("screen", 0.5, 0.5, false, 2));
+        materials.push(screen);
+    }
+    let texels = (0..16).map(|i| Vec4::new(0.0, 0.0, 0.0, if (i % 4 + i / 4) % 2 == 0 { 1.0 } else { 0.0 }));
+    Scene {
+        meshes,
+        materials,
+        textures: vec![Texture {
+            name: "alpha checker".into(),
+            width: 4,
+            height: 4,
+            texels: texels.collect(),
+            wrap_s: Wrap::ClampToEdge,
+            wrap_t: Wrap::ClampToEdge,
+        }],
+        camera: Some(CameraDesc {
+            name: "above".into(),
+            camera_to_world: look_at(Vec3::new(0.0, 2.5, 2.5), Vec3::new(0.0, 0.2, 0.0), Vec3::Y),
+            yfov: 50f32.to_radians(),
+            aspect_ratio: None,
+        }),
+        resolution: Some((40, 40)),
+        source: "screened lamp (procedural)".into(),
+        ..Scene::default()
+    }
+}
+
+fn screen(alpha_mode: AlphaMode, alpha: f32, textured: bool) -> MaterialDesc {
+    let mut m = diffuse("screen", Vec3::ZERO, Vec3::ZERO);
+    m.alpha_mode = alpha_mode;
+    m.alpha = alpha;
+    m.base_color_texture = textured.then_some(TextureRef { texture: 0, tex_coord: 0, transform: None });
+    m
+}
+
+fn render_scene(scene: Scene, integrator: IntegratorKind, spp: u32, seed: u64) -> caustica::film::Image {
+    let mut run = RunFile::default();
+    run.render.integrator = integrator;
+    run.render.spp = spp;
+    run.render.seed = seed;
+    run.progressive.passes = 16;
+    run.progressive.photons_per_pass = 50_000;
+    common::render(scene, &run)
+}
+
+/// Camera rays (`pt-naive` finds the lamp only through them) and shadow rays (`pt`) see the same
+/// holes: their renders agree within the noise, in the image and in every block.
+fn assert_unbiased(screen: MaterialDesc, what: &str) {
+    let sampled = render_scene(screened_lamp(Some(screen.clone())), IntegratorKind::Pt, 64, 1);
+    let hit = render_scene(screened_lamp(Some(screen)), IntegratorKind::PtNaive, 512, 2);
+    let (mean, se) = common::paired_difference(&sampled, &hit);
+    assert!(mean.abs() < 4.0 * se, "{what}: pt − pt-naive = {mean} ± {se}");
+    let worst = common::block_z_scores(&sampled, &hit, 4).into_iter().fold(0.0f64, |m, z| m.max(z.abs()));
+    assert!(worst < 4.5, "{what}: a block at z = {worst}");
+}
+
+/// MASK: the checkerboard's transparent squares let light through to the floor, for camera rays,
+/// shadow rays and photons alike. The screen's shadow is then lighter than an opaque screen's and
+/// darker than no screen's; with an alpha factor of 0 every texel is cut and the image is exactly
+/// the one without a screen.
+#[test]
+fn a_masked_cut_out_lets_light_through_for_every_ray() {
+    let checker = screen(AlphaMode::Mask { cutoff: 0.5 }, 1.0, true);
+    assert_unbiased(checker.clone(), "mask");
+    let mean = |scene: Scene| render_scene(scene, IntegratorKind::Pt, 64, 1).mean().element_sum();
+    let opaque = mean(screened_lamp(Some(screen(AlphaMode::Opaque, 1.0, true))));
+    let masked = mean(screened_lamp(Some(checker.clone())));
+    let clear = mean(screened_lamp(None));
+    assert!(opaque < masked && masked < clear, "opaque {opaque}, masked {masked}, clear {clear}");
+    let invisible = render_scene(
+        screened_lamp(Some(screen(AlphaMode::Mask { cutoff: 0.5 }, 0.0, true))),
+        IntegratorKind::Pt,
+        4,
+        1,
+    );
+    let without = render_scene(screened_lamp(None), IntegratorKind::Pt, 4, 1);
+    assert_eq!(invisible.pixels, without.pixels, "a screen cut out everywhere changed the image");
+    // Photons pass the holes too: ppm (direct light from photons) agrees with pt within 5%.
+    let pt =
+        render_scene(screened_lamp(Some(checker.clone())), IntegratorKind::Pt, 64, 1).mean().element_sum();
+    let ppm = render_scene(screened_lamp(Some(checker)), IntegratorKind::Ppm, 1, 1).mean().element_sum();
+    assert!((ppm / pt - 1.0).abs() < 0.05, "ppm {ppm} against pt {pt}");
+}
+
+/// BLEND as stochastic transparency: a ray passes a screen of alpha 0.3 with probability 0.7,
+/// whichever kind of ray it is, and photons too.
+#[test]
+fn a_blended_surface_is_stochastically_transparent_to_every_ray() {
+    let veil = screen(AlphaMode::Blend, 0.3, false);
+    assert_unbiased(veil.clone(), "blend");
+    let pt = render_scene(screened_lamp(Some(veil.clone())), IntegratorKind::Pt, 64, 1).mean().element_sum();
+    let ppm = render_scene(screened_lamp(Some(veil)), IntegratorKind::Ppm, 1, 1).mean().element_sum();
+    assert!((ppm / pt - 1.0).abs() < 0.05, "ppm {ppm} against pt {pt}");
 }

@@ -5,6 +5,7 @@
 //! the ray's time; a scene with nothing moving has no second BVH and pays nothing for motion.
 
 use super::Ray;
+use super::alpha::{Cutouts, NO_CUTOUT};
 use super::offset::gamma;
 use super::sphere::{intersect_sphere, sphere_hit_point};
 use super::triangle::{ShearedRay, intersect_triangle_sheared, triangle_point_error};
@@ -64,6 +65,8 @@ pub struct PrimitiveSet {
     pub info: Vec<PrimitiveInfo>,
     /// Displacement over the shutter per primitive (empty for the static set).
     pub motion: Vec<Vec3>,
+    /// Alpha cut-out per primitive (`NO_CUTOUT`: opaque); empty when the set has none.
+    pub cutout: Vec<u32>,
 }
 
 /// A ray's closest hit: which primitive, where on it.
@@ -126,6 +129,7 @@ pub struct Geometry {
     static_set: PrimitiveSet,
     moving_set: Option<PrimitiveSet>,
     meshes: Vec<MeshShading>,
+    cutouts: Cutouts,
     bounds: Aabb,
     /// Time spent building BVHs.
     pub build_time: Duration,
@@ -136,11 +140,18 @@ impl Geometry {
     pub fn build(scene: &Scene) -> Self {
         let _span = tracing::info_span!("build_bvh").entered();
         let mut builders = [SetBuilder::default(), SetBuilder::default()];
+        let (mut cutouts, cutout_materials) = Cutouts::new(scene);
         for (mesh_index, mesh) in scene.meshes.iter().enumerate() {
             let moving = mesh.motion.filter(|m| *m != Vec3::ZERO);
             let builder = &mut builders[moving.is_some() as usize];
+            let cutout_material = cutout_materials.get(mesh.material as usize).copied().flatten();
             for (i, tri) in mesh.indices.iter().enumerate() {
                 let p = tri.map(|v| mesh.positions[v as usize]);
+                let cutout = cutout_material.map_or(NO_CUTOUT, |m| {
+                    let set =
+                        |s: usize| mesh.uvs.get(s).map_or([Vec2::ZERO; 3], |uv| tri.map(|v| uv[v as usize]));
+                    cutouts.add_triangle(m, [set(0), set(1)])
+                });
                 builder.push(
                     PrimitiveShape::Triangle(p),
                     PrimitiveInfo {
@@ -151,6 +162,7 @@ impl Geometry {
                         light: NO_LIGHT,
                     },
                     moving,
+                    cutout,
                 );
             }
         }
@@ -166,6 +178,7 @@ impl Geometry {
                     light: NO_LIGHT,
                 },
                 moving,
+                NO_CUTOUT,
             );
         }
         let mut build_time = Duration::ZERO;
@@ -178,6 +191,7 @@ impl Geometry {
             static_set,
             moving_set,
             meshes: scene.meshes.iter().map(MeshShading::from).collect(),
+            cutouts,
             bounds: bounds_static.union(&bounds_moving),
             build_time,
         }
@@ -252,9 +266,9 @@ impl Geometry {
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Hit {
         let mut hit = Hit { t: ray.t_max, ..Hit::MISS };
-        intersect_set(&self.static_set, ray, 0, &mut hit);
+        intersect_set(&self.static_set, &self.cutouts, ray, 0, &mut hit);
         if let Some(set) = &self.moving_set {
-            intersect_set(set, ray, MOVING_BIT, &mut hit);
+            intersect_set(set, &self.cutouts, ray, MOVING_BIT, &mut hit);
         }
         if hit.is_hit() { hit } else { Hit::MISS }
     }
@@ -262,8 +276,8 @@ impl Geometry {
     /// Whether anything blocks the ray before `t_max` (any-hit query for shadow rays).
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
-        occluded_set(&self.static_set, ray)
-            || self.moving_set.as_ref().is_some_and(|set| occluded_set(set, ray))
+        occluded_set(&self.static_set, &self.cutouts, ray, 0)
+            || self.moving_set.as_ref().is_some_and(|set| occluded_set(set, &self.cutouts, ray, MOVING_BIT))
     }
 
     /// Surface data at a hit.
@@ -349,7 +363,7 @@ fn intersect_shape(
 }
 
 #[inline]
-fn intersect_set(set: &PrimitiveSet, ray: &Ray, id_bits: u32, hit: &mut Hit) {
+fn intersect_set(set: &PrimitiveSet, cutouts: &Cutouts, ray: &Ray, id_bits: u32, hit: &mut Hit) {
     if set.shapes.is_empty() {
         return;
     }
@@ -359,6 +373,7 @@ fn intersect_set(set: &PrimitiveSet, ray: &Ray, id_bits: u32, hit: &mut Hit) {
     set.bvh.ray_traverse(to_bvh_ray(ray, hit.t), &mut bvh_hit, |r, i| {
         let o = if moving { ray.o - set.motion[i] * ray.time } else { ray.o };
         match intersect_shape(&set.shapes[i], o, ray.d, &sheared, r.tmax) {
+            Some((_, b1, b2)) if cut_out(set, cutouts, i, b1, b2, ray, id_bits) => f32::INFINITY,
             Some((t, b1, b2)) => {
                 *hit = Hit { t, prim: i as u32 | id_bits, b1, b2 };
                 t
@@ -369,7 +384,7 @@ fn intersect_set(set: &PrimitiveSet, ray: &Ray, id_bits: u32, hit: &mut Hit) {
 }
 
 #[inline]
-fn occluded_set(set: &PrimitiveSet, ray: &Ray) -> bool {
+fn occluded_set(set: &PrimitiveSet, cutouts: &Cutouts, ray: &Ray, id_bits: u32) -> bool {
     if set.shapes.is_empty() {
         return false;
     }
@@ -377,12 +392,34 @@ fn occluded_set(set: &PrimitiveSet, ray: &Ray) -> bool {
     let sheared = ShearedRay::new(ray.d);
     !set.bvh.ray_traverse_miss(to_bvh_ray(ray, ray.t_max), |r, i| {
         let o = if moving { ray.o - set.motion[i] * ray.time } else { ray.o };
-        intersect_shape(&set.shapes[i], o, ray.d, &sheared, r.tmax).map_or(f32::INFINITY, |h| h.0)
+        match intersect_shape(&set.shapes[i], o, ray.d, &sheared, r.tmax) {
+            Some((_, b1, b2)) if cut_out(set, cutouts, i, b1, b2, ray, id_bits) => f32::INFINITY,
+            Some((t, ..)) => t,
+            None => f32::INFINITY,
+        }
     })
+}
+
+/// Whether primitive `i` of `set` is cut out (alpha) where the ray meets it.
+#[inline]
+fn cut_out(
+    set: &PrimitiveSet,
+    cutouts: &Cutouts,
+    i: usize,
+    b1: f32,
+    b2: f32,
+    ray: &Ray,
+    id_bits: u32,
+) -> bool {
+    match set.cutout.get(i) {
+        Some(&id) if id != NO_CUTOUT => cutouts.lets_through(id, b1, b2, ray, i as u32 | id_bits),
+        _ => false,
+    }
 }
 
 #[derive(Default)]
 struct SetBuilder {
+    cutout: Vec<u32>,
     shapes: Vec<PrimitiveShape>,
     info: Vec<PrimitiveInfo>,
     motion: Vec<Vec3>,
@@ -390,7 +427,8 @@ struct SetBuilder {
 }
 
 impl SetBuilder {
-    fn push(&mut self, shape: PrimitiveShape, info: PrimitiveInfo, motion: Option<Vec3>) {
+    fn push(&mut self, shape: PrimitiveShape, info: PrimitiveInfo, motion: Option<Vec3>, cutout: u32) {
+        self.cutout.push(cutout);
         let mut aabb = shape_aabb(&shape);
         if let Some(m) = motion {
             // Linear motion sweeps the box from its start to its end position: their union bounds it.
@@ -423,7 +461,12 @@ impl SetBuilder {
         } else {
             order.iter().map(|i| self.motion[pick(i)]).collect()
         };
-        PrimitiveSet { bvh, shapes, info, motion }
+        let cutout = if self.cutout.iter().all(|&c| c == NO_CUTOUT) {
+            Vec::new()
+        } else {
+            order.iter().map(|i| self.cutout[pick(i)]).collect()
+        };
+        PrimitiveSet { bvh, shapes, info, motion, cutout }
     }
 }
 

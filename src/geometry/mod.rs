@@ -1,5 +1,6 @@
 //! Geometry: rays, robust intersection, and the obvhs BVH over the scene's primitives.
 
+pub mod alpha;
 pub mod bvh;
 pub mod offset;
 pub mod sphere;

@@ -188,6 +188,25 @@ pub struct MaterialDesc {
     pub thickness: f32,
     /// glTF doubleSided.
     pub double_sided: bool,
+    /// glTF alphaMode: opaque, cut out below a cutoff, or blended (stochastically).
+    pub alpha_mode: AlphaMode,
+    /// The base colour factor's alpha (times the base colour texture's where there is one).
+    pub alpha: f32,
+}
+
+/// How a material's alpha shapes its surface (glTF `alphaMode`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum AlphaMode {
+    /// Alpha ignored.
+    #[default]
+    Opaque,
+    /// Holes where alpha is below `cutoff`.
+    Mask {
+        /// glTF `alphaCutoff` (0.5 by default).
+        cutoff: f32,
+    },
+    /// Partly transparent: a ray passes with probability 1 − alpha.
+    Blend,
 }
 
 impl Default for MaterialDesc {
@@ -208,6 +227,8 @@ impl Default for MaterialDesc {
             specular_color: Vec3::ONE,
             thickness: 0.0,
             double_sided: false,
+            alpha_mode: AlphaMode::Opaque,
+            alpha: 1.0,
         }
     }
 }

@@ -660,6 +660,8 @@ impl MaterialSpec {
             specular_color: Vec3::ONE,
             thickness: 2.0 * radius,
             double_sided: true,
+            alpha_mode: super::AlphaMode::Opaque,
+            alpha: 1.0,
         }
     }
 }

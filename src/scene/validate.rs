@@ -283,6 +283,12 @@ fn check_material(m: &MaterialDesc, textures: usize) -> Result<(), String> {
     unit("specular", m.specular)?;
     non_negative("specular colour", m.specular_color)?;
     non_negative("emission", m.emission)?;
+    unit("base colour alpha", m.alpha)?;
+    if let super::AlphaMode::Mask { cutoff } = m.alpha_mode
+        && !(cutoff.is_finite() && cutoff >= 0.0)
+    {
+        return Err(format!("alphaCutoff is {cutoff}, must be finite and >= 0"));
+    }
     if m.emission.max_element() > MAX_RADIANCE {
         return Err(format!(
             "emission is [{:e}, {:e}, {:e}], above {MAX_RADIANCE:e} W/(sr·m²), the most Caustica accepts: \
@@ -308,9 +314,13 @@ fn check_material(m: &MaterialDesc, textures: usize) -> Result<(), String> {
 }
 
 fn textures_of(m: &MaterialDesc) -> impl Iterator<Item = (&'static str, TextureRef)> {
-    [("baseColorTexture", m.base_color_texture), ("metallicRoughnessTexture", m.metallic_roughness_texture)]
-        .into_iter()
-        .filter_map(|(name, t)| Some((name, t?)))
+    [
+        ("baseColorTexture", m.base_color_texture),
+        ("metallicRoughnessTexture", m.metallic_roughness_texture),
+        ("emissiveTexture", m.emissive_texture),
+    ]
+    .into_iter()
+    .filter_map(|(name, t)| Some((name, t?)))
 }
 
 /// Errors on what the renderer cannot take; zero normals are not an error but fall back to flat normals.

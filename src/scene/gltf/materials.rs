@@ -3,7 +3,7 @@
 
 use super::{Loader, label};
 use crate::error::Result;
-use crate::scene::{MaterialDesc, Texture, TextureRef, Wrap};
+use crate::scene::{AlphaMode, MaterialDesc, Texture, TextureRef, Wrap};
 use glam::{Vec2, Vec3, Vec4};
 use tracing::warn;
 
@@ -19,7 +19,7 @@ impl Loader<'_> {
         let index = material.index().unwrap_or_default();
         let object = label("material", material.name(), index);
         let pbr = material.pbr_metallic_roughness();
-        let [r, g, b, _alpha] = pbr.base_color_factor();
+        let [r, g, b, alpha] = pbr.base_color_factor();
         let base_color_texture =
             pbr.base_color_texture().map(|info| self.texture_ref(&info, true)).transpose()?;
         let metallic_roughness_texture =
@@ -68,9 +68,6 @@ impl Loader<'_> {
                 ignored.push("volume attenuation");
             }
         }
-        if material.alpha_mode() != gltf::material::AlphaMode::Opaque {
-            ignored.push("alphaMode (rendered opaque)");
-        }
         if !ignored.is_empty() {
             warn!(file = %self.path.display(), "{object}: not supported, ignored: {}", ignored.join(", "));
         }
@@ -90,6 +87,14 @@ impl Loader<'_> {
             specular_color: specular.as_ref().map_or(Vec3::ONE, |s| Vec3::from(s.specular_color_factor())),
             thickness: volume.as_ref().map_or(0.0, |v| v.thickness_factor()),
             double_sided: material.double_sided(),
+            alpha_mode: match material.alpha_mode() {
+                gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+                gltf::material::AlphaMode::Mask => {
+                    AlphaMode::Mask { cutoff: material.alpha_cutoff().unwrap_or(0.5) }
+                }
+                gltf::material::AlphaMode::Blend => AlphaMode::Blend,
+            },
+            alpha,
         })
     }
 
