@@ -88,6 +88,7 @@ fn uniform_photon_density_gives_the_same_radiance_with_every_kernel() {
         ns: Vec3::Y,
         uv: [Vec2::ZERO; 2],
         color: Vec3::ONE,
+        tangent: glam::Vec4::ZERO,
         material: 0,
         light: u32::MAX,
     };

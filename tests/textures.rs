@@ -256,3 +256,131 @@ fn a_blended_surface_is_stochastically_transparent_to_every_ray() {
     let ppm = render_scene(screened_lamp(Some(veil)), IntegratorKind::Ppm, 1, 1).mean().element_sum();
     assert!((ppm / pt - 1.0).abs() < 0.05, "ppm {ppm} against pt {pt}");
 }
+
+/// A 4 m plane with u along +x and v along +z, tangents given (+x, w = 1, so the bitangent
+/// n × t = −z), a normal map of one texel `texel`, seen from straight above.
+fn normal_mapped_plane(texel: Option<Vec3>) -> Scene {
+    let l = 2.0;
+    let plane = Mesh {
+        name: "plane".into(),
+        positions: vec![
+            Vec3::new(-l, 0.0, -l),
+            Vec3::new(-l, 0.0, l),
+            Vec3::new(l, 0.0, l),
+            Vec3::new(l, 0.0, -l),
+        ],
+        normals: Some(vec![Vec3::Y; 4]),
+        uvs: vec![vec![Vec2::new(0.0, 0.0), Vec2::new(0.0, 1.0), Vec2::new(1.0, 1.0), Vec2::new(1.0, 0.0)]],
+        tangents: Some(vec![Vec4::new(1.0, 0.0, 0.0, 1.0); 4]),
+        indices: vec![[0, 1, 2], [0, 2, 3]],
+        material: 0,
+        ..Mesh::default()
+    };
+    let mut material = diffuse("plane", Vec3::splat(0.5), Vec3::ZERO);
+    let mut textures = Vec::new();
+    if let Some(texel) = texel {
+        textures.push(Texture {
+            name: "normals".into(),
+            width: 1,
+            height: 1,
+            texels: vec![texel.extend(1.0)],
+            wrap_s: Wrap::Repeat,
+            wrap_t: Wrap::Repeat,
+        });
+        material.normal_texture = Some(TextureRef { texture: 0, tex_coord: 0, transform: None });
+    }
+    Scene {
+        meshes: vec![plane],
+        materials: vec![material],
+        textures,
+        camera: Some(CameraDesc {
+            name: "above".into(),
+            camera_to_world: look_at(Vec3::new(0.0, 3.0, 0.0), Vec3::ZERO, Vec3::NEG_Z),
+            yfov: 30f32.to_radians(),
+            aspect_ratio: None,
+        }),
+        resolution: Some((8, 8)),
+        source: "normal-mapped plane (procedural)".into(),
+        ..Scene::default()
+    }
+}
+
+/// A sun of 1 W/m² (683 lux) whose rays travel along `direction`.
+fn sun(direction: Vec3) -> caustica::scene::punctual::PunctualLightDesc {
+    caustica::scene::punctual::PunctualLightDesc {
+        name: "sun".into(),
+        kind: caustica::scene::punctual::PunctualKind::Sun,
+        position: Vec3::ZERO,
+        direction: direction.normalize(),
+        color: Vec3::ONE,
+        intensity: 683.0,
+    }
+}
+
+/// A Lambertian plane under a sun shades with the cosine between the sun and its *mapped* normal:
+/// L = ρ/π · E · cos. The map tilts the normal 30° towards the tangent (+x) or the bitangent (−z by
+/// glTF's n × t · w); the sun comes from 45° on the tilted side, so the mapped cosine is
+/// cos 15° = 0.966 where the flat plane gives cos 45° = 0.707 (a bitangent of the wrong sign: 0.259).
+/// Every pixel sees the same exact value (a single bounce into an empty sky).
+#[test]
+fn a_normal_map_turns_the_shading_normal_in_gltfs_tangent_space() {
+    let (s, c) = (0.5f32, 0.75f32.sqrt());
+    let encode = |local: Vec3| (local + Vec3::ONE) * 0.5;
+    let diagonal = std::f32::consts::FRAC_1_SQRT_2;
+    for (texel, direction, cosine) in [
+        (None, Vec3::new(-diagonal, -diagonal, 0.0), diagonal),
+        (Some(encode(Vec3::new(s, 0.0, c))), Vec3::new(-diagonal, -diagonal, 0.0), 15f32.to_radians().cos()),
+        (Some(encode(Vec3::new(0.0, s, c))), Vec3::new(0.0, -diagonal, diagonal), 15f32.to_radians().cos()),
+        (Some(encode(Vec3::new(0.0, 0.0, 1.0))), Vec3::new(0.0, -diagonal, diagonal), diagonal),
+    ] {
+        let mut scene = normal_mapped_plane(texel);
+        scene.punctual_lights = vec![sun(direction)];
+        let mut run = RunFile::default();
+        run.render.spp = 4;
+        let image = common::render(scene, &run);
+        let expected = 0.5 / std::f32::consts::PI * cosine;
+        for p in &image.pixels {
+            assert!((p.x - expected).abs() < 1e-4 * expected, "{texel:?}: pixel {p}, expected {expected}");
+        }
+    }
+}
+
+/// A wild normal map (every texel a different steep normal) on a white Lambertian plane in a
+/// uniform white environment, seen at a slant: whatever the shading normal, the plane reflects
+/// ρ · L, so the image mean is ρ within its noise and no pixel is black. Without bending the mapped
+/// normal where it mirrors the view below the surface, such maps leave black spots.
+#[test]
+fn a_steep_normal_map_leaves_no_black_spots() {
+    let texels: Vec<Vec4> = (0..64)
+        .map(|i| {
+            let a = i as f32 * 2.399;
+            Vec3::new(0.5 + 0.45 * a.cos(), 0.5 + 0.45 * a.sin(), 0.55).extend(1.0)
+        })
+        .collect();
+    let mut scene = normal_mapped_plane(None);
+    scene.textures = vec![Texture {
+        name: "wild".into(),
+        width: 8,
+        height: 8,
+        texels,
+        wrap_s: Wrap::Repeat,
+        wrap_t: Wrap::Repeat,
+    }];
+    scene.materials[0].normal_texture = Some(TextureRef { texture: 0, tex_coord: 0, transform: None });
+    scene.materials[0].base_color = Vec3::splat(0.8);
+    scene.materials[0].double_sided = false;
+    scene.environment = Some(caustica::scene::environment::EnvironmentDesc::constant(Vec3::ONE));
+    scene.camera.as_mut().unwrap().camera_to_world = look_at(Vec3::new(0.0, 0.6, 2.5), Vec3::ZERO, Vec3::Y);
+    scene.resolution = Some((32, 32));
+    let mut run = RunFile::default();
+    run.render.spp = 64;
+    let image = common::render(scene, &run);
+    let plane: Vec<f64> =
+        image.pixels[(16 * 32) as usize..].iter().map(|p| p.element_sum() as f64 / 3.0).collect();
+    let n = plane.len() as f64;
+    let mean = plane.iter().sum::<f64>() / n;
+    let sd = (plane.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+    let darkest = plane.iter().copied().fold(f64::INFINITY, f64::min);
+    assert!((mean - 0.8).abs() < 4.0 * sd / n.sqrt() + 1e-3, "mean {mean} ± {}, expected 0.8", sd / n.sqrt());
+    assert!(darkest > 0.4, "a black spot: {darkest}");
+}

@@ -10,7 +10,7 @@ use super::offset::gamma;
 use super::sphere::{intersect_sphere, sphere_hit_point};
 use super::triangle::{ShearedRay, intersect_triangle_sheared, triangle_point_error};
 use crate::scene::{Mesh, Scene};
-use glam::{Vec2, Vec3, Vec3A};
+use glam::{Vec2, Vec3, Vec3A, Vec4};
 use obvhs::BvhBuildParams;
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::CwBvh;
@@ -108,6 +108,8 @@ pub struct SurfaceHit {
     pub uv: [Vec2; 2],
     /// Interpolated vertex colour (white without COLOR_0).
     pub color: Vec3,
+    /// Interpolated tangent with the bitangent sign in w (zero without tangents).
+    pub tangent: Vec4,
     /// Material index.
     pub material: u32,
     /// Light index or `NO_LIGHT`.
@@ -120,6 +122,7 @@ struct MeshShading {
     normals: Option<Vec<Vec3>>,
     uvs: Vec<Vec<Vec2>>,
     colors: Option<Vec<Vec3>>,
+    tangents: Option<Vec<Vec4>>,
     indices: Vec<[u32; 3]>,
 }
 
@@ -313,7 +316,20 @@ impl Geometry {
                     *out = b0 * set[i0] + b1 * set[i1] + b2 * set[i2];
                 }
                 let color = mesh.colors.as_ref().map_or(Vec3::ONE, |c| lerp3(c[i0], c[i1], c[i2]));
-                SurfaceHit { p, p_error, ng, ns, uv, color, material: info.material, light: info.light }
+                let tangent = mesh.tangents.as_ref().map_or(Vec4::ZERO, |t| {
+                    lerp3(t[i0].truncate(), t[i1].truncate(), t[i2].truncate()).extend(t[i0].w)
+                });
+                SurfaceHit {
+                    p,
+                    p_error,
+                    ng,
+                    ns,
+                    uv,
+                    color,
+                    tangent,
+                    material: info.material,
+                    light: info.light,
+                }
             }
             PrimitiveShape::Sphere(center, radius) => {
                 let c = center + shift;
@@ -329,6 +345,7 @@ impl Geometry {
                     ns: n,
                     uv: [Vec2::new(u, v); 2],
                     color: Vec3::ONE,
+                    tangent: Vec4::ZERO,
                     material: info.material,
                     light: info.light,
                 }
@@ -487,6 +504,7 @@ impl From<&Mesh> for MeshShading {
             normals: m.normals.clone(),
             uvs: m.uvs.clone(),
             colors: m.colors.clone(),
+            tangents: m.tangents.clone(),
             indices: m.indices.clone(),
         }
     }

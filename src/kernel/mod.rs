@@ -152,7 +152,8 @@ pub struct Vertex {
 impl Vertex {
     /// The vertex where `ray` hit `si`.
     #[inline]
-    pub fn new(scene: &RenderScene, ray: &Ray, si: SurfaceHit) -> Self {
+    pub fn new(scene: &RenderScene, ray: &Ray, mut si: SurfaceHit) -> Self {
+        si.ns = scene.shading_normal(&si, -ray.d);
         let params = scene.shading_params(&si);
         let bsdf = Bsdf::new(&params);
         let frame = Frame::from_z(si.ns);

@@ -8,6 +8,7 @@ pub mod gltf;
 pub mod punctual;
 pub mod run_file;
 pub mod schedule;
+pub mod tangents;
 pub mod validate;
 
 use crate::error::{Error, Result};
@@ -109,6 +110,9 @@ pub struct Mesh {
     pub uvs: Vec<Vec<Vec2>>,
     /// Per-vertex colour (COLOR_0, linear RGB) multiplying the base colour.
     pub colors: Option<Vec<Vec3>>,
+    /// World-space unit tangents (TANGENT, or MikkTSpace's) with the bitangent sign in w, for normal
+    /// maps.
+    pub tangents: Option<Vec<Vec4>>,
     /// Triangles as vertex indices, counter-clockwise = front face (winding already fixed for
     /// negative-determinant transforms).
     pub indices: Vec<[u32; 3]>,
@@ -176,6 +180,10 @@ pub struct MaterialDesc {
     pub emission: Vec3,
     /// sRGB emissive texture multiplying `emission`.
     pub emissive_texture: Option<TextureRef>,
+    /// Tangent-space normal map (linear).
+    pub normal_texture: Option<TextureRef>,
+    /// Scales the normal map's x and y (glTF `normalTexture.scale`).
+    pub normal_scale: f32,
     /// KHR_materials_transmission factor in [0, 1].
     pub transmission: f32,
     /// KHR_materials_ior (1.5 by default).
@@ -221,6 +229,8 @@ impl Default for MaterialDesc {
             metallic_roughness_texture: None,
             emission: Vec3::ZERO,
             emissive_texture: None,
+            normal_texture: None,
+            normal_scale: 1.0,
             transmission: 0.0,
             ior: 1.5,
             specular: 1.0,

@@ -654,6 +654,8 @@ impl MaterialSpec {
             metallic_roughness_texture: None,
             emission: self.emission(),
             emissive_texture: None,
+            normal_texture: None,
+            normal_scale: 1.0,
             transmission: self.transmission,
             ior: self.ior,
             specular: self.specular,

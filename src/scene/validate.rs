@@ -318,6 +318,7 @@ fn textures_of(m: &MaterialDesc) -> impl Iterator<Item = (&'static str, TextureR
         ("baseColorTexture", m.base_color_texture),
         ("metallicRoughnessTexture", m.metallic_roughness_texture),
         ("emissiveTexture", m.emissive_texture),
+        ("normalTexture", m.normal_texture),
     ]
     .into_iter()
     .filter_map(|(name, t)| Some((name, t?)))

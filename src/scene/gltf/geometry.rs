@@ -4,7 +4,7 @@
 use super::{Loader, label};
 use crate::error::{Error, Result};
 use crate::scene::Mesh;
-use glam::{Mat3, Mat4, Vec2, Vec3};
+use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 use gltf::Semantic;
 use gltf::accessor::{Accessor, DataType, Dimensions};
 use gltf::mesh::Mode;
@@ -34,9 +34,26 @@ impl Loader<'_> {
                     *n = if length > 0.0 && length.is_finite() { m / length } else { m };
                 }
             }
+            if let Some(tangents) = &mut out.tangents {
+                // Tangents are directions on the surface: they map with the model matrix, and a
+                // mirroring transform flips the bitangent's handedness.
+                let model = Mat3::from_mat4(world);
+                let sign = if flip { -1.0 } else { 1.0 };
+                for t in tangents {
+                    let m = (model * t.truncate()).normalize_or_zero();
+                    *t = m.extend(if t.w < 0.0 { -sign } else { sign });
+                }
+            }
             if flip {
                 for t in &mut out.indices {
                     t.swap(1, 2);
+                }
+            }
+            let normal_map = self.scene.materials.get(out.material as usize).and_then(|m| m.normal_texture);
+            if let (None, Some(map)) = (&out.tangents, normal_map) {
+                out.tangents = crate::scene::tangents::generate(&out, map.tex_coord as usize);
+                if out.tangents.is_none() {
+                    warn!(file = %self.path.display(), "{name}: no tangents could be made for its normal map (no TEXCOORD_{}), shaded without it", map.tex_coord);
                 }
             }
             out.node = Some(node.index());
@@ -123,6 +140,16 @@ impl Loader<'_> {
             }
         }
 
+        let tangents = match primitive.get(&Semantic::Tangents) {
+            None => None,
+            Some(accessor) => {
+                check(&accessor, "TANGENT", &[Dimensions::Vec4], &[DataType::F32]).map_err(&bad)?;
+                let values = read(&accessor, "TANGENT", reader.read_tangents()).map_err(&bad)?;
+                same_count("TANGENT", values.len())?;
+                Some(values.into_iter().map(Vec4::from).collect())
+            }
+        };
+
         let material = match primitive.material().index() {
             Some(index) => index as u32,
             None => self.default_material(),
@@ -174,7 +201,7 @@ impl Loader<'_> {
         if leftover > 0 {
             warn!(file = %self.path.display(), "{name}: {leftover} trailing index(es) do not form a triangle, ignored");
         }
-        Ok(Mesh { positions, normals, uvs, colors, indices, material, ..Mesh::default() })
+        Ok(Mesh { positions, normals, uvs, colors, tangents, indices, material, ..Mesh::default() })
     }
 }
 

@@ -26,10 +26,20 @@ impl Loader<'_> {
             pbr.metallic_roughness_texture().map(|info| self.texture_ref(&info, false)).transpose()?;
         let emissive_texture =
             material.emissive_texture().map(|info| self.texture_ref(&info, true)).transpose()?;
+        // Normal maps are data, not colour; KHR_texture_transform on them is not read (rare).
+        let normal = material.normal_texture();
+        let normal_texture = match &normal {
+            Some(n) => {
+                let texture = self.texture(&n.texture(), false)?;
+                Some(TextureRef { texture, tex_coord: n.tex_coord(), transform: None })
+            }
+            None => None,
+        };
         for (slot, texture) in [
             ("baseColorTexture", &base_color_texture),
             ("metallicRoughnessTexture", &metallic_roughness_texture),
             ("emissiveTexture", &emissive_texture),
+            ("normalTexture", &normal_texture),
         ] {
             if let Some(t) = texture.filter(|t| t.tex_coord > 1) {
                 return Err(self.invalid(
@@ -45,9 +55,6 @@ impl Loader<'_> {
         let volume = material.volume();
 
         let mut ignored = Vec::new();
-        if material.normal_texture().is_some() {
-            ignored.push("normalTexture");
-        }
         if material.occlusion_texture().is_some() {
             ignored.push("occlusionTexture");
         }
@@ -81,6 +88,8 @@ impl Loader<'_> {
             metallic_roughness_texture,
             emission: Vec3::from(material.emissive_factor()) * material.emissive_strength().unwrap_or(1.0),
             emissive_texture,
+            normal_texture,
+            normal_scale: normal.as_ref().map_or(1.0, |n| n.scale()),
             transmission: material.transmission().map_or(0.0, |t| t.transmission_factor()),
             ior: material.ior().unwrap_or(1.5),
             specular: specular.as_ref().map_or(1.0, |s| s.specular_factor()),
