@@ -108,6 +108,14 @@ impl RenderScene {
         t.texture.lookup(&self.textures, b.x * t.uv[0] + b.y * t.uv[1] + b.z * t.uv[2]).truncate()
     }
 
+    /// Whether `material` bounds a volume a refracted ray is inside of (a transmissive solid, not a
+    /// thin-walled sheet).
+    #[inline]
+    pub fn is_volume(&self, material: u32) -> bool {
+        let m = &self.materials[material as usize];
+        m.thickness > 0.0 && m.transmission > 0.0
+    }
+
     /// Whether any material is a pure delta (mirror, smooth glass): only then can caustics form.
     pub fn has_specular(&self) -> bool {
         self.materials

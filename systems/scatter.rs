@@ -61,6 +61,7 @@ fn path_vertex<const NEE: bool>(
 ) -> bool {
     let rule = if NEE { EmissionWeight::Mis } else { EmissionWeight::One };
     let path = &mut state.path;
+    path.travel(scene, hit);
     if !hit.is_hit() {
         add_escaped_radiance(scene, rule, path, ray.d);
         return false;
@@ -76,7 +77,7 @@ fn path_vertex<const NEE: bool>(
         VertexSampler::new(Sampler::of(config.sampler, config.seed, state.pixel, state.sample), path.depth);
     if NEE
         && !v.bsdf.is_delta()
-        && let Some(sample) = sample_light(scene, &v, path.beta, ray.time, &u, true)
+        && let Some(sample) = sample_light(scene, &v, path, ray.time, &u, true)
     {
         shadow.queue(sample);
     }
@@ -143,6 +144,7 @@ fn photon_mapped_vertex(
     // A final-gather ray only reads the global map: light it reaches is in there already.
     let counts_emission = !state.gathering;
     let rule = EmissionWeight::SeenDirectly;
+    state.path.travel(scene, hit);
     if !hit.is_hit() {
         if counts_emission {
             add_escaped_radiance(scene, rule, &mut state.path, ray.d);
@@ -181,7 +183,7 @@ fn photon_mapped_vertex(
             Sampler::of(config.sampler, config.seed, state.pixel, state.sample),
             state.path.depth,
         );
-        if let Some(sample) = sample_light(scene, &v, state.path.beta, ray.time, &u, false) {
+        if let Some(sample) = sample_light(scene, &v, &state.path, ray.time, &u, false) {
             shadow.queue(sample);
         }
         if let Some(caustic) = &maps.caustic {
@@ -252,6 +254,7 @@ fn visible_point_vertex<const NEE: bool>(
         hit_point.beta = glam::Vec3::ZERO;
     }
     let rule = EmissionWeight::SeenDirectly;
+    state.path.travel(scene, hit);
     if !hit.is_hit() {
         add_escaped_radiance(scene, rule, &mut state.path, ray.d);
         return false;
@@ -266,7 +269,7 @@ fn visible_point_vertex<const NEE: bool>(
     if v.bsdf.is_delta() {
         return continue_from(ray, continue_path(&mut state.path, &v, ray.time, &u, config.limits));
     }
-    if NEE && let Some(sample) = sample_light(scene, &v, state.path.beta, ray.time, &u, false) {
+    if NEE && let Some(sample) = sample_light(scene, &v, &state.path, ray.time, &u, false) {
         shadow.queue(sample);
     }
     hit_point.record(&v, -ray.d, state.path.beta);

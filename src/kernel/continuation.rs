@@ -53,6 +53,9 @@ pub fn continue_path(
     path.prev_n = v.n_side();
     if bs.is_transmission {
         path.eta_scale *= bs.eta * bs.eta;
+        if v.volume {
+            path.media.cross_volume(si.material, wi_world.dot(si.ng) < 0.0);
+        }
     }
     path.depth += 1;
     let ray = Ray {

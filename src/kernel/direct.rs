@@ -1,7 +1,7 @@
 //! Next-event estimation: one light sample at a vertex, as a shadow ray and what it adds if nothing
 //! blocks it.
 
-use super::{Vertex, VertexSampler, mis::power_heuristic};
+use super::{CameraPath, Vertex, VertexSampler, mis::power_heuristic};
 use crate::geometry::Ray;
 use crate::geometry::offset::{SHADOW_EPSILON, offset_ray_origin};
 use crate::materials::TransportMode;
@@ -21,7 +21,8 @@ pub struct ShadowSample {
     pub normal: Vec3,
 }
 
-/// Sample a light for vertex `v` of a path with throughput `beta` at shutter time `time`. With
+/// Sample a light for vertex `v` of `path` (its throughput and the medium it is in) at shutter
+/// time `time`. With
 /// `mis`, the contribution carries the power-heuristic weight against BSDF sampling (which then
 /// counts emission it hits with the complementary weight); without, light sampling is the only way
 /// this vertex sees direct light. None when no light is picked, the BSDF sends nothing towards it,
@@ -30,7 +31,7 @@ pub struct ShadowSample {
 pub fn sample_light(
     scene: &RenderScene,
     v: &Vertex,
-    beta: Vec3,
+    path: &CameraPath,
     time: f32,
     u: &VertexSampler,
     mis: bool,
@@ -53,6 +54,9 @@ pub fn sample_light(
         return None;
     }
     // A delta light: no BSDF sample can find it, so light sampling takes all of it.
+    // The medium the vertex is in absorbs along the shadow ray (a light outside it is behind its
+    // interface, which blocks shadow rays).
+    let beta = path.beta * path.media.transmittance(scene, (ls.p - si.p).length());
     let contribution = if mis && !ls.delta {
         let weight = power_heuristic(ls.pdf, v.bsdf.pdf(v.wo, wi));
         beta * f * ls.le * (weight / ls.pdf)

@@ -17,6 +17,7 @@ pub mod continuation;
 pub mod dimensions;
 pub mod direct;
 pub mod emission;
+pub mod media;
 pub mod mis;
 pub mod photon;
 
@@ -57,6 +58,8 @@ pub struct CameraPath {
     pub specular_bounce: bool,
     /// What first went NaN or infinite on this path, and at which depth (for the report).
     pub first_bad: Option<(Quantity, u8)>,
+    /// The absorbing solids the path is inside.
+    pub media: media::Media,
 }
 
 /// A quantity a path adds or carries, named when it goes NaN or infinite so that the report can say
@@ -100,7 +103,17 @@ impl CameraPath {
         depth: 0,
         specular_bounce: false,
         first_bad: None,
+        media: media::Media::AIR,
     };
+
+    /// The path arrives at `hit` (a miss: leaves the scene): what the medium it travelled through
+    /// absorbed on the way.
+    #[inline]
+    pub fn travel(&mut self, scene: &RenderScene, hit: &crate::geometry::bvh::Hit) {
+        if self.media.current().is_some() {
+            self.beta *= self.media.transmittance(scene, hit.t);
+        }
+    }
 
     /// Add `radiance` (already weighted by the throughput) to the path; the first that is not
     /// finite is remembered as `what`, at the current depth.
@@ -147,6 +160,8 @@ pub struct Vertex {
     pub frame: Frame,
     /// Towards where the ray came from, in the shading frame.
     pub wo: Vec3,
+    /// Whether the surface bounds a volume (a refraction through it enters or leaves a medium).
+    pub volume: bool,
 }
 
 impl Vertex {
@@ -158,7 +173,8 @@ impl Vertex {
         let bsdf = Bsdf::new(&params);
         let frame = Frame::from_z(si.ns);
         let wo = frame.to_local(-ray.d);
-        Self { si, params, bsdf, frame, wo }
+        let volume = scene.is_volume(si.material);
+        Self { si, params, bsdf, frame, wo, volume }
     }
 
     /// The shading normal on the side the path arrived from: how light selection and MIS see this

@@ -26,11 +26,13 @@ pub struct PhotonPath {
     pub depth: u32,
     /// Whether every bounce so far was specular (a caustic path L S* while it lasts).
     pub specular_only: bool,
+    /// The absorbing solids the photon is inside.
+    pub media: super::media::Media,
 }
 
 impl Default for PhotonPath {
     fn default() -> Self {
-        Self { power: Vec3::ZERO, depth: 0, specular_only: true }
+        Self { power: Vec3::ZERO, depth: 0, specular_only: true, media: super::media::Media::AIR }
     }
 }
 
@@ -64,7 +66,7 @@ pub fn emit_photon(
     e.weight *= scene.emissive_texel(light, e.p, time);
     let ray =
         Ray { o: offset_ray_origin(e.p, e.p.abs() * gamma(4), e.n, e.d), d: e.d, t_max: f32::INFINITY, time };
-    Some((ray, PhotonPath { power: e.weight / settings.total as f32, depth: 0, specular_only: true }))
+    Some((ray, PhotonPath { power: e.weight / settings.total as f32, ..PhotonPath::default() }))
 }
 
 /// The shutter time of a photon: the pass's when it fixes one, else its own when something moves.
@@ -102,6 +104,9 @@ pub fn scatter_photon(
     let mut bounce = PhotonBounce { deposit: None, next: None, roulette_kill: false };
     if !hit.is_hit() {
         return bounce;
+    }
+    if path.media.current().is_some() {
+        path.power *= path.media.transmittance(scene, hit.t);
     }
     let v = Vertex::new(scene, ray, scene.geometry.surface_hit(ray, hit));
     let (si, bsdf) = (&v.si, &v.bsdf);
@@ -158,6 +163,9 @@ pub fn scatter_photon(
     path.specular_only &= bs.is_specular;
     path.depth += 1;
     let wi_world = v.frame.to_world(bs.wi);
+    if bs.is_transmission && v.volume {
+        path.media.cross_volume(si.material, wi_world.dot(si.ng) < 0.0);
+    }
     bounce.next = Some(Ray {
         o: offset_ray_origin(si.p, si.p_error, si.ng, wi_world),
         d: wi_world,

@@ -102,8 +102,10 @@ fn a_light_sample_carries_the_lambertian_integrand_over_its_pdf() {
     let mut checked = 0;
     for sample in 0..64 {
         let u = VertexSampler::new(Sampler::new(1, 0, sample), 1);
-        let plain = sample_light(&scene, &v, beta, 0.0, &u, false).expect("the lamp is above");
-        let weighted = sample_light(&scene, &v, beta, 0.0, &u, true).expect("the lamp is above");
+        let plain = sample_light(&scene, &v, &CameraPath { beta, ..CameraPath::START }, 0.0, &u, false)
+            .expect("the lamp is above");
+        let weighted = sample_light(&scene, &v, &CameraPath { beta, ..CameraPath::START }, 0.0, &u, true)
+            .expect("the lamp is above");
         let p = plain.ray.o + plain.ray.d; // the shadow ray spans the segment to the lamp
         let wi = (p - v.si.p).normalize();
         let (light_pdf, bsdf_pdf) = (lamp_pdf(v.si.p, p), wi.y / PI);
@@ -143,7 +145,8 @@ fn light_samples_average_to_the_reflected_direct_radiance() {
     let values: Vec<f64> = (0..n)
         .map(|s| {
             let u = VertexSampler::new(Sampler::new(2, 0, s), 1);
-            sample_light(&scene, &v, Vec3::ONE, 0.0, &u, false).map_or(0.0, |s| s.contribution.x as f64)
+            sample_light(&scene, &v, &CameraPath::START, 0.0, &u, false)
+                .map_or(0.0, |s| s.contribution.x as f64)
         })
         .collect();
     let mean = values.iter().sum::<f64>() / n as f64;
@@ -237,8 +240,8 @@ fn a_vertex_on_an_emissive_sphere_does_not_sample_that_sphere() {
         outside += 1;
         for sample in 0..16 {
             let u = VertexSampler::new(Sampler::new(5, i, sample), 0);
-            assert_eq!(sample_light(&scene, &v, Vec3::ONE, 0.0, &u, true), None);
-            assert_eq!(sample_light(&scene, &v, Vec3::ONE, 0.0, &u, false), None);
+            assert_eq!(sample_light(&scene, &v, &CameraPath::START, 0.0, &u, true), None);
+            assert_eq!(sample_light(&scene, &v, &CameraPath::START, 0.0, &u, false), None);
         }
     }
     assert!(outside > 8, "{outside} of 64 hits lie outside the sphere");

@@ -194,12 +194,24 @@ pub struct MaterialDesc {
     pub specular_color: Vec3,
     /// KHR_materials_volume thickness > 0 means a closed solid; 0 means a thin-walled surface.
     pub thickness: f32,
+    /// Absorption coefficient σa (1/m) inside a solid (thickness > 0): −ln(attenuationColor) /
+    /// attenuationDistance; zero for a clear one.
+    pub attenuation: Vec3,
     /// glTF doubleSided.
     pub double_sided: bool,
     /// glTF alphaMode: opaque, cut out below a cutoff, or blended (stochastically).
     pub alpha_mode: AlphaMode,
     /// The base colour factor's alpha (times the base colour texture's where there is one).
     pub alpha: f32,
+}
+
+/// KHR_materials_volume's absorption coefficient σa = −ln(color) / distance, per channel: zero for
+/// an infinite distance or a white colour; a black channel absorbs everything within a micrometre.
+pub fn absorption(color: Vec3, distance: f32) -> Vec3 {
+    if !(distance.is_finite() && distance > 0.0) {
+        return Vec3::ZERO;
+    }
+    -color.clamp(Vec3::splat(1e-6), Vec3::ONE).map(f32::ln) / distance
 }
 
 /// How a material's alpha shapes its surface (glTF `alphaMode`).
@@ -236,6 +248,7 @@ impl Default for MaterialDesc {
             specular: 1.0,
             specular_color: Vec3::ONE,
             thickness: 0.0,
+            attenuation: Vec3::ZERO,
             double_sided: false,
             alpha_mode: AlphaMode::Opaque,
             alpha: 1.0,

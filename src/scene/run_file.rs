@@ -215,6 +215,10 @@ pub struct MaterialSpec {
     pub specular: f32,
     /// Emitted radiance.
     pub emission: [f32; 3],
+    /// KHR_materials_volume: the colour white light takes after `attenuation_distance` inside.
+    pub attenuation_color: [f32; 3],
+    /// KHR_materials_volume: the distance (m) at which light has `attenuation_color`; infinite: clear.
+    pub attenuation_distance: f32,
 }
 
 impl Default for MaterialSpec {
@@ -227,6 +231,8 @@ impl Default for MaterialSpec {
             ior: 1.5,
             specular: 0.0,
             emission: [0.0; 3],
+            attenuation_color: [1.0; 3],
+            attenuation_distance: f32::INFINITY,
         }
     }
 }
@@ -363,6 +369,11 @@ impl MaterialSpec {
     /// Emission as a vector.
     pub fn emission(&self) -> Vec3 {
         Vec3::from(self.emission)
+    }
+
+    /// σa from the attenuation colour and distance, as glTF defines it.
+    pub fn attenuation(&self) -> Vec3 {
+        super::absorption(Vec3::from(self.attenuation_color), self.attenuation_distance)
     }
 }
 
@@ -661,6 +672,7 @@ impl MaterialSpec {
             specular: self.specular,
             specular_color: Vec3::ONE,
             thickness: 2.0 * radius,
+            attenuation: self.attenuation(),
             double_sided: true,
             alpha_mode: super::AlphaMode::Opaque,
             alpha: 1.0,

@@ -67,13 +67,8 @@ impl Loader<'_> {
         {
             ignored.push("specular textures");
         }
-        if let Some(v) = &volume {
-            if v.thickness_texture().is_some() {
-                ignored.push("thicknessTexture");
-            }
-            if v.attenuation_distance().is_finite() {
-                ignored.push("volume attenuation");
-            }
+        if volume.as_ref().is_some_and(|v| v.thickness_texture().is_some()) {
+            ignored.push("thicknessTexture");
         }
         if !ignored.is_empty() {
             warn!(file = %self.path.display(), "{object}: not supported, ignored: {}", ignored.join(", "));
@@ -95,6 +90,9 @@ impl Loader<'_> {
             specular: specular.as_ref().map_or(1.0, |s| s.specular_factor()),
             specular_color: specular.as_ref().map_or(Vec3::ONE, |s| Vec3::from(s.specular_color_factor())),
             thickness: volume.as_ref().map_or(0.0, |v| v.thickness_factor()),
+            attenuation: volume.as_ref().map_or(Vec3::ZERO, |v| {
+                crate::scene::absorption(Vec3::from(v.attenuation_color()), v.attenuation_distance())
+            }),
             double_sided: material.double_sided(),
             alpha_mode: match material.alpha_mode() {
                 gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
