@@ -56,6 +56,8 @@ fn params(lobe: &str, roughness: f32) -> ShadingParams {
         ior: 1.5,
         specular: 1.0,
         specular_color: Vec3::ONE,
+        clearcoat: 0.0,
+        clearcoat_roughness: 0.0,
     };
     match lobe {
         "conductor" => ShadingParams { metallic: 1.0, ..base },

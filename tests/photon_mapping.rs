@@ -80,6 +80,8 @@ fn uniform_photon_density_gives_the_same_radiance_with_every_kernel() {
         ior: 1.5,
         specular: 0.0,
         specular_color: Vec3::ONE,
+        clearcoat: 0.0,
+        clearcoat_roughness: 0.0,
     });
     let si = SurfaceHit {
         p: Vec3::new(0.5, 0.0, 0.5),

@@ -12,6 +12,7 @@
 //! Conventions follow pbrt-v4: directions are in the local shading frame (z = shading normal), both point
 //! away from the surface, `eval` excludes the cosine, and delta lobes are only reached through `sample`.
 
+pub mod clearcoat;
 pub mod conductor;
 pub mod dielectric;
 pub mod fresnel;
@@ -46,6 +47,10 @@ pub struct ShadingParams {
     pub specular: f32,
     /// Specular colour of the dielectric base (KHR_materials_specular).
     pub specular_color: Vec3,
+    /// Clear coat weight in [0, 1] (KHR_materials_clearcoat).
+    pub clearcoat: f32,
+    /// Perceptual roughness of the coat.
+    pub clearcoat_roughness: f32,
 }
 
 /// Which quantity a path carries; it matters only for refraction.
@@ -88,6 +93,8 @@ pub struct Bsdf {
     /// Albedo when the whole BSDF is Lambertian (plastic without its specular layer), the common case
     /// in diffuse scenes: it skips the mixture's lobe selection and Fresnel coupling entirely.
     lambert: Option<Vec3>,
+    /// A clear coat over all of it (`clearcoat.rs`).
+    coat: Option<clearcoat::Coat>,
 }
 
 impl Bsdf {
@@ -109,11 +116,15 @@ impl Bsdf {
             dielectric: Dielectric::new(ior, base, ggx),
             weights,
             lambert,
+            coat: clearcoat::Coat::new(p.clearcoat, p.clearcoat_roughness),
         }
     }
 
     /// True when every lobe is a Dirac delta (perfect mirror, smooth glass): no light sampling there.
     pub fn is_delta(&self) -> bool {
+        if self.coat.is_some_and(|c| !c.is_delta()) {
+            return false;
+        }
         let delta = [self.conductor.is_delta(), self.plastic.is_delta(), self.dielectric.is_delta()];
         (0..LOBES).all(|k| self.weights[k] == 0.0 || delta[k])
     }
@@ -121,6 +132,56 @@ impl Bsdf {
     /// f(wo, wi) WITHOUT the cosine, local shading frame (z = shading normal), both vectors unit and pointing
     /// away from the surface. Delta lobes contribute 0 here.
     pub fn eval(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Vec3 {
+        match &self.coat {
+            None => self.base_eval(wo, wi, mode),
+            Some(c) => c.transmittance(wo, wi) * self.base_eval(wo, wi, mode) + Vec3::splat(c.eval(wo, wi)),
+        }
+    }
+
+    /// Solid-angle pdf of sample() producing wi (non-delta part only; delta lobes 0).
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        match &self.coat {
+            None => self.base_pdf(wo, wi),
+            Some(c) => {
+                let p = c.selection_probability(wo);
+                p * c.pdf(wo, wi) + (1.0 - p) * self.base_pdf(wo, wi)
+            }
+        }
+    }
+
+    /// Sample wi. u_lobe picks the lobe, u the direction. f is the full BSDF value (sum over non-delta lobes, or
+    /// the delta lobe's weight for specular samples), pdf the full mixture pdf (for delta samples: the discrete
+    /// probability of that lobe, pbrt-v4 convention so f·|cos|/pdf is the weight).
+    pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2, mode: TransportMode) -> Option<BsdfSample> {
+        let Some(c) = &self.coat else { return self.base_sample(wo, u_lobe, u, mode) };
+        if wo.z == 0.0 || !wo.is_finite() {
+            return None;
+        }
+        let p = c.selection_probability(wo);
+        let s = if u_lobe < p {
+            let mut s = c.sample(wo, u)?;
+            s.pdf *= p;
+            if !s.is_specular {
+                s.f += c.transmittance(wo, s.wi) * self.base_eval(wo, s.wi, mode);
+                s.pdf += (1.0 - p) * self.base_pdf(wo, s.wi);
+            }
+            s
+        } else {
+            let u_base = ((u_lobe - p) / (1.0 - p)).clamp(0.0, ONE_MINUS_EPSILON);
+            let mut s = self.base_sample(wo, u_base, u, mode)?;
+            s.f *= c.transmittance(wo, s.wi);
+            s.pdf *= 1.0 - p;
+            if !s.is_specular {
+                s.f += Vec3::splat(c.eval(wo, s.wi));
+                s.pdf += p * c.pdf(wo, s.wi);
+            }
+            s
+        };
+        (s.pdf > 0.0 && s.pdf.is_finite() && s.f.is_finite()).then_some(s)
+    }
+
+    /// The base without the coat: [`Bsdf::eval`]'s mixture.
+    fn base_eval(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> Vec3 {
         if let Some(albedo) = self.lambert {
             return if wo.z * wi.z > 0.0 { albedo * FRAC_1_PI } else { Vec3::ZERO };
         }
@@ -130,8 +191,7 @@ impl Bsdf {
             .sum()
     }
 
-    /// Solid-angle pdf of sample() producing wi (non-delta part only; delta lobes 0).
-    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+    fn base_pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         if self.lambert.is_some() {
             return if wo.z * wi.z > 0.0 { wi.z.abs() * FRAC_1_PI } else { 0.0 };
         }
@@ -139,10 +199,7 @@ impl Bsdf {
         (0..LOBES).filter(|&k| p[k] > 0.0).map(|k| p[k] * self.lobe_pdf(k, wo, wi)).sum()
     }
 
-    /// Sample wi. u_lobe picks the lobe, u the direction. f is the full BSDF value (sum over non-delta lobes, or
-    /// the delta lobe's weight for specular samples), pdf the full mixture pdf (for delta samples: the discrete
-    /// probability of that lobe, pbrt-v4 convention so f·|cos|/pdf is the weight).
-    pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2, mode: TransportMode) -> Option<BsdfSample> {
+    fn base_sample(&self, wo: Vec3, u_lobe: f32, u: Vec2, mode: TransportMode) -> Option<BsdfSample> {
         if wo.z == 0.0 || !wo.is_finite() {
             return None;
         }
@@ -183,7 +240,7 @@ impl Bsdf {
     /// Whether the BSDF is zero for every pair of directions (a black Lambertian): light arriving
     /// there is absorbed and lights nothing.
     pub fn reflects_nothing(&self) -> bool {
-        self.lambert == Some(Vec3::ZERO)
+        self.lambert == Some(Vec3::ZERO) && self.coat.is_none()
     }
 
     /// Cheap hemispherical-albedo estimate per channel, independent of wo, for Russian roulette of photons
@@ -196,6 +253,10 @@ impl Bsdf {
         let albedo = self.weights[0] * self.conductor.albedo_hint()
             + self.weights[1] * self.plastic.albedo_hint()
             + self.weights[2] * self.dielectric.albedo_hint();
+        let albedo = match &self.coat {
+            None => albedo,
+            Some(c) => albedo * (1.0 - c.albedo_hint()).powi(2) + Vec3::splat(c.albedo_hint()),
+        };
         albedo.min(Vec3::ONE)
     }
 
@@ -286,6 +347,8 @@ pub(crate) mod tests {
             ior,
             specular,
             specular_color: Vec3::ONE,
+            clearcoat: 0.0,
+            clearcoat_roughness: 0.0,
         }
     }
 
@@ -457,6 +520,8 @@ pub(crate) mod tests {
                 ior: [1.0, 1.5, 2.5, 0.8][(s.get1d(6) * 4.0) as usize],
                 specular: (s.get1d(7) * 3.0).floor() / 2.0,
                 specular_color: Vec3::ONE,
+                clearcoat: 0.0,
+                clearcoat_roughness: 0.0,
             };
             let bsdf = Bsdf::new(&p);
             let mut wo = uniform_sphere(s.get2d(8));

@@ -192,6 +192,10 @@ pub struct MaterialDesc {
     pub specular: f32,
     /// KHR_materials_specular colour factor (linear RGB, 1 by default).
     pub specular_color: Vec3,
+    /// KHR_materials_clearcoat factor in [0, 1].
+    pub clearcoat: f32,
+    /// KHR_materials_clearcoat roughness factor in [0, 1].
+    pub clearcoat_roughness: f32,
     /// KHR_materials_volume thickness > 0 means a closed solid; 0 means a thin-walled surface.
     pub thickness: f32,
     /// Absorption coefficient σa (1/m) inside a solid (thickness > 0): −ln(attenuationColor) /
@@ -247,6 +251,8 @@ impl Default for MaterialDesc {
             ior: 1.5,
             specular: 1.0,
             specular_color: Vec3::ONE,
+            clearcoat: 0.0,
+            clearcoat_roughness: 0.0,
             thickness: 0.0,
             attenuation: Vec3::ZERO,
             double_sided: false,
@@ -274,6 +280,8 @@ impl MaterialDesc {
             ior: self.ior,
             specular: self.specular,
             specular_color: self.specular_color,
+            clearcoat: self.clearcoat,
+            clearcoat_roughness: self.clearcoat_roughness,
         }
     }
 }

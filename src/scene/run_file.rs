@@ -215,6 +215,10 @@ pub struct MaterialSpec {
     pub specular: f32,
     /// Emitted radiance.
     pub emission: [f32; 3],
+    /// KHR_materials_clearcoat: weight of a clear coat in [0, 1].
+    pub clearcoat: f32,
+    /// KHR_materials_clearcoat: its perceptual roughness.
+    pub clearcoat_roughness: f32,
     /// KHR_materials_volume: the colour white light takes after `attenuation_distance` inside.
     pub attenuation_color: [f32; 3],
     /// KHR_materials_volume: the distance (m) at which light has `attenuation_color`; infinite: clear.
@@ -231,6 +235,8 @@ impl Default for MaterialSpec {
             ior: 1.5,
             specular: 0.0,
             emission: [0.0; 3],
+            clearcoat: 0.0,
+            clearcoat_roughness: 0.0,
             attenuation_color: [1.0; 3],
             attenuation_distance: f32::INFINITY,
         }
@@ -671,6 +677,8 @@ impl MaterialSpec {
             ior: self.ior,
             specular: self.specular,
             specular_color: Vec3::ONE,
+            clearcoat: self.clearcoat,
+            clearcoat_roughness: self.clearcoat_roughness,
             thickness: 2.0 * radius,
             attenuation: self.attenuation(),
             double_sided: true,

@@ -51,10 +51,21 @@ impl Loader<'_> {
                 ));
             }
         }
+        let mut ignored = Vec::new();
         let specular = material.specular();
+        // gltf 1.4 does not parse KHR_materials_clearcoat: read its factors from the raw JSON.
+        let clearcoat = material.extension_value("KHR_materials_clearcoat");
+        let factor = |key: &str, default: f32| {
+            clearcoat.and_then(|c| c.get(key)).and_then(|v| v.as_f64()).map_or(default, |v| v as f32)
+        };
+        if ["clearcoatTexture", "clearcoatRoughnessTexture", "clearcoatNormalTexture"]
+            .iter()
+            .any(|key| clearcoat.and_then(|c| c.get(*key)).is_some())
+        {
+            ignored.push("clearcoat textures (the factors are used)");
+        }
         let volume = material.volume();
 
-        let mut ignored = Vec::new();
         if material.occlusion_texture().is_some() {
             ignored.push("occlusionTexture");
         }
@@ -89,6 +100,8 @@ impl Loader<'_> {
             ior: material.ior().unwrap_or(1.5),
             specular: specular.as_ref().map_or(1.0, |s| s.specular_factor()),
             specular_color: specular.as_ref().map_or(Vec3::ONE, |s| Vec3::from(s.specular_color_factor())),
+            clearcoat: factor("clearcoatFactor", 0.0),
+            clearcoat_roughness: factor("clearcoatRoughnessFactor", 0.0),
             thickness: volume.as_ref().map_or(0.0, |v| v.thickness_factor()),
             attenuation: volume.as_ref().map_or(Vec3::ZERO, |v| {
                 crate::scene::absorption(Vec3::from(v.attenuation_color()), v.attenuation_distance())

@@ -24,6 +24,7 @@ use tracing::warn;
 /// Extensions whose data the loader uses; others listed in `extensionsUsed` are ignored with one warning.
 pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_lights_punctual",
+    "KHR_materials_clearcoat",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
     "KHR_materials_specular",
