@@ -40,15 +40,55 @@ fn check(name: &str, kind: IntegratorKind, image: &Image, model: &[usize]) {
     assert!(mean > LIT_FLOOR, "{name} ({kind:?}): the model's mean luminance {mean} is black");
 }
 
+/// The glTF files under `dir`, in its folders too.
+fn gltf_files(dir: &str) -> Vec<std::path::PathBuf> {
+    let mut files = Vec::new();
+    let mut pending = vec![common::data(dir)];
+    while let Some(dir) = pending.pop() {
+        for entry in std::fs::read_dir(&dir).expect("samples dir") {
+            let path = entry.expect("dir entry").path();
+            if path.is_dir() {
+                pending.push(path);
+            } else if path.extension().is_some_and(|e| e == "gltf" || e == "glb") {
+                files.push(path);
+            }
+        }
+    }
+    files.sort();
+    files
+}
+
 #[test]
 fn every_sample_renders_lit_without_errors_or_non_finite_pixels() {
+    render_corpus(gltf_files("gltf-samples"), 14);
+}
+
+/// The second corpus (tests/data/gltf-samples-2: emissive strength, texture transforms,
+/// attenuation, specular, clearcoat, rough transmission): as the first, and none of the features
+/// the loader now reads (normal maps, emissive textures, alpha, punctual lights, volume
+/// attenuation, clearcoat) is reported as ignored.
+#[test]
+fn the_second_corpus_renders_with_its_features_read() {
+    let (_, logs) = common::capture_logs(|| render_corpus(gltf_files("gltf-samples-2"), 6));
+    for feature in [
+        "normalTexture",
+        "emissiveTexture",
+        "alphaMode",
+        "KHR_lights_punctual",
+        "volume attenuation",
+        "KHR_materials_clearcoat",
+    ] {
+        assert!(
+            !logs.contains(&format!("ignored: {feature}")) && !logs.contains(&format!(", {feature}")),
+            "{feature} ignored: {logs}"
+        );
+    }
+}
+
+fn render_corpus(files: Vec<std::path::PathBuf>, at_least: usize) {
     caustica::driver::init_thread_pools(None);
     let mut names = Vec::new();
-    for entry in std::fs::read_dir(common::data("gltf-samples")).expect("samples dir") {
-        let path = entry.expect("dir entry").path();
-        if !path.extension().is_some_and(|e| e == "gltf" || e == "glb") {
-            continue;
-        }
+    for path in files {
         let name = path.file_name().unwrap().to_string_lossy().into_owned();
         for kind in [IntegratorKind::Pt, IntegratorKind::Sppm] {
             let (scene, mut run) = scene::load(&path).unwrap_or_else(|e| panic!("{name}: {e}"));
@@ -64,5 +104,5 @@ fn every_sample_renders_lit_without_errors_or_non_finite_pixels() {
         }
         names.push(name);
     }
-    assert!(names.len() >= 14, "the corpus shrank: {names:?}");
+    assert!(names.len() >= at_least, "the corpus shrank: {names:?}");
 }

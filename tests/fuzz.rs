@@ -193,8 +193,20 @@ const NUMBERS: &[&str] = &[
 ];
 /// Ordinary values, so that most generated files get past parsing to loading and rendering.
 const SANE_NUMBERS: &[&str] = &["0", "1", "2", "0.5", "0.25", "3", "8", "0.9", "1.5", "100"];
-const MATERIAL_KEYS: &[&str] =
-    &["base_color", "metallic", "roughness", "transmission", "ior", "specular", "emission", "glow"];
+const MATERIAL_KEYS: &[&str] = &[
+    "base_color",
+    "metallic",
+    "roughness",
+    "transmission",
+    "ior",
+    "specular",
+    "emission",
+    "glow",
+    "clearcoat",
+    "clearcoat_roughness",
+    "attenuation_color",
+    "attenuation_distance",
+];
 const GLTFS: &[&str] =
     &["cornell-box.gltf", "gltf-samples/Box.gltf", "gltf-samples/Cameras.gltf", "missing.gltf"];
 
@@ -211,7 +223,7 @@ fn value(kind: Kind, c: &[u16; 4]) -> String {
         (_, Kind::Vec3) => format!("[{}, {}, {}]", n(0), n(1), n(2)),
         (_, Kind::Material) => {
             let key = MATERIAL_KEYS[c[0] as usize % MATERIAL_KEYS.len()];
-            let v = if key == "base_color" || key == "emission" {
+            let v = if key == "base_color" || key == "emission" || key == "attenuation_color" {
                 format!("[{}, {}, {}]", n(1), n(2), n(1))
             } else {
                 n(1)
