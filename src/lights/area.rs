@@ -7,6 +7,9 @@ use crate::sampling::warp::{Frame, cosine_hemisphere, uniform_sphere, uniform_tr
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
+/// Below this squared sine of its half-angle a sphere light is not sampled.
+const MIN_SIN2_SUBTENDED: f32 = 1e-30;
+
 /// Emitter geometry at shutter open.
 #[derive(Clone, Copy, Debug)]
 pub enum LightShape {
@@ -169,6 +172,11 @@ impl Light {
                 }
                 // Outside: sample the cone of directions the sphere subtends (pbrt-v4 Sphere::Sample).
                 let sin2_max = radius * radius / dc2;
+                // A sphere that subtends less than 1e-30 sr (found by the fuzzer: radius 1e-30)
+                // lights nothing a float can hold, and its cone's sine underflows to a 0/0 point.
+                if sin2_max < MIN_SIN2_SUBTENDED {
+                    return None;
+                }
                 let sin_max = sin2_max.sqrt();
                 let cos_max = (1.0 - sin2_max).max(0.0).sqrt();
                 let mut one_minus_cos_max = 1.0 - cos_max;
@@ -315,6 +323,14 @@ mod tests {
                 })
             });
         }
+    }
+
+    /// Found by the run-file fuzzer: a sphere light of radius 1e-30 seen from a metre away made its
+    /// cone's sine underflow and sampled a NaN point.
+    #[test]
+    fn a_vanishingly_small_sphere_light_is_not_sampled() {
+        let light = light(LightShape::Sphere { center: Vec3::new(1e-30, -1.0, 0.0), radius: 1e-30 });
+        assert!(light.sample(Vec3::new(0.8, 0.9, 0.9), 0.0, Vec2::splat(0.3)).is_none());
     }
 
     #[test]
