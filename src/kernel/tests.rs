@@ -161,6 +161,8 @@ fn light_samples_average_to_the_reflected_direct_radiance() {
 fn russian_roulette_divides_the_eta_scale_out_of_the_throughput() {
     let glass = MaterialDesc {
         transmission: 1.0,
+        // A solid: a thin-walled sheet would not bend the light or scale it by 1/η².
+        thickness: 1.0,
         ior: 1.5,
         roughness: 0.0,
         metallic: 0.0,

@@ -18,12 +18,28 @@ pub struct Dielectric {
     eta: f32,
     tint: Vec3,
     ggx: Ggx,
+    /// A thin-walled sheet (glTF transmission without a volume): light crosses two interfaces
+    /// close together and leaves unbent, on the mirrored side of the reflection lobe.
+    thin: bool,
 }
 
 impl Dielectric {
     /// Interface with inside IOR `eta` (outside 1), transmission tint and roughness.
     pub fn new(eta: f32, tint: Vec3, ggx: Ggx) -> Self {
-        Self { eta, tint, ggx }
+        Self { eta, tint, ggx, thin: false }
+    }
+
+    /// A thin-walled sheet of the same glass.
+    pub fn thin_walled(eta: f32, tint: Vec3, ggx: Ggx) -> Self {
+        Self { eta, tint, ggx, thin: true }
+    }
+
+    /// A thin sheet's reflectance: both faces reflect, and light bounces between them,
+    /// R + T²R/(1 − R²) = 2R/(1 + R) for the single-face Fresnel R (pbrt-v4's ThinDielectricBxDF).
+    #[inline]
+    fn sheet_reflectance(&self, cos: f32) -> f32 {
+        let r = fresnel_dielectric(cos.abs(), self.eta);
+        if r < 1.0 { 2.0 * r / (1.0 + r) } else { 1.0 }
     }
 
     /// Smooth glass, or an index-matched interface (eta = 1, which only passes light straight through).
@@ -48,6 +64,9 @@ impl Dielectric {
         if self.is_delta() {
             return Vec3::ZERO;
         }
+        if self.thin {
+            return self.thin_eval(wo, wi);
+        }
         let Some((wm, etap)) = self.generalized_half_vector(wo, wi) else {
             return Vec3::ZERO;
         };
@@ -71,6 +90,9 @@ impl Dielectric {
         if self.is_delta() {
             return 0.0;
         }
+        if self.thin {
+            return self.thin_pdf(wo, wi);
+        }
         let Some((wm, etap)) = self.generalized_half_vector(wo, wi) else {
             return 0.0;
         };
@@ -90,7 +112,14 @@ impl Dielectric {
             return None;
         }
         if self.is_delta() {
-            return self.sample_smooth(wo, uc, mode);
+            return if self.thin {
+                self.sample_thin_smooth(wo, uc)
+            } else {
+                self.sample_smooth(wo, uc, mode)
+            };
+        }
+        if self.thin {
+            return self.sample_thin_rough(wo, uc, u);
         }
         let wm = self.ggx.sample_wm(wo, u);
         let cos_om = wo.dot(wm);
@@ -149,6 +178,63 @@ impl Dielectric {
         })
     }
 
+    /// A smooth sheet: mirror with its reflectance, else straight through (no bending, no η²).
+    fn sample_thin_smooth(&self, wo: Vec3, uc: f32) -> Option<BsdfSample> {
+        let r = self.sheet_reflectance(wo.z);
+        if uc < r {
+            let wi = Vec3::new(-wo.x, -wo.y, wo.z);
+            let f = Vec3::splat(r / wi.z.abs());
+            return Some(BsdfSample { wi, f, pdf: r, is_specular: true, is_transmission: false, eta: 1.0 });
+        }
+        let wi = -wo;
+        let f = self.tint * ((1.0 - r) / wi.z.abs());
+        Some(BsdfSample { wi, f, pdf: 1.0 - r, is_specular: true, is_transmission: true, eta: 1.0 })
+    }
+
+    /// A rough sheet: the GGX reflection lobe with the sheet's reflectance, and what it does not
+    /// reflect transmitted into the same lobe mirrored through the surface (transmitted light leaves
+    /// unbent on average, blurred as much as the reflection). Both sides alike.
+    fn thin_eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        let transmitted = wo.z * wi.z < 0.0;
+        let (wo, wi) = sheet_frame(wo, if transmitted { flip_z(wi) } else { wi });
+        let Some(wm) = half(wo, wi) else { return Vec3::ZERO };
+        let r = self.sheet_reflectance(wo.dot(wm));
+        let lobe = self.ggx.d(wm) * self.ggx.g(wo, wi) / (4.0 * wo.z * wi.z);
+        if transmitted { self.tint * (lobe * (1.0 - r)) } else { Vec3::splat(lobe * r) }
+    }
+
+    fn thin_pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        let transmitted = wo.z * wi.z < 0.0;
+        let (wo, wi) = sheet_frame(wo, if transmitted { flip_z(wi) } else { wi });
+        let Some(wm) = half(wo, wi) else { return 0.0 };
+        let r = self.sheet_reflectance(wo.dot(wm));
+        let lobe = self.ggx.d_visible(wo, wm) / (4.0 * wo.dot(wm));
+        lobe * if transmitted { 1.0 - r } else { r }
+    }
+
+    fn sample_thin_rough(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
+        let below = wo.z < 0.0;
+        let (wo_up, _) = sheet_frame(wo, Vec3::ZERO);
+        let wm = self.ggx.sample_wm(wo_up, u);
+        let wi_up = reflect(wo_up, wm);
+        if wi_up.z <= 0.0 || wo_up.dot(wm) <= 0.0 {
+            return None;
+        }
+        let r = self.sheet_reflectance(wo_up.dot(wm));
+        let transmitted = uc >= r;
+        let wi_side = if transmitted { flip_z(wi_up) } else { wi_up };
+        let wi = if below { flip_z(wi_side) } else { wi_side };
+        let (f, pdf) = (self.thin_eval(wo, wi), self.thin_pdf(wo, wi));
+        (pdf > 0.0).then_some(BsdfSample {
+            wi,
+            f,
+            pdf,
+            is_specular: false,
+            is_transmission: transmitted,
+            eta: 1.0,
+        })
+    }
+
     /// The microfacet normal (z > 0) that scatters wo into wi, and the relative IOR crossed (1 for reflection):
     /// wm ∝ etap·wi + wo (Walter et al. 2007, eq. 16). `None` for grazing vectors and back-facing microfacets.
     fn generalized_half_vector(&self, wo: Vec3, wi: Vec3) -> Option<(Vec3, f32)> {
@@ -190,6 +276,28 @@ fn refraction_denominator(wo: Vec3, wi: Vec3, etap: f32) -> f32 {
 #[inline]
 fn sqr(x: f32) -> f32 {
     x * x
+}
+
+#[inline]
+fn flip_z(v: Vec3) -> Vec3 {
+    Vec3::new(v.x, v.y, -v.z)
+}
+
+/// (wo, wi) mirrored so that wo is above the sheet: a sheet looks the same from both sides.
+#[inline]
+fn sheet_frame(wo: Vec3, wi: Vec3) -> (Vec3, Vec3) {
+    if wo.z < 0.0 { (flip_z(wo), flip_z(wi)) } else { (wo, wi) }
+}
+
+/// The half vector of a reflection pair above the surface.
+#[inline]
+fn half(wo: Vec3, wi: Vec3) -> Option<Vec3> {
+    if wo.z <= 0.0 || wi.z <= 0.0 {
+        return None;
+    }
+    let wm = wo + wi;
+    let len2 = wm.length_squared();
+    (len2 > 0.0).then(|| wm / len2.sqrt())
 }
 
 #[cfg(test)]
@@ -326,5 +434,60 @@ mod tests {
         let s = bsdf.sample(wo, 0.3, Vec2::splat(0.5), TransportMode::Radiance).unwrap();
         assert!((s.wi + wo).length() < 1e-6 && s.is_transmission && s.eta == 1.0);
         assert!((s.f.x * s.wi.z.abs() / s.pdf - 1.0).abs() < 1e-6);
+    }
+}
+
+#[cfg(test)]
+mod thin_tests {
+    use crate::materials::tests::{albedo, check_reciprocity, check_sampling, grazing_directions, params};
+    use crate::materials::{Bsdf, ShadingParams, TransportMode};
+    use glam::{Vec2, Vec3};
+
+    fn sheet(roughness: f32, tint: Vec3) -> Bsdf {
+        Bsdf::new(&ShadingParams { thin_walled: true, ..params(tint, 0.0, roughness, 1.0, 1.5, 1.0) })
+    }
+
+    #[test]
+    fn a_rough_sheet_samples_follow_its_pdf_and_is_reciprocal() {
+        let wos = grazing_directions();
+        let roughnesses = [0.2f32, 0.5, 0.9];
+        let count = (roughnesses.len() * wos.len()) as u32;
+        for roughness in roughnesses {
+            let bsdf = sheet(roughness, Vec3::new(0.9, 0.7, 0.5));
+            for wo in wos {
+                check_sampling(&bsdf, wo, TransportMode::Radiance, count, &format!("sheet {roughness}"));
+            }
+            check_reciprocity(&bsdf);
+        }
+    }
+
+    /// A clear sheet loses nothing but what microfacet shadowing takes: reflected plus transmitted is
+    /// at most 1, and 1 when smooth.
+    #[test]
+    fn a_clear_sheet_conserves_energy() {
+        for roughness in [0.0f32, 0.1, 0.5, 1.0] {
+            let bsdf = sheet(roughness, Vec3::ONE);
+            for wo in grazing_directions() {
+                let (mean, se) = albedo(&bsdf, wo, TransportMode::Radiance, 20_000);
+                assert!(mean.max_element() - 4.0 * se.max_element() <= 1.0, "{roughness}, {wo}: {mean}");
+                if roughness == 0.0 {
+                    assert!((mean - Vec3::ONE).abs().max_element() < 1e-4, "smooth sheet, {wo}: {mean}");
+                }
+            }
+        }
+    }
+
+    /// A smooth sheet does not bend light: what it transmits leaves along −wo, unscaled by η², with
+    /// the weight 1 − 2R/(1 + R) over its probability.
+    #[test]
+    fn a_smooth_sheet_passes_light_straight_through() {
+        let bsdf = sheet(0.0, Vec3::ONE);
+        let wo = Vec3::new(0.6, 0.0, 0.8);
+        let s = (0..100)
+            .filter_map(|i| bsdf.sample(wo, (i as f32 + 0.5) / 100.0, Vec2::ZERO, TransportMode::Radiance))
+            .find(|s| s.is_transmission)
+            .expect("a sheet transmits");
+        assert!((s.wi + wo).length() < 1e-6 && s.eta == 1.0, "{}", s.wi);
+        assert!((s.f.x * s.wi.z.abs() / s.pdf - 1.0).abs() < 1e-5);
     }
 }

@@ -51,6 +51,9 @@ pub struct ShadingParams {
     pub clearcoat: f32,
     /// Perceptual roughness of the coat.
     pub clearcoat_roughness: f32,
+    /// Transmission through a thin-walled sheet (glTF: no KHR_materials_volume, or thickness 0)
+    /// rather than into a solid.
+    pub thin_walled: bool,
 }
 
 /// Which quantity a path carries; it matters only for refraction.
@@ -113,7 +116,11 @@ impl Bsdf {
         Self {
             conductor: Conductor::new(base, ggx),
             plastic: Plastic::new(base, spec_f0, specular, ggx),
-            dielectric: Dielectric::new(ior, base, ggx),
+            dielectric: if p.thin_walled {
+                Dielectric::thin_walled(ior, base, ggx)
+            } else {
+                Dielectric::new(ior, base, ggx)
+            },
             weights,
             lambert,
             coat: clearcoat::Coat::new(p.clearcoat, p.clearcoat_roughness),
@@ -349,6 +356,7 @@ pub(crate) mod tests {
             specular_color: Vec3::ONE,
             clearcoat: 0.0,
             clearcoat_roughness: 0.0,
+            thin_walled: false,
         }
     }
 
@@ -522,6 +530,7 @@ pub(crate) mod tests {
                 specular_color: Vec3::ONE,
                 clearcoat: 0.0,
                 clearcoat_roughness: 0.0,
+                thin_walled: false,
             };
             let bsdf = Bsdf::new(&p);
             let mut wo = uniform_sphere(s.get2d(8));

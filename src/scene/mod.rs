@@ -282,6 +282,7 @@ impl MaterialDesc {
             specular_color: self.specular_color,
             clearcoat: self.clearcoat,
             clearcoat_roughness: self.clearcoat_roughness,
+            thin_walled: self.thickness <= 0.0,
         }
     }
 }
