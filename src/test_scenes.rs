@@ -1,7 +1,7 @@
 //! Procedural scenes for tests and benches (no files needed), like obvhs's `test_util`.
 
 use crate::scene::{CameraDesc, MaterialDesc, Mesh, Scene};
-use glam::{Mat4, Vec3};
+use glam::{Mat4, Vec2, Vec3};
 
 /// A diffuse material with the given albedo and emission.
 pub fn diffuse(name: &str, albedo: Vec3, emission: Vec3) -> MaterialDesc {
@@ -14,6 +14,16 @@ pub fn diffuse(name: &str, albedo: Vec3, emission: Vec3) -> MaterialDesc {
         double_sided: true,
         ..MaterialDesc::default()
     }
+}
+
+/// A horizontal square of half-width `half` at height `y` whose front (counter-clockwise) side faces
+/// up or down, with texture coordinates 0 to 1 along +x and +z.
+pub fn quad(name: &str, y: f32, half: f32, up: bool, material: u32) -> Mesh {
+    let h = half;
+    let positions = vec![Vec3::new(-h, y, -h), Vec3::new(h, y, -h), Vec3::new(h, y, h), Vec3::new(-h, y, h)];
+    let uvs = vec![vec![Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0), Vec2::new(0.0, 1.0)]];
+    let indices = if up { vec![[0, 2, 1], [0, 3, 2]] } else { vec![[0, 1, 2], [0, 2, 3]] };
+    Mesh { name: name.into(), positions, uvs, indices, material, ..Mesh::default() }
 }
 
 /// A UV sphere of `radius` at `center` with `rings` × `2·rings` quads; `inward` makes the front faces

@@ -8,8 +8,8 @@ mod common;
 use caustica::camera::look_at;
 use caustica::film::Image;
 use caustica::scene::punctual::{PunctualKind, PunctualLightDesc};
-use caustica::scene::{CameraDesc, IntegratorKind, LightSelection, Mesh, RunFile, Scene};
-use caustica::test_scenes::diffuse;
+use caustica::scene::{CameraDesc, IntegratorKind, LightSelection, RunFile, Scene};
+use caustica::test_scenes::{diffuse, quad};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
@@ -23,19 +23,7 @@ const SUBPIXELS: u32 = 8;
 
 fn scene(light: PunctualLightDesc) -> Scene {
     // Far larger than the view (±1.15 m), so no photon or sample feels its edge.
-    let l = 8.0;
-    let plane = Mesh {
-        name: "plane".into(),
-        positions: vec![
-            Vec3::new(-l, 0.0, -l),
-            Vec3::new(-l, 0.0, l),
-            Vec3::new(l, 0.0, l),
-            Vec3::new(l, 0.0, -l),
-        ],
-        indices: vec![[0, 1, 2], [0, 2, 3]],
-        material: 0,
-        ..Mesh::default()
-    };
+    let plane = quad("plane", 0.0, 8.0, true, 0);
     Scene {
         meshes: vec![plane],
         materials: vec![diffuse("plane", Vec3::splat(ALBEDO), Vec3::ZERO)],

@@ -7,39 +7,15 @@ use caustica::camera::look_at;
 use caustica::scene::{
     AlphaMode, CameraDesc, IntegratorKind, MaterialDesc, Mesh, RunFile, Scene, Texture, TextureRef, Wrap,
 };
-use caustica::test_scenes::diffuse;
+use caustica::test_scenes::{diffuse, quad};
 use glam::{Vec2, Vec3, Vec4};
 
 /// A floor under a 1 m² lamp facing down whose emissive texture is a 4 × 4 checkerboard of white
 /// and black, seen from the side so that both the floor and the lamp's underside are in view.
 fn checker_lamp() -> Scene {
-    let l = 3.0;
-    let floor = Mesh {
-        name: "floor".into(),
-        positions: vec![
-            Vec3::new(-l, 0.0, -l),
-            Vec3::new(-l, 0.0, l),
-            Vec3::new(l, 0.0, l),
-            Vec3::new(l, 0.0, -l),
-        ],
-        indices: vec![[0, 1, 2], [0, 2, 3]],
-        material: 0,
-        ..Mesh::default()
-    };
-    // Counter-clockwise seen from below: the lamp emits downwards.
-    let lamp = Mesh {
-        name: "lamp".into(),
-        positions: vec![
-            Vec3::new(-0.5, 1.0, -0.5),
-            Vec3::new(0.5, 1.0, -0.5),
-            Vec3::new(0.5, 1.0, 0.5),
-            Vec3::new(-0.5, 1.0, 0.5),
-        ],
-        uvs: vec![vec![Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0), Vec2::new(0.0, 1.0)]],
-        indices: vec![[0, 1, 2], [0, 2, 3]],
-        material: 1,
-        ..Mesh::default()
-    };
+    let floor = quad("floor", 0.0, 3.0, true, 0);
+    // Facing down: the lamp emits downwards.
+    let lamp = quad("lamp", 1.0, 0.5, false, 1);
     let texels =
         (0..16).map(|i| if (i % 4 + i / 4) % 2 == 0 { Vec4::ONE } else { Vec4::new(0.0, 0.0, 0.0, 1.0) });
     let checker = Texture {
@@ -133,36 +109,12 @@ fn photons_from_an_emissive_texture_carry_its_texels() {
 /// A floor lit by a small lamp through a black 1 m² screen halfway up, seen from above at a slant,
 /// with the screen's material `screen` (texture 0: a 4 × 4 checkerboard of alpha 0 and 1).
 fn screened_lamp(screen: Option<MaterialDesc>) -> Scene {
-    let quad = |name: &str, y: f32, half: f32, down: bool, material: u32| {
-        let mut positions = vec![
-            Vec3::new(-half, y, -half),
-            Vec3::new(half, y, -half),
-            Vec3::new(half, y, half),
-            Vec3::new(-half, y, half),
-        ];
-        if !down {
-            positions.reverse();
-        }
-        Mesh {
-            name: name.into(),
-            positions,
-            uvs: vec![vec![
-                Vec2::new(0.0, 0.0),
-                Vec2::new(1.0, 0.0),
-                Vec2::new(1.0, 1.0),
-                Vec2::new(0.0, 1.0),
-            ]],
-            indices: vec![[0, 1, 2], [0, 2, 3]],
-            material,
-            ..Mesh::default()
-        }
-    };
     let mut lamp = diffuse("lamp", Vec3::ZERO, Vec3::splat(10.0));
     lamp.double_sided = false;
-    let mut meshes = vec![quad("floor", 0.0, 3.0, false, 0), quad("lamp", 1.5, 0.25, true, 1)];
+    let mut meshes = vec![quad("floor", 0.0, 3.0, true, 0), quad("lamp", 1.5, 0.25, false, 1)];
     let mut materials = vec![diffuse("floor", Vec3::splat(0.7), Vec3::ZERO), lamp];
     if let Some(screen) = screen {
-        meshes.push(quad("screen", 0.5, 0.5, false, 2));
+        meshes.push(quad("screen", 0.5, 0.5, true, 2));
         materials.push(screen);
     }
     let texels = (0..16).map(|i| Vec4::new(0.0, 0.0, 0.0, if (i % 4 + i / 4) % 2 == 0 { 1.0 } else { 0.0 }));

@@ -6,7 +6,7 @@ mod common;
 use caustica::camera::look_at;
 use caustica::film::Image;
 use caustica::scene::{CameraDesc, IntegratorKind, MaterialDesc, Mesh, RunFile, Scene};
-use caustica::test_scenes::diffuse;
+use caustica::test_scenes::{diffuse, quad};
 use glam::Vec3;
 
 /// Thickness of the slab (m) and its absorption coefficients per channel (1/m).
@@ -132,30 +132,8 @@ fn a_slab_transmits_exp_minus_sigma_d_to_camera_paths() {
 #[test]
 fn photons_are_absorbed_in_the_slab_as_camera_paths_are() {
     let scene = |sigma: Vec3| {
-        let floor = Mesh {
-            name: "floor".into(),
-            positions: vec![
-                Vec3::new(-3.0, 0.0, -3.0),
-                Vec3::new(-3.0, 0.0, 3.0),
-                Vec3::new(3.0, 0.0, 3.0),
-                Vec3::new(3.0, 0.0, -3.0),
-            ],
-            indices: vec![[0, 1, 2], [0, 2, 3]],
-            material: 1,
-            ..Mesh::default()
-        };
-        let lamp = Mesh {
-            name: "lamp".into(),
-            positions: vec![
-                Vec3::new(-1.0, 2.0, -1.0),
-                Vec3::new(1.0, 2.0, -1.0),
-                Vec3::new(1.0, 2.0, 1.0),
-                Vec3::new(-1.0, 2.0, 1.0),
-            ],
-            indices: vec![[0, 1, 2], [0, 2, 3]],
-            material: 2,
-            ..Mesh::default()
-        };
+        let floor = quad("floor", 0.0, 3.0, true, 1);
+        let lamp = quad("lamp", 2.0, 1.0, false, 2);
         let mut lamp_material = diffuse("lamp", Vec3::ZERO, Vec3::splat(3.0));
         lamp_material.double_sided = false;
         Scene {
@@ -196,30 +174,8 @@ fn photons_are_absorbed_in_the_slab_as_camera_paths_are() {
 #[test]
 fn light_sampled_inside_a_medium_is_attenuated_along_the_shadow_ray() {
     let scene = || {
-        let floor = Mesh {
-            name: "floor".into(),
-            positions: vec![
-                Vec3::new(-1.5, 0.0, -1.5),
-                Vec3::new(-1.5, 0.0, 1.5),
-                Vec3::new(1.5, 0.0, 1.5),
-                Vec3::new(1.5, 0.0, -1.5),
-            ],
-            indices: vec![[0, 1, 2], [0, 2, 3]],
-            material: 1,
-            ..Mesh::default()
-        };
-        let lamp = Mesh {
-            name: "lamp".into(),
-            positions: vec![
-                Vec3::new(-0.5, 1.5, -0.5),
-                Vec3::new(0.5, 1.5, -0.5),
-                Vec3::new(0.5, 1.5, 0.5),
-                Vec3::new(-0.5, 1.5, 0.5),
-            ],
-            indices: vec![[0, 1, 2], [0, 2, 3]],
-            material: 2,
-            ..Mesh::default()
-        };
+        let floor = quad("floor", 0.0, 1.5, true, 1);
+        let lamp = quad("lamp", 1.5, 0.5, false, 2);
         let mut lamp_material = diffuse("lamp", Vec3::ZERO, Vec3::splat(5.0));
         lamp_material.double_sided = false;
         Scene {

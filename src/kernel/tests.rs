@@ -6,20 +6,12 @@ use super::continuation::{MAX_SURVIVAL, survival_probability};
 use super::emission::{add_escaped_radiance, add_surface_emission};
 use super::*;
 use crate::sampling::Sampler;
-use crate::scene::{LightSelection, MaterialDesc, Mesh, Scene};
-use crate::test_scenes::diffuse;
+use crate::scene::{LightSelection, MaterialDesc, Scene};
+use crate::test_scenes::{diffuse, quad};
 use std::f32::consts::PI;
 
 const ALBEDO: f32 = 0.5;
 const LE: f32 = 2.0;
-
-/// A quad at height `y` spanning [−h, h]² in x and z, facing up or down.
-fn quad(name: &str, y: f32, h: f32, up: bool, material: u32) -> Mesh {
-    let positions = vec![Vec3::new(-h, y, -h), Vec3::new(h, y, -h), Vec3::new(h, y, h), Vec3::new(-h, y, h)];
-    // Counter-clockwise seen from above is the front for an upward quad.
-    let indices = if up { vec![[0, 2, 1], [0, 3, 2]] } else { vec![[0, 1, 2], [0, 2, 3]] };
-    Mesh { name: name.into(), positions, indices, material, ..Mesh::default() }
-}
 
 fn floor_and_lamp() -> RenderScene {
     let scene = Scene {
