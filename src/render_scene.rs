@@ -55,7 +55,14 @@ impl RenderScene {
             roughness *= texel.y;
             metallic *= texel.z;
         }
-        m.shading_params(base_color, metallic, roughness)
+        let mut params = m.shading_params(base_color, metallic, roughness);
+        if let Some(t) = &m.clearcoat_texture {
+            params.clearcoat *= lookup(t).x;
+        }
+        if let Some(t) = &m.clearcoat_roughness_texture {
+            params.clearcoat_roughness *= lookup(t).y;
+        }
+        params
     }
 
     /// The shading normal at a hit seen from `wo` (unit, towards where the ray came from): the

@@ -336,3 +336,48 @@ fn a_steep_normal_map_leaves_no_black_spots() {
     assert!((mean - 0.8).abs() < 4.0 * sd / n.sqrt() + 1e-3, "mean {mean} ± {}, expected 0.8", sd / n.sqrt());
     assert!(darkest > 0.4, "a black spot: {darkest}");
 }
+
+/// KHR_materials_clearcoat's textures (which the gltf crate does not parse) are read from the file:
+/// ClearCoatTest's partial coat and roughness variations carry theirs, and a texel scales the
+/// factor where a hit looks it up (red: the coat's weight, green: its roughness).
+#[test]
+fn clearcoat_textures_are_read_and_scale_their_factors() {
+    let path = common::data("gltf-samples-2/ClearCoatTest/ClearCoatTest.gltf");
+    let (scene, _) = caustica::scene::load(&path).expect("loads");
+    let material = |name: &str| scene.materials.iter().find(|m| m.name == name).expect(name);
+    assert!(material("Partial_Coated").clearcoat_texture.is_some());
+    assert!(material("RoughVariations_Coated").clearcoat_roughness_texture.is_some());
+    assert!(
+        material("Simple_Coated").clearcoat > 0.0 && material("Simple_Coated").clearcoat_texture.is_none()
+    );
+
+    let mut coated = diffuse("coated", Vec3::splat(0.5), Vec3::ZERO);
+    coated.clearcoat = 1.0;
+    coated.clearcoat_roughness = 0.5;
+    coated.clearcoat_texture = Some(TextureRef { texture: 0, tex_coord: 0, transform: None });
+    coated.clearcoat_roughness_texture = Some(TextureRef { texture: 0, tex_coord: 0, transform: None });
+    let texel = Texture {
+        name: "coat".into(),
+        width: 1,
+        height: 1,
+        texels: vec![Vec4::new(0.25, 0.5, 0.0, 1.0)],
+        wrap_s: Wrap::Repeat,
+        wrap_t: Wrap::Repeat,
+    };
+    let scene = Scene {
+        meshes: vec![quad("plane", 0.0, 1.0, true, 0)],
+        materials: vec![coated],
+        textures: vec![texel],
+        ..Scene::default()
+    };
+    let render_scene = caustica::RenderScene::build(&scene, caustica::scene::LightSelection::Power);
+    let ray = caustica::geometry::Ray {
+        o: Vec3::new(0.1, 1.0, 0.2),
+        d: Vec3::NEG_Y,
+        t_max: f32::INFINITY,
+        time: 0.0,
+    };
+    let hit = render_scene.geometry.intersect(&ray);
+    let params = render_scene.shading_params(&render_scene.geometry.surface_hit(&ray, &hit));
+    assert_eq!((params.clearcoat, params.clearcoat_roughness), (0.25, 0.25));
+}

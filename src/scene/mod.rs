@@ -196,6 +196,10 @@ pub struct MaterialDesc {
     pub clearcoat: f32,
     /// KHR_materials_clearcoat roughness factor in [0, 1].
     pub clearcoat_roughness: f32,
+    /// Clearcoat texture: its red channel multiplies `clearcoat`.
+    pub clearcoat_texture: Option<TextureRef>,
+    /// Clearcoat roughness texture: its green channel multiplies `clearcoat_roughness`.
+    pub clearcoat_roughness_texture: Option<TextureRef>,
     /// KHR_materials_volume thickness > 0 means a closed solid; 0 means a thin-walled surface.
     pub thickness: f32,
     /// Absorption coefficient σa (1/m) inside a solid (thickness > 0): −ln(attenuationColor) /
@@ -253,6 +257,8 @@ impl Default for MaterialDesc {
             specular_color: Vec3::ONE,
             clearcoat: 0.0,
             clearcoat_roughness: 0.0,
+            clearcoat_texture: None,
+            clearcoat_roughness_texture: None,
             thickness: 0.0,
             attenuation: Vec3::ZERO,
             double_sided: false,

@@ -679,6 +679,8 @@ impl MaterialSpec {
             specular_color: Vec3::ONE,
             clearcoat: self.clearcoat,
             clearcoat_roughness: self.clearcoat_roughness,
+            clearcoat_texture: None,
+            clearcoat_roughness_texture: None,
             thickness: 2.0 * radius,
             attenuation: self.attenuation(),
             double_sided: true,

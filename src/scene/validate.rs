@@ -319,6 +319,8 @@ fn textures_of(m: &MaterialDesc) -> impl Iterator<Item = (&'static str, TextureR
         ("metallicRoughnessTexture", m.metallic_roughness_texture),
         ("emissiveTexture", m.emissive_texture),
         ("normalTexture", m.normal_texture),
+        ("clearcoatTexture", m.clearcoat_texture),
+        ("clearcoatRoughnessTexture", m.clearcoat_roughness_texture),
     ]
     .into_iter()
     .filter_map(|(name, t)| Some((name, t?)))

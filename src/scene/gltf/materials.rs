@@ -53,16 +53,16 @@ impl Loader<'_> {
         }
         let mut ignored = Vec::new();
         let specular = material.specular();
-        // gltf 1.4 does not parse KHR_materials_clearcoat: read its factors from the raw JSON.
+        // gltf 1.4 does not parse KHR_materials_clearcoat: read it from the raw JSON.
         let clearcoat = material.extension_value("KHR_materials_clearcoat");
         let factor = |key: &str, default: f32| {
             clearcoat.and_then(|c| c.get(key)).and_then(|v| v.as_f64()).map_or(default, |v| v as f32)
         };
-        if ["clearcoatTexture", "clearcoatRoughnessTexture", "clearcoatNormalTexture"]
-            .iter()
-            .any(|key| clearcoat.and_then(|c| c.get(*key)).is_some())
-        {
-            ignored.push("clearcoat textures (the factors are used)");
+        let clearcoat_texture = self.extension_texture(clearcoat, "clearcoatTexture", &object)?;
+        let clearcoat_roughness_texture =
+            self.extension_texture(clearcoat, "clearcoatRoughnessTexture", &object)?;
+        if clearcoat.and_then(|c| c.get("clearcoatNormalTexture")).is_some() {
+            ignored.push("clearcoatNormalTexture (the coat follows the base's shading normal)");
         }
         let volume = material.volume();
 
@@ -102,6 +102,8 @@ impl Loader<'_> {
             specular_color: specular.as_ref().map_or(Vec3::ONE, |s| Vec3::from(s.specular_color_factor())),
             clearcoat: factor("clearcoatFactor", 0.0),
             clearcoat_roughness: factor("clearcoatRoughnessFactor", 0.0),
+            clearcoat_texture,
+            clearcoat_roughness_texture,
             thickness: volume.as_ref().map_or(0.0, |v| v.thickness_factor()),
             attenuation: volume.as_ref().map_or(Vec3::ZERO, |v| {
                 crate::scene::absorption(Vec3::from(v.attenuation_color()), v.attenuation_distance())
@@ -116,6 +118,29 @@ impl Loader<'_> {
             },
             alpha,
         })
+    }
+
+    /// A texture an extension the gltf crate does not parse names in `json[key]` (`index`,
+    /// `texCoord`): linear data.
+    fn extension_texture(
+        &mut self,
+        json: Option<&gltf::json::Value>,
+        key: &str,
+        object: &str,
+    ) -> Result<Option<TextureRef>> {
+        let Some(info) = json.and_then(|j| j.get(key)) else { return Ok(None) };
+        let index = info.get("index").and_then(|v| v.as_u64()).map(|i| i as usize);
+        let texture = index.and_then(|i| self.document.textures().nth(i));
+        let Some(texture) = texture else {
+            return Err(self.invalid(object, format!("{key} names no texture of the file: {info}")));
+        };
+        let tex_coord = info.get("texCoord").and_then(|v| v.as_u64()).unwrap_or(0) as u32;
+        if tex_coord > 1 {
+            return Err(
+                self.invalid(object, format!("{key} reads TEXCOORD_{tex_coord}; only 0 and 1 are supported"))
+            );
+        }
+        Ok(Some(TextureRef { texture: self.texture(&texture, false)?, tex_coord, transform: None }))
     }
 
     pub(super) fn texture_ref(&mut self, info: &gltf::texture::Info, srgb: bool) -> Result<TextureRef> {

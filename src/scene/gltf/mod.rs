@@ -43,6 +43,7 @@ pub fn load_gltf_with_camera(path: &Path, camera: Option<&str>) -> Result<Scene>
     let (document, buffers, images) = import(path)?;
     let mut loader = Loader {
         path,
+        document: &document,
         buffers: &buffers,
         images: &images,
         scene: Scene { source: path.to_path_buf(), ..Scene::default() },
@@ -124,6 +125,8 @@ fn resolution(scene: &gltf::Scene, path: &Path) -> Result<Option<(u32, u32)>> {
 /// The state of one load: the file's data, the scene being filled, and what is shared across it.
 struct Loader<'a> {
     path: &'a Path,
+    /// The file's document, for what the gltf crate does not resolve (extensions it does not parse).
+    document: &'a gltf::Document,
     buffers: &'a [gltf::buffer::Data],
     images: &'a [gltf::image::Data],
     scene: Scene,
