@@ -73,7 +73,22 @@ impl RenderScene {
     #[inline]
     pub fn shading_normal(&self, hit: &SurfaceHit, wo: Vec3) -> Vec3 {
         let m = &self.materials[hit.material as usize];
-        let Some(map) = &m.normal_texture else { return hit.ns };
+        match &m.normal_texture {
+            Some(map) => self.mapped_normal(hit, map, m.normal_scale, wo),
+            None => hit.ns,
+        }
+    }
+
+    /// The clear coat's own shading normal at a hit (its `clearcoatNormalTexture`), if it has one.
+    #[inline]
+    pub fn coat_normal(&self, hit: &SurfaceHit, wo: Vec3) -> Option<Vec3> {
+        let m = &self.materials[hit.material as usize];
+        let (map, scale) = m.clearcoat_normal_texture.as_ref()?;
+        (m.clearcoat > 0.0).then(|| self.mapped_normal(hit, map, *scale, wo))
+    }
+
+    /// The interpolated normal perturbed by tangent-space normal map `map` (x and y scaled by `scale`).
+    fn mapped_normal(&self, hit: &SurfaceHit, map: &TextureRef, scale: f32, wo: Vec3) -> Vec3 {
         let tangent = hit.tangent.truncate();
         let n = hit.ns;
         let t = (tangent - n * n.dot(tangent)).normalize_or_zero();
@@ -82,7 +97,7 @@ impl RenderScene {
         }
         let b = n.cross(t) * if hit.tangent.w < 0.0 { -1.0 } else { 1.0 };
         let texel = map.lookup(&self.textures, hit.uv[(map.tex_coord as usize).min(1)]).truncate();
-        let local = (texel * 2.0 - Vec3::ONE) * Vec3::new(m.normal_scale, m.normal_scale, 1.0);
+        let local = (texel * 2.0 - Vec3::ONE) * Vec3::new(scale, scale, 1.0);
         let mapped = (t * local.x + b * local.y + n * local.z).normalize_or_zero();
         if mapped == Vec3::ZERO {
             return n;

@@ -70,6 +70,8 @@ fn every_sample_renders_lit_without_errors_or_non_finite_pixels() {
 #[test]
 fn the_second_corpus_renders_with_its_features_read() {
     let (_, logs) = common::capture_logs(|| render_corpus(gltf_files("gltf-samples-2"), 6));
+    let unsupported: Vec<&str> = logs.lines().filter(|l| l.contains("not supported")).collect();
+    assert!(!unsupported.iter().any(|l| l.contains("clearcoat")), "{unsupported:?}");
     for feature in [
         "normalTexture",
         "emissiveTexture",

@@ -381,3 +381,23 @@ fn clearcoat_textures_are_read_and_scale_their_factors() {
     let params = render_scene.shading_params(&render_scene.geometry.surface_hit(&ray, &hit));
     assert_eq!((params.clearcoat, params.clearcoat_roughness), (0.25, 0.25));
 }
+
+/// A normal map tilted 60° towards +x, and a point light below the plane on that side: the light is
+/// above the *shading* hemisphere but behind the surface, so it must light nothing (no leak).
+#[test]
+fn a_normal_map_does_not_let_light_through_the_surface() {
+    let local = Vec3::new(60f32.to_radians().sin(), 0.0, 60f32.to_radians().cos());
+    let mut scene = normal_mapped_plane(Some((local + Vec3::ONE) * 0.5));
+    scene.punctual_lights = vec![caustica::scene::punctual::PunctualLightDesc {
+        name: "below".into(),
+        kind: caustica::scene::punctual::PunctualKind::Point,
+        position: Vec3::new(3.0, -0.2, 0.0),
+        direction: Vec3::NEG_Z,
+        color: Vec3::ONE,
+        intensity: 683.0 * 100.0,
+    }];
+    let mut run = RunFile::default();
+    run.render.spp = 4;
+    let image = common::render(scene, &run);
+    assert_eq!(image.mean(), Vec3::ZERO, "light leaked through the plane");
+}

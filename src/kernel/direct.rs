@@ -49,6 +49,13 @@ pub fn sample_light(
     let wi_world = (ls.p - si.p).normalize();
     debug_assert!(wi_world.is_finite(), "light {light} sampled at the shading point {} itself", si.p);
     let wi = v.frame.to_local(wi_world);
+    // A shading normal (interpolated or mapped) must not let light through the surface: a light on
+    // the far side of the geometric surface lights nothing here, whatever side of the shading
+    // normal it is on (Mitsuba's rule; without it a normal map leaks light from behind a wall).
+    let wo_world = v.frame.to_world(v.wo);
+    if wi_world.dot(si.ng) * wo_world.dot(si.ng) * wi.z * v.wo.z < 0.0 {
+        return None;
+    }
     let f = v.bsdf.eval(v.wo, wi, TransportMode::Radiance) * wi.z.abs();
     if !(f.max_element() > 0.0 && ls.pdf > 0.0) {
         return None;

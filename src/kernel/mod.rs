@@ -170,8 +170,11 @@ impl Vertex {
     pub fn new(scene: &RenderScene, ray: &Ray, mut si: SurfaceHit) -> Self {
         si.ns = scene.shading_normal(&si, -ray.d);
         let params = scene.shading_params(&si);
-        let bsdf = Bsdf::new(&params);
+        let mut bsdf = Bsdf::new(&params);
         let frame = Frame::from_z(si.ns);
+        if let Some(n) = scene.coat_normal(&si, -ray.d) {
+            bsdf.set_coat_normal(frame.to_local(n));
+        }
         let wo = frame.to_local(-ray.d);
         let volume = scene.is_volume(si.material);
         Self { si, params, bsdf, frame, wo, volume }

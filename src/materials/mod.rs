@@ -127,6 +127,13 @@ impl Bsdf {
         }
     }
 
+    /// Give the clear coat its own shading normal `n` (unit, in this BSDF's local frame).
+    pub fn set_coat_normal(&mut self, n: Vec3) {
+        if let Some(coat) = &mut self.coat {
+            coat.set_normal(n);
+        }
+    }
+
     /// True when every lobe is a Dirac delta (perfect mirror, smooth glass): no light sampling there.
     pub fn is_delta(&self) -> bool {
         if self.coat.is_some_and(|c| !c.is_delta()) {

@@ -200,6 +200,8 @@ pub struct MaterialDesc {
     pub clearcoat_texture: Option<TextureRef>,
     /// Clearcoat roughness texture: its green channel multiplies `clearcoat_roughness`.
     pub clearcoat_roughness_texture: Option<TextureRef>,
+    /// The coat's own tangent-space normal map, and its scale.
+    pub clearcoat_normal_texture: Option<(TextureRef, f32)>,
     /// KHR_materials_volume thickness > 0 means a closed solid; 0 means a thin-walled surface.
     pub thickness: f32,
     /// Absorption coefficient σa (1/m) inside a solid (thickness > 0): −ln(attenuationColor) /
@@ -259,6 +261,7 @@ impl Default for MaterialDesc {
             clearcoat_roughness: 0.0,
             clearcoat_texture: None,
             clearcoat_roughness_texture: None,
+            clearcoat_normal_texture: None,
             thickness: 0.0,
             attenuation: Vec3::ZERO,
             double_sided: false,

@@ -681,6 +681,7 @@ impl MaterialSpec {
             clearcoat_roughness: self.clearcoat_roughness,
             clearcoat_texture: None,
             clearcoat_roughness_texture: None,
+            clearcoat_normal_texture: None,
             thickness: 2.0 * radius,
             attenuation: self.attenuation(),
             double_sided: true,

@@ -49,7 +49,11 @@ impl Loader<'_> {
                     t.swap(1, 2);
                 }
             }
-            let normal_map = self.scene.materials.get(out.material as usize).and_then(|m| m.normal_texture);
+            let normal_map = self
+                .scene
+                .materials
+                .get(out.material as usize)
+                .and_then(|m| m.normal_texture.or(m.clearcoat_normal_texture.map(|(t, _)| t)));
             if let (None, Some(map)) = (&out.tangents, normal_map) {
                 out.tangents = crate::scene::tangents::generate(&out, map.tex_coord as usize);
                 if out.tangents.is_none() {

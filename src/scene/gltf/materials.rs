@@ -61,9 +61,11 @@ impl Loader<'_> {
         let clearcoat_texture = self.extension_texture(clearcoat, "clearcoatTexture", &object)?;
         let clearcoat_roughness_texture =
             self.extension_texture(clearcoat, "clearcoatRoughnessTexture", &object)?;
-        if clearcoat.and_then(|c| c.get("clearcoatNormalTexture")).is_some() {
-            ignored.push("clearcoatNormalTexture (the coat follows the base's shading normal)");
-        }
+        let clearcoat_normal_texture =
+            self.extension_texture(clearcoat, "clearcoatNormalTexture", &object)?.map(|t| {
+                let scale = clearcoat.and_then(|c| c.get("clearcoatNormalTexture")?.get("scale")?.as_f64());
+                (t, scale.map_or(1.0, |s| s as f32))
+            });
         let volume = material.volume();
 
         if material.occlusion_texture().is_some() {
@@ -104,6 +106,7 @@ impl Loader<'_> {
             clearcoat_roughness: factor("clearcoatRoughnessFactor", 0.0),
             clearcoat_texture,
             clearcoat_roughness_texture,
+            clearcoat_normal_texture,
             thickness: volume.as_ref().map_or(0.0, |v| v.thickness_factor()),
             attenuation: volume.as_ref().map_or(Vec3::ZERO, |v| {
                 crate::scene::absorption(Vec3::from(v.attenuation_color()), v.attenuation_distance())
