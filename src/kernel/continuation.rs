@@ -46,6 +46,11 @@ pub fn continue_path(
     }
     let si = &v.si;
     let wi_world = v.frame.to_world(bs.wi);
+    // The same rule as light sampling's: a direction the shading frame calls reflection but the
+    // geometric surface calls transmission (or the reverse) is not followed.
+    if crosses_inconsistently(v, wi_world, bs.wi) {
+        return None;
+    }
     path.beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
     path.prev_pdf = bs.pdf;
     path.specular_bounce = bs.is_specular;
@@ -87,4 +92,13 @@ pub fn continue_path(
 #[inline]
 pub fn survival_probability(beta: Vec3, eta_scale: f32) -> f32 {
     (beta * eta_scale).max_element().min(MAX_SURVIVAL)
+}
+
+/// Whether `wi` (world and shading-frame local) is on one side of the surface by the shading
+/// normal and on the other by the geometric one, relative to where the path arrived: light
+/// through an opaque surface (a leak) or a reflection into it. Mitsuba refuses both.
+#[inline]
+pub fn crosses_inconsistently(v: &Vertex, wi_world: Vec3, wi_local: Vec3) -> bool {
+    let wo_world = v.frame.to_world(v.wo);
+    wi_world.dot(v.si.ng) * wo_world.dot(v.si.ng) * wi_local.z * v.wo.z < 0.0
 }

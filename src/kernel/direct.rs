@@ -52,8 +52,7 @@ pub fn sample_light(
     // A shading normal (interpolated or mapped) must not let light through the surface: a light on
     // the far side of the geometric surface lights nothing here, whatever side of the shading
     // normal it is on (Mitsuba's rule; without it a normal map leaks light from behind a wall).
-    let wo_world = v.frame.to_world(v.wo);
-    if wi_world.dot(si.ng) * wo_world.dot(si.ng) * wi.z * v.wo.z < 0.0 {
+    if super::continuation::crosses_inconsistently(v, wi_world, wi) {
         return None;
     }
     let f = v.bsdf.eval(v.wo, wi, TransportMode::Radiance) * wi.z.abs();

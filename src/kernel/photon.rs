@@ -163,6 +163,9 @@ pub fn scatter_photon(
     path.specular_only &= bs.is_specular;
     path.depth += 1;
     let wi_world = v.frame.to_world(bs.wi);
+    if super::continuation::crosses_inconsistently(&v, wi_world, bs.wi) {
+        return bounce;
+    }
     if bs.is_transmission && v.volume {
         path.media.cross_volume(si.material, wi_world.dot(si.ng) < 0.0);
     }
