@@ -80,9 +80,8 @@ impl Loader<'_> {
         {
             ignored.push("specular textures");
         }
-        if volume.as_ref().is_some_and(|v| v.thickness_texture().is_some()) {
-            ignored.push("thicknessTexture");
-        }
+        // thicknessTexture is not read, on purpose: it is a rasterizer's stand-in for the distance a
+        // ray travels inside the mesh, which a path tracer measures on the geometry itself.
         if !ignored.is_empty() {
             warn!(file = %self.path.display(), "{object}: not supported, ignored: {}", ignored.join(", "));
         }
