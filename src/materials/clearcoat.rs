@@ -10,10 +10,10 @@
 //! way round) see the same material, and it conserves energy: the coat reflects at most F of what
 //! arrives and passes at most 1 − F of it.
 
-use super::conductor::half_vector;
-use super::fresnel::{reflect, schlick_scalar};
+use super::BsdfSample;
+use super::conductor::Conductor;
+use super::fresnel::schlick_scalar;
 use super::microfacet::Ggx;
-use super::{BsdfSample, reflection_sample, to_upper};
 use crate::sampling::warp::Frame;
 use glam::{Vec2, Vec3};
 
@@ -30,7 +30,9 @@ const COAT_F0: f32 = 0.04;
 #[derive(Clone, Copy, Debug)]
 pub struct Coat {
     weight: f32,
-    ggx: Ggx,
+    /// The coat's reflection: a GGX lobe with Schlick's Fresnel, F0 = 0.04 and F90 = 1, which is
+    /// the conductor lobe of that F0.
+    lobe: Conductor,
     /// The coat's own shading frame within the BSDF's (KHR_materials_clearcoat's
     /// `clearcoatNormalTexture`); none: the coat follows the base's normal.
     frame: Option<Frame>,
@@ -40,7 +42,11 @@ impl Coat {
     /// A coat of `weight` (clearcoatFactor × texture) and perceptual `roughness`; none at weight 0.
     pub fn new(weight: f32, roughness: f32) -> Option<Self> {
         let weight = if weight.is_nan() { 0.0 } else { weight.clamp(0.0, 1.0) };
-        (weight > 0.0).then(|| Self { weight, ggx: Ggx::from_roughness(roughness), frame: None })
+        (weight > 0.0).then(|| Self {
+            weight,
+            lobe: Conductor::new(Vec3::splat(COAT_F0), Ggx::from_roughness(roughness)),
+            frame: None,
+        })
     }
 
     /// Give the coat its own normal `n` (unit, in the BSDF's local frame).
@@ -62,7 +68,7 @@ impl Coat {
 
     /// Whether the coat is a perfect mirror.
     pub fn is_delta(&self) -> bool {
-        self.ggx.is_smooth()
+        self.lobe.is_delta()
     }
 
     /// The share of light that crosses the coat down to the base and back out.
@@ -85,25 +91,24 @@ impl Coat {
 
     /// The coat's BSDF without the cosine (zero for the mirror and across the surface).
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if self.is_delta() || crosses(wo, wi) {
+        if crosses(wo, wi) {
             return 0.0;
         }
-        let (wo, wi, _) = to_upper(self.local(wo), self.local(wi));
-        half_vector(wo, wi).map_or(0.0, |wm| self.microfacet_f(wo, wi, wm))
+        self.weight * self.lobe.eval(self.local(wo), self.local(wi)).x
     }
 
     /// Solid-angle pdf of [`Coat::sample`] (visible normals).
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if self.is_delta() || crosses(wo, wi) {
+        if crosses(wo, wi) {
             return 0.0;
         }
-        let (wo, wi, _) = to_upper(self.local(wo), self.local(wi));
-        half_vector(wo, wi).map_or(0.0, |wm| self.ggx.d_visible(wo, wm) / (4.0 * wo.dot(wm)))
+        self.lobe.pdf(self.local(wo), self.local(wi))
     }
 
     /// A reflected direction by visible normals; the smooth coat returns its delta weight.
     pub fn sample(&self, wo: Vec3, u: Vec2) -> Option<BsdfSample> {
-        let mut s = self.sample_local(self.local(wo), u)?;
+        let mut s = self.lobe.sample(self.local(wo), u)?;
+        s.f *= self.weight;
         if let Some(frame) = &self.frame {
             s.wi = frame.to_world(s.wi);
             // A coat tilted by its own normal map still only reflects: what its lobe sends
@@ -113,31 +118,6 @@ impl Coat {
             }
         }
         Some(s)
-    }
-
-    fn sample_local(&self, wo: Vec3, u: Vec2) -> Option<BsdfSample> {
-        if wo.z == 0.0 {
-            return None;
-        }
-        let (wo, _, flipped) = to_upper(wo, Vec3::ZERO);
-        if self.is_delta() {
-            let wi = Vec3::new(-wo.x, -wo.y, wo.z);
-            let f = Vec3::splat(self.weight * Self::fresnel(wo.z) / wi.z);
-            return Some(reflection_sample(wi, f, 1.0, true, flipped));
-        }
-        let wm = self.ggx.sample_wm(wo, u);
-        let wi = reflect(wo, wm);
-        let cos_om = wo.dot(wm);
-        if wi.z <= 0.0 || cos_om <= 0.0 {
-            return None;
-        }
-        let pdf = self.ggx.d_visible(wo, wm) / (4.0 * cos_om);
-        Some(reflection_sample(wi, Vec3::splat(self.microfacet_f(wo, wi, wm)), pdf, false, flipped))
-    }
-
-    /// w · D G F / (4 cos_o cos_i), both vectors above the surface.
-    fn microfacet_f(&self, wo: Vec3, wi: Vec3, wm: Vec3) -> f32 {
-        self.weight * Self::fresnel(wo.dot(wm)) * self.ggx.d(wm) * self.ggx.g(wo, wi) / (4.0 * wo.z * wi.z)
     }
 }
 

@@ -7,9 +7,10 @@
 //! (glTF `specular_btdf · base_color`); reflection is not. The specular layer parameters of
 //! KHR_materials_specular are ignored here: the exact Fresnel of `ior` decides reflection.
 
+use super::conductor::half_vector;
 use super::fresnel::{fresnel_dielectric, reflect, refract};
 use super::microfacet::Ggx;
-use super::{BsdfSample, TransportMode};
+use super::{BsdfSample, TransportMode, flip_z, to_upper};
 use glam::{Vec2, Vec3};
 
 /// Dielectric interface lobe covering reflection and transmission over the whole sphere.
@@ -196,8 +197,8 @@ impl Dielectric {
     /// unbent on average, blurred as much as the reflection). Both sides alike.
     fn thin_eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         let transmitted = wo.z * wi.z < 0.0;
-        let (wo, wi) = sheet_frame(wo, if transmitted { flip_z(wi) } else { wi });
-        let Some(wm) = half(wo, wi) else { return Vec3::ZERO };
+        let (wo, wi, _) = to_upper(wo, if transmitted { flip_z(wi) } else { wi });
+        let Some(wm) = half_vector(wo, wi) else { return Vec3::ZERO };
         let r = self.sheet_reflectance(wo.dot(wm));
         let lobe = self.ggx.d(wm) * self.ggx.g(wo, wi) / (4.0 * wo.z * wi.z);
         if transmitted { self.tint * (lobe * (1.0 - r)) } else { Vec3::splat(lobe * r) }
@@ -205,8 +206,8 @@ impl Dielectric {
 
     fn thin_pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         let transmitted = wo.z * wi.z < 0.0;
-        let (wo, wi) = sheet_frame(wo, if transmitted { flip_z(wi) } else { wi });
-        let Some(wm) = half(wo, wi) else { return 0.0 };
+        let (wo, wi, _) = to_upper(wo, if transmitted { flip_z(wi) } else { wi });
+        let Some(wm) = half_vector(wo, wi) else { return 0.0 };
         let r = self.sheet_reflectance(wo.dot(wm));
         let lobe = self.ggx.d_visible(wo, wm) / (4.0 * wo.dot(wm));
         lobe * if transmitted { 1.0 - r } else { r }
@@ -214,7 +215,7 @@ impl Dielectric {
 
     fn sample_thin_rough(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
         let below = wo.z < 0.0;
-        let (wo_up, _) = sheet_frame(wo, Vec3::ZERO);
+        let (wo_up, _, _) = to_upper(wo, Vec3::ZERO);
         let wm = self.ggx.sample_wm(wo_up, u);
         let wi_up = reflect(wo_up, wm);
         if wi_up.z <= 0.0 || wo_up.dot(wm) <= 0.0 {
@@ -276,28 +277,6 @@ fn refraction_denominator(wo: Vec3, wi: Vec3, etap: f32) -> f32 {
 #[inline]
 fn sqr(x: f32) -> f32 {
     x * x
-}
-
-#[inline]
-fn flip_z(v: Vec3) -> Vec3 {
-    Vec3::new(v.x, v.y, -v.z)
-}
-
-/// (wo, wi) mirrored so that wo is above the sheet: a sheet looks the same from both sides.
-#[inline]
-fn sheet_frame(wo: Vec3, wi: Vec3) -> (Vec3, Vec3) {
-    if wo.z < 0.0 { (flip_z(wo), flip_z(wi)) } else { (wo, wi) }
-}
-
-/// The half vector of a reflection pair above the surface.
-#[inline]
-fn half(wo: Vec3, wi: Vec3) -> Option<Vec3> {
-    if wo.z <= 0.0 || wi.z <= 0.0 {
-        return None;
-    }
-    let wm = wo + wi;
-    let len2 = wm.length_squared();
-    (len2 > 0.0).then(|| wm / len2.sqrt())
 }
 
 #[cfg(test)]
