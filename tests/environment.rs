@@ -270,6 +270,7 @@ const T_QUANTILE: f64 = 4.88;
 ///   l ≤ 2 (Ramamoorthi & Hanrahan 2001). A disc of radius r blurs band l by (r²/8)·l(l+1)/R²,
 ///   0.75·r²/R² for l = 2; doubling that covers the rest and the terminator: 1.5·r²/R² of the mean,
 ///   with r the largest radius the method uses (`pm`'s cap, the progressive mappers' first radius).
+///
 /// `sppm` without light sampling (photons carry direct light too) is held to the same bound.
 #[test]
 fn photon_mappers_see_the_same_environment_as_the_path_tracer() {
