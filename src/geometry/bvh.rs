@@ -363,7 +363,7 @@ fn to_bvh_ray(ray: &Ray, t_max: f32) -> obvhs::ray::Ray {
     obvhs::ray::Ray::new(Vec3A::from(ray.o), d, 0.0, t_max)
 }
 
-#[inline]
+#[inline(always)]
 fn intersect_shape(
     shape: &PrimitiveShape,
     o: Vec3,

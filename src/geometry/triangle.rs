@@ -69,7 +69,7 @@ pub fn intersect_triangle(o: Vec3, d: Vec3, t_max: f32, p0: Vec3, p1: Vec3, p2: 
 }
 
 /// [`intersect_triangle`] with the per-ray work done once in `ray`.
-#[inline]
+#[inline(always)]
 pub fn intersect_triangle_sheared(
     o: Vec3,
     ray: &ShearedRay,
