@@ -14,48 +14,36 @@ pub const fn gamma(n: i32) -> f32 {
     (n as f32 * e) / (1.0 - n as f32 * e)
 }
 
-/// The next float greater than `v`.
-#[inline]
+/// The next float greater than `v` (+∞ stays; −0 and +0 both step to the smallest positive subnormal).
+#[inline(always)]
 pub fn next_float_up(v: f32) -> f32 {
-    if v.is_infinite() && v > 0.0 {
-        return v;
-    }
-    let v = if v == -0.0 { 0.0 } else { v };
-    let bits = v.to_bits();
-    let bits = if v >= 0.0 { bits + 1 } else { bits - 1 };
-    f32::from_bits(bits)
+    v.next_up()
 }
 
-/// The next float less than `v`.
-#[inline]
+/// The next float less than `v` (−∞ stays; ±0 step to the smallest negative subnormal).
+#[inline(always)]
 pub fn next_float_down(v: f32) -> f32 {
-    if v.is_infinite() && v < 0.0 {
-        return v;
-    }
-    let v = if v == 0.0 { -0.0 } else { v };
-    let bits = v.to_bits();
-    let bits = if v > 0.0 { bits - 1 } else { bits + 1 };
-    f32::from_bits(bits)
+    v.next_down()
 }
 
 /// Origin for a ray leaving `p` (error bound `p_error`, geometric normal `n`) in direction `w`.
-#[inline]
+/// Inlined: it runs for every ray spawned, and as a call it was 6% of a `pt` profile.
+#[inline(always)]
 pub fn offset_ray_origin(p: Vec3, p_error: Vec3, n: Vec3, w: Vec3) -> Vec3 {
     let d = n.abs().dot(p_error);
-    let mut offset = d * n;
-    if w.dot(n) < 0.0 {
-        offset = -offset;
-    }
-    let mut po = p + offset;
+    let offset = if w.dot(n) < 0.0 { -d * n } else { d * n };
+    let po = p + offset;
     // Round away from p so the rounding of the addition cannot undo the offset.
-    for i in 0..3 {
+    let away = |i: usize| {
         if offset[i] > 0.0 {
-            po[i] = next_float_up(po[i]);
+            next_float_up(po[i])
         } else if offset[i] < 0.0 {
-            po[i] = next_float_down(po[i]);
+            next_float_down(po[i])
+        } else {
+            po[i]
         }
-    }
-    po
+    };
+    Vec3::new(away(0), away(1), away(2))
 }
 
 /// Shadow rays stop this fraction short of their target, whose own offset is not applied (pbrt-v4).
