@@ -215,7 +215,7 @@ fn tolerance(kind: IntegratorKind, image: &Image, expected: f64) -> f64 {
 /// The relative darkening a gather disc's edge loss can cause on the unit furnace, at most. A disc of
 /// radius r centred s from a straight edge loses the kernel's mass beyond it; integrated over s that
 /// is E[x⁺] = E|x|/2 per unit of edge: 2r/(3π) for the uniform kernel, 8r/(15π) for Epanechnikov (the
-/// uniform's bounds every kernel used here). Summed over the edges between facets the estimate keeps
+/// uniform kernel's is the largest of the kernels used here). Summed over the edges between facets the estimate keeps
 /// apart (both sides, which over-counts corners: an upper bound), divided by the area, with r the
 /// largest radius the method uses (`pm`: the cap, 5% of the bounding-box diagonal; the progressive
 /// mappers: the heuristic's first radius, which only shrinks), times the share of the radiance photons

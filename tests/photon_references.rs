@@ -104,7 +104,6 @@ struct PixelGeometry {
     dir: Vec<Vec3>,
     solid_angle: Vec<f32>,
     n: Vec<Vec3>,
-    area: Vec<f32>,
     lamp: Vec<bool>,
 }
 
@@ -129,7 +128,6 @@ fn pixel_geometry() -> PixelGeometry {
         dir: vec![Vec3::ZERO; n],
         solid_angle: vec![0.0; n],
         n: vec![Vec3::ZERO; n],
-        area: vec![0.0; n],
         lamp: vec![false; n],
     };
     let tan = (0.5 * camera.yfov).tan();
@@ -157,12 +155,9 @@ fn pixel_geometry() -> PixelGeometry {
         if t <= 0.0 {
             continue;
         }
-        let d = t;
-        let solid_angle = geometry.solid_angle[i];
         geometry.p[i] = centre_hit;
-        geometry.d[i] = d;
+        geometry.d[i] = t;
         geometry.n[i] = normal;
-        geometry.area[i] = solid_angle * d * d / normal.dot(dir).abs().max(1e-3);
         geometry.lamp[i] = scene.materials[hp.material as usize].emission != Vec3::ZERO;
     }
     geometry
@@ -179,12 +174,13 @@ fn expected_image(
     k2: impl Fn(f32) -> f32,
 ) -> Vec<Vec3> {
     let size = MODEL_SIZE as i32;
-    // A world distance r covers at most r / (0.8 m × pixel angle) pixels (the box's open front, the
-    // nearest surface): 14 for the 3 cm the largest radius here is.
-    let reach = 14;
+    // A world distance r covers at most r / (nearest distance × pixel angle) pixels.
+    let nearest = geometry.d.iter().copied().filter(|&d| d > 0.0).fold(f32::INFINITY, f32::min);
+    let largest = r2.iter().copied().fold(0.0f32, f32::max).sqrt();
+    let reach = (largest / (nearest * geometry.pixel_angle)).ceil() as i32 + 1;
     (0..reference.pixels.len())
         .map(|i| {
-            if geometry.lamp[i] || geometry.area[i] == 0.0 {
+            if geometry.lamp[i] || geometry.d[i] == 0.0 {
                 return reference.pixels[i];
             }
             let (x, y) = ((i as i32) % size, (i as i32) / size);
@@ -218,8 +214,9 @@ fn expected_image(
         .collect()
 }
 
-/// Direct light and emission seen directly, `pt` to depth 1 (emission is counted at the last vertex and nothing sampled there, as in pbrt-v4), at the model's
-/// resolution; and the variance of each render pixel's mean of it (from two independent halves).
+/// Direct light and emission seen directly, `pt` to depth 1 (emission is counted at the last vertex
+/// and nothing sampled there, as in pbrt-v4), at the model's resolution; and the variance of each
+/// render pixel's mean of it (from two independent halves).
 fn direct_light() -> (Image, Vec<Vec3>) {
     let half = |seed| {
         let mut run = run_for(IntegratorKind::Pt, seed);
