@@ -92,9 +92,12 @@ fn ppm_error_falls_with_passes_on_a_smooth_wall() {
     );
 }
 
-/// The caustic under the glass sphere is light that only photons carry well: its window error must
-/// fall with passes (measured relMSE 0.16 at 8 passes, 0.054 at 64) and its mean approach the
-/// reference's.
+/// The caustic under the glass sphere is light that only photons carry well; its window error must
+/// fall with passes as the method's does. Knaus & Zwicker's rate, relMSE ∝ N^−2/3, gives a factor
+/// 0.25 from 8 to 64 passes (measured 0.16 → 0.054, 0.34). An estimate converging to a wrong caustic
+/// levels off at its squared bias b² instead: the ratio (v/4 + b²)/(v + b²), with v the 8-pass
+/// variance, reaches 0.5 once b² is twice the 64-pass variance. How much light a caustic carries is
+/// held exactly in caustics.rs.
 #[test]
 fn the_sppm_caustic_converges_to_the_reference() {
     let reference = half_reference("cornell-spheres.ref.exr");
@@ -102,10 +105,6 @@ fn the_sppm_caustic_converges_to_the_reference() {
     let mut renderer = progressive("cornell-spheres.gltf", IntegratorKind::Sppm, 16_384, 64);
     let errors = errors_at(&mut renderer, &reference, &[8, 64], Some(window));
     assert!(errors[1] < 0.5 * errors[0], "caustic relMSE {errors:?}");
-    let [x0, y0, x1, y1] = window;
-    let (got, want) = (renderer.image().crop(x0, y0, x1, y1).mean(), reference.crop(x0, y0, x1, y1).mean());
-    let ratio = got.element_sum() / want.element_sum();
-    assert!((ratio - 1.0).abs() < 0.1, "caustic mean {got} vs reference {want}");
 }
 
 #[test]
