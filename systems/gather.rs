@@ -10,9 +10,10 @@
 //! | `build_pass_photon_map` | `PhotonBuffer` | `PassPhotons` |
 //! | `gather_photons_into_hit_points` (`_into_chi2_cells`, `_with_laplacian`) | `PassPhotons` | `HitPoint::m`, `phi` (`Chi2Cells`, `AdaptiveStats`) |
 //!
-//! The splat, the photon store and the learning run on one thread on purpose: visiting entities in
-//! order makes the image, the photon maps and the learned grid bit-identical whatever the thread
-//! count. Each does no more than an add per finished path or photon, a small share of a bounce.
+//! The splat runs on every thread: the film's sums are fixed point, so their bits do not depend on
+//! the order samples arrive in. The photon store and the learning run on one thread on purpose:
+//! visiting entities in order makes the photon maps and the learned grid bit-identical whatever the
+//! thread count. Each does no more than an add per finished photon or shadow ray.
 
 use super::components::{AdaptiveStats, Chi2Cells, HitPoint, PathState, PathStatus, PhotonState, ShadowRay};
 use super::resources::{
@@ -24,53 +25,127 @@ use caustica_core::lights::area::luminance;
 use caustica_core::photon::progressive::{biweight_laplacian, chi2_cell};
 use caustica_core::render_scene::RenderScene;
 use glam::Vec3;
-use std::sync::atomic::Ordering;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicU64, Ordering};
 
-/// Splat finished paths, count rays and dropped samples, and advance each entity's work.
+/// Splat finished paths, count rays and dropped samples, and advance each entity's work, on every
+/// thread: the film's fixed-point sums do not depend on the order samples arrive in, and which entity
+/// takes which work item does not change what is rendered (a sample's random numbers are a function
+/// of its pixel and index). The set of items in flight after each step is the same for any thread
+/// count, so the counters are too.
 pub fn splat_paths_to_film(
     range: Res<PassRange>,
-    mut workload: ResMut<Workload>,
-    mut film: ResMut<FilmResource>,
+    workload: Res<Workload>,
+    film: Res<FilmResource>,
     mut stats: ResMut<RenderStats>,
     mut paths: Query<&mut PathState>,
 ) {
-    let mut active = 0;
-    for mut state in &mut paths {
-        if !finished(state.status, &mut active) {
-            continue;
-        }
-        let state = &mut *state;
-        // NaN/Inf never reach the film: the sample counts, its radiance does not.
-        let l = if state.path.l.is_finite() {
-            state.path.l
-        } else {
-            stats.nan_samples += 1;
-            if stats.first_bad.is_none() {
-                stats.first_bad =
-                    Some(BadSample { pixel: state.pixel, sample: state.sample, cause: state.path.first_bad });
+    let totals = SplatTotals::default();
+    paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each_init(
+        || SplatTally::new(&totals),
+        |tally, mut state| {
+            if !finished(state.status, &mut tally.active) {
+                return;
             }
-            Vec3::ZERO
-        };
-        film.add(state.pixel, l);
-        stats.samples += 1;
-        stats.rays += state.rays as u64;
-        stats.shadow_rays += state.shadow_rays as u64;
-        stats.lookups += state.lookups as u64;
-        state.lookups = 0;
-        state.rays = 0;
-        state.shadow_rays = 0;
-        match if range.stop { None } else { workload.take() } {
-            Some((pixel, sample)) => {
-                state.pixel = pixel;
-                state.sample = sample;
-                state.status = PathStatus::NeedsCamera;
-                active += 1;
+            let state = &mut *state;
+            // NaN/Inf (and absurd magnitudes) never reach the film: the sample counts, its radiance
+            // does not.
+            let l = if caustica_core::film::fixed::accepts(state.path.l) {
+                state.path.l
+            } else {
+                tally.bad += 1;
+                let bad = BadSample { pixel: state.pixel, sample: state.sample, cause: state.path.first_bad };
+                if tally.first_bad.is_none_or(|first| bad.order() < first.order()) {
+                    tally.first_bad = Some(bad);
+                }
+                Vec3::ZERO
+            };
+            film.add(state.pixel, l);
+            tally.samples += 1;
+            tally.rays += state.rays as u64;
+            tally.shadow_rays += state.shadow_rays as u64;
+            tally.lookups += state.lookups as u64;
+            state.lookups = 0;
+            state.rays = 0;
+            state.shadow_rays = 0;
+            let next = if range.stop {
+                None
+            } else {
+                workload.take(workload.lane_of_item(state.pixel, state.sample))
+            };
+            match next {
+                Some((pixel, sample)) => {
+                    state.pixel = pixel;
+                    state.sample = sample;
+                    state.status = PathStatus::NeedsCamera;
+                    tally.active += 1;
+                }
+                None => state.status = PathStatus::Idle,
             }
-            None => state.status = PathStatus::Idle,
+        },
+    );
+    let load = |a: &AtomicU64| a.load(Ordering::Relaxed);
+    stats.samples += load(&totals.samples);
+    stats.rays += load(&totals.rays);
+    stats.shadow_rays += load(&totals.shadow_rays);
+    stats.lookups += load(&totals.lookups);
+    stats.nan_samples += load(&totals.bad);
+    if let Some(bad) = totals.first_bad.into_inner().unwrap_or_else(|poisoned| poisoned.into_inner())
+        && stats.first_bad.is_none_or(|first| bad.order() < first.order())
+    {
+        stats.first_bad = Some(bad);
+    }
+    stats.active_paths = load(&totals.active) as u32;
+    stats.steps += 1;
+}
+
+/// The splat's counters over all batches.
+#[derive(Default)]
+struct SplatTotals {
+    samples: AtomicU64,
+    rays: AtomicU64,
+    shadow_rays: AtomicU64,
+    lookups: AtomicU64,
+    bad: AtomicU64,
+    active: AtomicU64,
+    first_bad: Mutex<Option<BadSample>>,
+}
+
+/// One batch's counters, added to the totals once, when the batch ends (not once per path, which
+/// would have every thread contend for the same cache lines).
+struct SplatTally<'a> {
+    totals: &'a SplatTotals,
+    samples: u64,
+    rays: u64,
+    shadow_rays: u64,
+    lookups: u64,
+    bad: u64,
+    active: u32,
+    first_bad: Option<BadSample>,
+}
+
+impl<'a> SplatTally<'a> {
+    fn new(totals: &'a SplatTotals) -> Self {
+        Self { totals, samples: 0, rays: 0, shadow_rays: 0, lookups: 0, bad: 0, active: 0, first_bad: None }
+    }
+}
+
+impl Drop for SplatTally<'_> {
+    fn drop(&mut self) {
+        let t = self.totals;
+        t.samples.fetch_add(self.samples, Ordering::Relaxed);
+        t.rays.fetch_add(self.rays, Ordering::Relaxed);
+        t.shadow_rays.fetch_add(self.shadow_rays, Ordering::Relaxed);
+        t.lookups.fetch_add(self.lookups, Ordering::Relaxed);
+        t.bad.fetch_add(self.bad, Ordering::Relaxed);
+        t.active.fetch_add(self.active as u64, Ordering::Relaxed);
+        if let Some(bad) = self.first_bad {
+            let mut first = t.first_bad.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+            if first.is_none_or(|f| bad.order() < f.order()) {
+                *first = Some(bad);
+            }
         }
     }
-    stats.active_paths = active;
-    stats.steps += 1;
 }
 
 /// Whether an entity has just finished and waits to be gathered; counts it in `active` if it is still
@@ -246,10 +321,11 @@ mod tests {
     use caustica_core::film::Film;
     use caustica_core::kernel::Quantity;
 
-    /// The film drops non-finite samples, counts them, and remembers the first in entity order with
+    /// The film drops non-finite samples, counts them, and remembers the first in sample order with
     /// what the kernel saw go bad.
     #[test]
     fn a_non_finite_sample_is_dropped_counted_and_the_first_is_named() {
+        crate::world::init_thread_pools(None);
         let mut world = World::new();
         world.insert_resource(PassRange::default());
         world.insert_resource(Workload::new(4, 0, 1, 4));

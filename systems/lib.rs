@@ -96,6 +96,7 @@ pub mod resources;
 pub mod scatter;
 pub mod trace;
 pub mod update;
+pub mod workload;
 pub mod world;
 
 // The physics, re-exported so that a host needs one crate: `caustica::scene::load`, `caustica::film::Image`.

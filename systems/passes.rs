@@ -22,8 +22,8 @@ use caustica_core::photon::{PhotonMap, PhotonMapKind};
 use caustica_core::sampling::Sampler;
 
 /// A system that hands the pass's samples (`PassRange` begin..end, each standing for
-/// `camera_samples_per_unit` camera samples) to the idle paths in entity order; the rest go to paths
-/// as they finish (`splat_paths_to_film`).
+/// `camera_samples_per_unit` camera samples) to the idle paths in entity order, each from its lane;
+/// the rest go to paths as they finish (`splat_paths_to_film`).
 pub fn hand_out_samples(
     camera_samples_per_unit: u32,
 ) -> impl FnMut(Res<PassRange>, ResMut<Workload>, Query<&mut PathState>) {
@@ -36,11 +36,13 @@ pub fn hand_out_samples(
         if range.stop {
             return;
         }
-        for mut state in &mut paths {
+        for (ordinal, mut state) in paths.iter_mut().enumerate() {
             if state.status != PathStatus::Idle {
                 continue;
             }
-            let Some((pixel, sample)) = workload.take() else { break };
+            let Some((pixel, sample)) = workload.take(workload.lane_of_entity(ordinal as u32)) else {
+                continue;
+            };
             (state.pixel, state.sample, state.status) = (pixel, sample, PathStatus::NeedsCamera);
         }
     }

@@ -65,48 +65,7 @@ pub struct RenderConfig {
     pub strata: u32,
 }
 
-/// Which pixels and samples this render covers, and how the wavefront is laid over them.
-///
-/// The camera samples still to hand out. Work item `k` is sample `spp_begin + k / pixels` of pixel
-/// `k % pixels` (sample-major, so the whole image fills in evenly). A path that finishes takes the next
-/// item, so every entity stays busy until the work runs out and only the last paths form a tail.
-/// `gather` hands items out on one thread in entity order, so which entity renders what, and the order
-/// in which a pixel's samples reach the film, do not depend on the thread count.
-#[derive(Resource, Clone, Copy, Debug)]
-pub struct Workload {
-    /// Number of pixels.
-    pub pixels: u32,
-    /// First sample index.
-    pub spp_begin: u32,
-    /// One past the last sample index.
-    pub spp_end: u32,
-    /// Number of path entities.
-    pub wavefront: u32,
-    /// Next work item to hand out.
-    pub next: u64,
-}
-
-impl Workload {
-    /// Work for `pixels` pixels and samples `spp_begin..spp_end` on `wavefront` entities, none handed out yet.
-    pub fn new(pixels: u32, spp_begin: u32, spp_end: u32, wavefront: u32) -> Self {
-        Self { pixels, spp_begin, spp_end, wavefront, next: 0 }
-    }
-
-    /// Total camera samples.
-    pub fn total_samples(&self) -> u64 {
-        self.pixels as u64 * (self.spp_end - self.spp_begin) as u64
-    }
-
-    /// The next (pixel, sample) to render, if any is left.
-    pub fn take(&mut self) -> Option<(u32, u32)> {
-        if self.next >= self.total_samples() {
-            return None;
-        }
-        let k = self.next;
-        self.next += 1;
-        Some(((k % self.pixels as u64) as u32, self.spp_begin + (k / self.pixels as u64) as u32))
-    }
-}
+pub use crate::workload::Workload;
 
 /// What the driver tells the systems about the pass that is running.
 #[derive(Resource, Clone, Copy, Debug, Default)]
@@ -135,7 +94,7 @@ pub struct RenderStats {
     pub lookups: u64,
     /// Samples whose radiance was NaN or infinite, dropped (counted as black).
     pub nan_samples: u64,
-    /// The first of them, in the order samples reach the film (the same for any thread count).
+    /// The first of them in sample order (sample index, then pixel): the same for any thread count.
     pub first_bad: Option<BadSample>,
     /// Paths still working (not idle) after the last step.
     pub active_paths: u32,
@@ -153,6 +112,13 @@ pub struct BadSample {
     pub sample: u32,
     /// Depth and quantity that went bad first, when the kernel saw it happen.
     pub cause: Option<(caustica_core::kernel::Quantity, u8)>,
+}
+
+impl BadSample {
+    /// Its place in sample-major order, which names the same first bad sample for any thread count.
+    pub fn order(&self) -> (u32, u32) {
+        (self.sample, self.pixel)
+    }
 }
 
 /// What the scene uses (decided once; it picks the systems of the schedule).

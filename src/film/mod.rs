@@ -1,48 +1,77 @@
 //! The film: per-pixel sums, image output, and image comparison metrics.
 
 pub mod compare;
+pub mod fixed;
 pub mod output;
+
+use fixed::PixelSums;
 
 use glam::{DVec3, Vec3};
 
-/// Accumulated radiance per pixel. Each pixel is written by one path entity in sample order, so the sum
-/// is the same whatever the thread count.
-#[derive(Clone, Debug)]
+/// Accumulated radiance per pixel, in fixed point (`fixed`): samples may be added from any thread in
+/// any order, and films of disjoint samples merged, with the same bits as one sequential run.
+#[derive(Debug)]
 pub struct Film {
     /// Width in pixels.
     pub width: u32,
     /// Height in pixels.
     pub height: u32,
-    sum: Vec<DVec3>,
-    count: Vec<u32>,
+    pixels: Vec<PixelSums>,
+}
+
+impl Clone for Film {
+    fn clone(&self) -> Self {
+        let copy = Film::new(self.width, self.height);
+        for (to, from) in copy.pixels.iter().zip(&self.pixels) {
+            let (sums, count) = from.get();
+            to.add(sums, count);
+        }
+        copy
+    }
 }
 
 impl Film {
     /// A black film.
     pub fn new(width: u32, height: u32) -> Self {
-        let n = (width * height) as usize;
-        Self { width, height, sum: vec![DVec3::ZERO; n], count: vec![0; n] }
+        let n = width as usize * height as usize;
+        Self { width, height, pixels: (0..n).map(|_| PixelSums::default()).collect() }
     }
 
-    /// Add one sample of radiance `l` to pixel index `pixel`.
+    /// Add one sample of radiance `l` to pixel index `pixel`; `l` must pass [`fixed::accepts`].
     #[inline]
-    pub fn add(&mut self, pixel: u32, l: Vec3) {
-        self.sum[pixel as usize] += l.as_dvec3();
-        self.count[pixel as usize] += 1;
+    pub fn add(&self, pixel: u32, l: Vec3) {
+        debug_assert!(fixed::accepts(l), "film sample {l} out of range");
+        self.pixels[pixel as usize]
+            .add([fixed::to_fixed(l.x), fixed::to_fixed(l.y), fixed::to_fixed(l.z)], 1);
+    }
+
+    /// Add another film's sums and counts for one pixel (merging partial renders).
+    pub fn add_sums(&self, pixel: u32, sums: [i128; 3], count: u32) {
+        self.pixels[pixel as usize].add(sums, count);
+    }
+
+    /// A pixel's fixed-point channel sums and its sample count.
+    pub fn sums(&self, pixel: u32) -> ([i128; 3], u32) {
+        self.pixels[pixel as usize].get()
     }
 
     /// Number of samples taken in a pixel.
     pub fn samples(&self, pixel: u32) -> u32 {
-        self.count[pixel as usize]
+        self.sums(pixel).1
     }
 
     /// The mean radiance per pixel, row-major from the top-left.
     pub fn image(&self) -> Image {
         let pixels = self
-            .sum
+            .pixels
             .iter()
-            .zip(&self.count)
-            .map(|(s, &c)| if c == 0 { Vec3::ZERO } else { (*s / c as f64).as_vec3() })
+            .map(|p| {
+                let (sums, count) = p.get();
+                if count == 0 {
+                    return Vec3::ZERO;
+                }
+                (DVec3::from_array(sums.map(fixed::from_fixed)) / count as f64).as_vec3()
+            })
             .collect();
         Image { width: self.width, height: self.height, pixels }
     }

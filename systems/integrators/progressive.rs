@@ -186,9 +186,7 @@ fn spawn_hit_points(world: &mut World, rule: RadiusRule, per_pixel: u32, r0: f32
         }
     }
     // The camera paths only splat what they see directly; the film hands out no further work.
-    let mut workload = Workload::new(pixels, 0, 1, pixels);
-    workload.next = workload.total_samples();
-    world.insert_resource(workload);
+    world.insert_resource(Workload::exhausted(pixels));
 }
 
 /// The camera pass: paths to their first non-specular hit; `nee` adds a light sample there.
