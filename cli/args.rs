@@ -44,6 +44,32 @@ pub enum Command {
     Density(DensityArgs),
     /// Run integrators under the same time budget and record their error against a reference over time.
     Bench(BenchArgs),
+    /// Merge the accumulators of a render split with --part into its image; refuses parts that do
+    /// not belong together, and names any that are missing.
+    Merge {
+        /// The accumulator files, in any order.
+        #[arg(required = true)]
+        parts: Vec<PathBuf>,
+        /// Output image(s), .exr (linear) or .png (sRGB); repeatable.
+        #[arg(short, long, required = true)]
+        output: Vec<PathBuf>,
+        /// PNG exposure in stops.
+        #[arg(long, default_value_t = 0.0)]
+        exposure: f32,
+    },
+}
+
+/// `I/K` with 1 ≤ I ≤ K.
+fn parse_part(text: &str) -> Result<(u32, u32), String> {
+    let (i, k) = text.split_once('/').ok_or("expected I/K, as 3/8")?;
+    let (i, k): (u32, u32) = (
+        i.trim().parse().map_err(|_| format!("'{i}' is not a part number"))?,
+        k.trim().parse().map_err(|_| format!("'{k}' is not a number of parts"))?,
+    );
+    if i == 0 || i > k {
+        return Err(format!("part {i} of {k}: need 1 <= I <= K"));
+    }
+    Ok((i, k))
 }
 
 /// Arguments of `caustica bench`.
@@ -252,6 +278,10 @@ pub struct RenderArgs {
     /// Reference EXR: print the error of the result against it.
     #[arg(long)]
     pub reference: Option<PathBuf>,
+    /// Render only share I of K of the samples (pt, pt-naive, pm) and write an accumulator EXR (its
+    /// exact sums) to the one `-o FILE.exr`; `caustica merge` makes the image of all K.
+    #[arg(long, value_name = "I/K", value_parser = parse_part)]
+    pub part: Option<(u32, u32)>,
     /// No progress bar.
     #[arg(short, long)]
     pub quiet: bool,

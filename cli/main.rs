@@ -51,6 +51,7 @@ fn run() -> Result<()> {
             }
             Ok(())
         }
+        Some(Command::Merge { parts, output, exposure }) => render::merge(&parts, &output, exposure),
         Some(Command::Compare { image, reference, window }) => {
             compare::compare_files(&image, &reference, window.as_deref())
         }

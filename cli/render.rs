@@ -7,6 +7,7 @@ use anyhow::{Context, Result};
 use caustica::Renderer;
 use caustica::driver::StopReason;
 use caustica::driver::init_thread_pools;
+use caustica::film::accumulator::{self, PartInfo};
 use caustica::film::output;
 use caustica::scene::{self, RunFile};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -39,6 +40,7 @@ pub fn render(args: &RenderArgs) -> Result<bool> {
     let (scene, run) = scene::load_with_sets(&scene_path, &args.set, |run| args.apply(run))?;
     let outputs = output_paths(args, &run, &scene_path);
     check_outputs(&outputs, &inputs(args, &run, &scene_path))?;
+    let part = args.part.map(|(i, k)| part_info(&scene, &run, i, k, &outputs)).transpose()?;
     let reference = args.reference.as_deref().map(output::read_exr).transpose()?;
     let mut renderer =
         Renderer::new(scene, &run).with_context(|| format!("preparing {}", scene_path.display()))?;
@@ -54,6 +56,11 @@ pub fn render(args: &RenderArgs) -> Result<bool> {
                 film.height
             );
         }
+    }
+    if let Some(info) = &part {
+        renderer
+            .set_samples(info.samples.clone())
+            .with_context(|| format!("--part {}/{}", info.part, info.parts))?;
     }
     watch_for_signals(&renderer);
     let mut display = args.display_server.as_deref().and_then(|address| {
@@ -100,11 +107,18 @@ pub fn render(args: &RenderArgs) -> Result<bool> {
     {
         tracing::warn!("the live preview did not get the final image: {e}");
     }
-    let failed: Vec<String> = outputs
-        .iter()
-        .filter_map(|path| output::write_image(&image, path, run.film.exposure).err())
-        .map(|e| e.to_string())
-        .collect();
+    let failed: Vec<String> = match &part {
+        Some(info) => accumulator::write_part(renderer.film(), info, &outputs[0])
+            .err()
+            .into_iter()
+            .map(|e| e.to_string())
+            .collect(),
+        None => outputs
+            .iter()
+            .filter_map(|path| output::write_image(&image, path, run.film.exposure).err())
+            .map(|e| e.to_string())
+            .collect(),
+    };
     print_report(&scene_path, &report, start.elapsed().as_secs_f64());
     if let Some(reference) = &reference {
         let e = caustica::film::compare::compare(&image, reference).expect("sizes checked before rendering");
@@ -117,6 +131,52 @@ pub fn render(args: &RenderArgs) -> Result<bool> {
         anyhow::bail!("{}", failed.join("; "));
     }
     Ok(report.stopped_by != Some(StopReason::Interrupted))
+}
+
+/// What share `i` of `k` is: its samples, and the fingerprint a merge checks. A part writes one
+/// accumulator, so it takes exactly one `-o`, an .exr.
+fn part_info(scene: &scene::Scene, run: &RunFile, i: u32, k: u32, outputs: &[PathBuf]) -> Result<PartInfo> {
+    if outputs.len() != 1 || !outputs[0].extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
+        anyhow::bail!("--part writes one accumulator file: give one -o FILE.exr (got {})", outputs.len());
+    }
+    if k > run.render.spp {
+        anyhow::bail!(
+            "--part {i}/{k}: {k} parts of {} samples per pixel would leave some parts empty",
+            run.render.spp
+        );
+    }
+    Ok(PartInfo {
+        fingerprint: caustica::scene::fingerprint::fingerprint(scene, run),
+        integrator: format!("{:?}", run.render.integrator).to_lowercase(),
+        part: i,
+        parts: k,
+        samples: PartInfo::share(i, k, run.render.spp),
+        spp: run.render.spp,
+    })
+}
+
+/// `caustica merge`: the parts' sums added, the image written to every output.
+pub fn merge(parts: &[PathBuf], outputs: &[PathBuf], exposure: f32) -> Result<()> {
+    check_outputs(outputs, parts)?;
+    let start = Instant::now();
+    let (film, info) = accumulator::merge_parts(parts)?;
+    let image = film.image();
+    for path in outputs {
+        output::write_image(&image, path, exposure)?;
+    }
+    println!(
+        "merged      {} parts of {}x{}, {} spp ({}) in {:.3} s",
+        parts.len(),
+        film.width,
+        film.height,
+        info.spp,
+        info.integrator,
+        start.elapsed().as_secs_f64()
+    );
+    for path in outputs {
+        println!("wrote       {}", path.display());
+    }
+    Ok(())
 }
 
 /// A bar over the samples per pixel or passes aimed at, or a spinner when a time limit alone bounds

@@ -84,6 +84,20 @@ pub enum Error {
         /// Why.
         message: String,
     },
+    /// An accumulator file (a partial render) is unreadable or not one.
+    #[error("{path}: {message}")]
+    Accumulator {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// Parts given to a merge that do not make one whole render.
+    #[error("cannot merge: {problem}")]
+    Merge {
+        /// Which parts, and what is wrong with them.
+        problem: String,
+    },
 }
 
 /// Result with [`Error`].

@@ -42,6 +42,8 @@ pub struct Renderer {
     passes: u32,
     /// Progress at the end of the last pass.
     done: u32,
+    /// Progress the render started from (a partial render's first sample).
+    first: u32,
     /// Progress aimed at.
     target: u32,
     /// Set when a time limit stopped the render.
@@ -89,6 +91,7 @@ impl Renderer {
             features,
             passes: 0,
             done: 0,
+            first: 0,
             target,
             stopped: false,
             seconds: 0.0,
@@ -111,6 +114,40 @@ impl Renderer {
         self.target = target;
         self.stopped = false;
         self.stopped_by = None;
+    }
+
+    /// Render only samples `samples` of every pixel: one share of a render split across processes
+    /// or machines (`caustica render --part`). The film then holds those samples' sums, which merge
+    /// with the other shares' into the same bits as one run of all of them. Before the first pass,
+    /// and for the sample integrators only: a progressive render's passes each build on the last, and
+    /// visibility-aware light selection learns from the render's own first samples.
+    pub fn set_samples(&mut self, samples: std::ops::Range<u32>) -> Result<()> {
+        let refuse = |problem: &str| {
+            Err(caustica_core::error::Error::Setting { name: "part".into(), problem: problem.into() })
+        };
+        if self.plan.unit != Unit::Samples {
+            return refuse(
+                "a progressive photon mapper's passes each build on the one before; split pt, pt-naive or pm",
+            );
+        }
+        if self.features.learns_visibility {
+            return refuse(
+                "visibility-aware light selection learns from the render's first samples, which one share does not have; use uniform, power or tree",
+            );
+        }
+        if self.passes > 0 {
+            return refuse("the render has started");
+        }
+        if samples.is_empty() {
+            return refuse("the share holds no samples");
+        }
+        (self.first, self.done, self.target) = (samples.start, samples.start, samples.end);
+        Ok(())
+    }
+
+    /// The film: every sample's sum and count so far.
+    pub fn film(&self) -> &caustica_core::film::Film {
+        self.world.resource::<FilmResource>()
     }
 
     /// The flag that stops the render at its next step when raised (from a signal handler or another
@@ -142,7 +179,9 @@ impl Renderer {
             Unit::Samples => {
                 let film = self.world.resource::<FilmResource>();
                 let pixels = (film.width as u64 * film.height as u64).max(1) as f64;
-                self.world.resource::<RenderStats>().samples as f64 / (pixels * self.samples_per_unit as f64)
+                self.first as f64
+                    + self.world.resource::<RenderStats>().samples as f64
+                        / (pixels * self.samples_per_unit as f64)
             }
         };
         Progress { unit: self.plan.unit, done, target: self.target }
@@ -240,7 +279,7 @@ impl Renderer {
         }
         (self.plan.reset)(&mut self.world);
         self.passes = 0;
-        self.done = 0;
+        self.done = self.first;
         self.stopped = false;
         self.stopped_by = None;
         self.interrupt.store(false, Ordering::Relaxed);

@@ -1,5 +1,5 @@
 //! The film: per-pixel sums, image output, and image comparison metrics.
-
+pub mod accumulator;
 pub mod compare;
 pub mod fixed;
 pub mod output;

@@ -4,6 +4,7 @@
 //! checks it, so that the systems downstream can take it as valid and return nothing.
 
 pub mod environment;
+pub mod fingerprint;
 pub mod gltf;
 pub mod punctual;
 pub mod run_file;

@@ -1,0 +1,306 @@
+//! Accumulator files: a film's exact sums, written by a partial render and merged later.
+//!
+//! An accumulator is an ordinary OpenEXR file with one part, so any EXR viewer opens it:
+//! - `R`, `G`, `B` (float): the part's own mean image, for looking at;
+//! - `sum.R.0`, `sum.R.1`, `sum.R.2` (and the same for `G` and `B`; uint): a channel's fixed-point
+//!   sum ([`super::fixed`]), 96-bit two's complement in three 32-bit words, least significant first;
+//! - `count` (uint): samples in the pixel.
+//!
+//! The header's text attributes `caustica.*` say what the sums are of: the format version, a
+//! fingerprint of the scene and every setting that changes the image, the share (`part` of
+//! `parts`), the samples it covers (`samples`, a range of sample indices per pixel) and the whole
+//! render's (`spp`). That is what makes a merge safe: parts of different scenes or settings, a part
+//! given twice, or a missing one are refused by name. 52 bytes a pixel before compression.
+
+use super::Film;
+use crate::error::{Error, Result};
+use std::collections::HashMap;
+use std::path::Path;
+
+/// Version of the layout above.
+pub const FORMAT_VERSION: u32 = 1;
+
+/// What an accumulator holds, beyond its sums.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct PartInfo {
+    /// Fingerprint of the scene and the settings that change the image (hex).
+    pub fingerprint: String,
+    /// Integrator name, for messages.
+    pub integrator: String,
+    /// This share, from 1.
+    pub part: u32,
+    /// Shares in all.
+    pub parts: u32,
+    /// Sample indices per pixel this share covers.
+    pub samples: std::ops::Range<u32>,
+    /// Samples per pixel of the whole render.
+    pub spp: u32,
+}
+
+impl PartInfo {
+    /// The samples per pixel of share `part` (from 1) of `parts` of a render of `spp` samples: as
+    /// even as integers allow, in order, together exactly `0..spp`.
+    pub fn share(part: u32, parts: u32, spp: u32) -> std::ops::Range<u32> {
+        let at = |i: u32| (i as u64 * spp as u64 / parts as u64) as u32;
+        at(part - 1)..at(part)
+    }
+}
+
+const ATTRIBUTE_PREFIX: &str = "caustica.";
+const CHANNELS: [&str; 3] = ["R", "G", "B"];
+
+/// Write `film` with `info` to `path` (a temporary file beside it, renamed over it once complete).
+pub fn write_part(film: &Film, info: &PartInfo, path: &Path) -> Result<()> {
+    use exr::prelude::*;
+    let out_err = |message: String| crate::error::Error::Output { path: path.to_path_buf(), message };
+    let n = film.width as usize * film.height as usize;
+    let image = film.image();
+    let mut channels = Vec::new();
+    for (c, name) in CHANNELS.iter().enumerate() {
+        channels.push(AnyChannel::new(*name, FlatSamples::F32(image.pixels.iter().map(|p| p[c]).collect())));
+        for word in 0..3 {
+            let words = (0..n as u32).map(|i| (film.sums(i).0[c] as u128 >> (32 * word)) as u32).collect();
+            channels.push(AnyChannel::new(format!("sum.{name}.{word}").as_str(), FlatSamples::U32(words)));
+        }
+    }
+    channels
+        .push(AnyChannel::new("count", FlatSamples::U32((0..n as u32).map(|i| film.samples(i)).collect())));
+    let mut attributes = LayerAttributes::named("accumulator");
+    let text = |key: &str, value: String| {
+        (
+            Text::from(format!("{ATTRIBUTE_PREFIX}{key}").as_str()),
+            AttributeValue::Text(Text::from(value.as_str())),
+        )
+    };
+    attributes.other = HashMap::from([
+        text("format", FORMAT_VERSION.to_string()),
+        text("fingerprint", info.fingerprint.clone()),
+        text("integrator", info.integrator.clone()),
+        text("part", format!("{}/{}", info.part, info.parts)),
+        text("samples", format!("{}..{}", info.samples.start, info.samples.end)),
+        text("spp", info.spp.to_string()),
+    ]);
+    let layer = Layer::new(
+        (film.width as usize, film.height as usize),
+        attributes,
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(SmallVec::from_vec(channels)),
+    );
+    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir).map_err(|e| out_err(format!("cannot create folder: {e}")))?;
+    let mut file = tempfile::Builder::new()
+        .prefix(".caustica-part-")
+        .suffix(".partial")
+        .tempfile_in(dir)
+        .map_err(|e| out_err(format!("cannot create a file in {}: {e}", dir.display())))?;
+    Image::from_layer(layer)
+        .write()
+        .non_parallel()
+        .to_buffered(&mut file)
+        .map_err(|e| out_err(e.to_string()))?;
+    file.as_file().sync_all().map_err(|e| out_err(e.to_string()))?;
+    file.persist(path).map(drop).map_err(|e| out_err(e.error.to_string()))
+}
+
+/// Read an accumulator: its film and what it is of. A file that is not one (an ordinary image, a
+/// truncated file, a newer format) is an error naming it.
+pub fn read_part(path: &Path) -> Result<(Film, PartInfo)> {
+    use exr::prelude::*;
+    let bad = |message: String| crate::error::Error::Accumulator { path: path.to_path_buf(), message };
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_file(path)
+        .map_err(|e| bad(format!("not a readable EXR accumulator: {e}")))?;
+    let layer = &image.layer_data;
+    let attribute = |key: &str| -> crate::error::Result<String> {
+        match layer.attributes.other.get(&Text::from(format!("{ATTRIBUTE_PREFIX}{key}").as_str())) {
+            Some(AttributeValue::Text(t)) => Ok(t.to_string()),
+            _ => Err(bad(format!(
+                "no {ATTRIBUTE_PREFIX}{key} attribute: not a caustica accumulator (written with --part)"
+            ))),
+        }
+    };
+    let format: u32 = attribute("format")?.parse().map_err(|_| bad("unreadable format version".into()))?;
+    if format != FORMAT_VERSION {
+        return Err(bad(format!("accumulator format {format}; this build reads format {FORMAT_VERSION}")));
+    }
+    let number = |s: &str| s.parse::<u32>().map_err(|_| bad(format!("'{s}' is not a count")));
+    let part = attribute("part")?;
+    let (i, k) = part.split_once('/').ok_or_else(|| bad(format!("part '{part}' is not I/K")))?;
+    let samples = attribute("samples")?;
+    let (s0, s1) = samples.split_once("..").ok_or_else(|| bad(format!("samples '{samples}' is not A..B")))?;
+    let info = PartInfo {
+        fingerprint: attribute("fingerprint")?,
+        integrator: attribute("integrator")?,
+        part: number(i)?,
+        parts: number(k)?,
+        samples: number(s0)?..number(s1)?,
+        spp: number(&attribute("spp")?)?,
+    };
+    let (width, height) = (layer.size.width() as u32, layer.size.height() as u32);
+    let channel = |name: &str| -> crate::error::Result<&[u32]> {
+        match layer.channel_data.list.iter().find(|c| c.name == Text::from(name)).map(|c| &c.sample_data) {
+            Some(FlatSamples::U32(v)) => Ok(v),
+            _ => Err(bad(format!("no uint channel '{name}'"))),
+        }
+    };
+    let film = Film::new(width, height);
+    let words: Vec<[&[u32]; 3]> = CHANNELS
+        .iter()
+        .map(|c| {
+            Ok([
+                channel(&format!("sum.{c}.0"))?,
+                channel(&format!("sum.{c}.1"))?,
+                channel(&format!("sum.{c}.2"))?,
+            ])
+        })
+        .collect::<crate::error::Result<_>>()?;
+    let count = channel("count")?;
+    for i in 0..width as usize * height as usize {
+        let sum = |c: usize| {
+            let bits =
+                words[c][0][i] as u128 | (words[c][1][i] as u128) << 32 | (words[c][2][i] as u128) << 64;
+            ((bits << 32) as i128) >> 32
+        };
+        film.add_sums(i as u32, [sum(0), sum(1), sum(2)], count[i]);
+    }
+    Ok((film, info))
+}
+
+/// Merge accumulators into the film of the whole render, checking first that they make one: the
+/// same fingerprint, size and split, each share once, none missing, each complete. The sums are
+/// integers, so the order of `paths` cannot change a bit.
+pub fn merge_parts(paths: &[impl AsRef<Path>]) -> Result<(Film, PartInfo)> {
+    let merge_err = |problem: String| Error::Merge { problem };
+    let mut parts = Vec::new();
+    for path in paths {
+        let path = path.as_ref();
+        let (film, info) = read_part(path)?;
+        parts.push((path.to_path_buf(), film, info));
+    }
+    let Some((first_path, first, base)) = parts.first() else {
+        return Err(merge_err("no parts given".into()));
+    };
+    let (first_path, base) = (first_path.clone(), base.clone());
+    let (width, height) = (first.width, first.height);
+    let mut by_index: Vec<Option<&Path>> = vec![None; base.parts as usize];
+    for (path, film, info) in &parts {
+        let differs = |what: &str| {
+            merge_err(format!(
+                "{} is not a part of the same render as {}: its {what} differs",
+                path.display(),
+                first_path.display()
+            ))
+        };
+        if info.fingerprint != base.fingerprint {
+            return Err(differs("scene or settings (fingerprint)"));
+        }
+        if info.parts != base.parts || info.spp != base.spp {
+            return Err(differs("split (parts or samples per pixel)"));
+        }
+        if (film.width, film.height) != (width, height) {
+            return Err(differs("image size"));
+        }
+        if info.part == 0
+            || info.part > info.parts
+            || info.samples != PartInfo::share(info.part, info.parts, info.spp)
+        {
+            return Err(merge_err(format!(
+                "{}: part {}/{} with samples {:?} is not a share this build makes",
+                path.display(),
+                info.part,
+                info.parts,
+                info.samples
+            )));
+        }
+        let slot = &mut by_index[info.part as usize - 1];
+        if let Some(other) = slot {
+            return Err(merge_err(format!(
+                "part {}/{} is given twice: {} and {}",
+                info.part,
+                info.parts,
+                other.display(),
+                path.display()
+            )));
+        }
+        *slot = Some(path);
+        let want = info.samples.len() as u32;
+        if let Some(pixel) = (0..width * height).find(|&i| film.samples(i) != want) {
+            return Err(merge_err(format!(
+                "{}: part {}/{} is incomplete: pixel ({}, {}) has {} of its {want} samples (was it stopped before its end?)",
+                path.display(),
+                info.part,
+                info.parts,
+                pixel % width,
+                pixel / width,
+                film.samples(pixel)
+            )));
+        }
+    }
+    let missing: Vec<String> = by_index
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| p.is_none())
+        .map(|(i, _)| format!("{}/{}", i + 1, base.parts))
+        .collect();
+    if !missing.is_empty() {
+        return Err(merge_err(format!(
+            "missing part{} {}",
+            if missing.len() > 1 { "s" } else { "" },
+            missing.join(", ")
+        )));
+    }
+    let whole = Film::new(width, height);
+    for (_, film, _) in &parts {
+        for i in 0..width * height {
+            let (sums, count) = film.sums(i);
+            whole.add_sums(i, sums, count);
+        }
+    }
+    Ok((whole, PartInfo { part: 1, parts: 1, samples: 0..base.spp, ..base }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    #[test]
+    fn an_accumulator_reads_back_to_the_same_sums() {
+        let film = Film::new(3, 2);
+        film.add(0, Vec3::new(1.5, 2.0e9, 3.25e-7));
+        film.add(0, Vec3::new(1.0e14, 0.0, -2.0));
+        film.add(5, Vec3::splat(0.125));
+        let info = PartInfo {
+            fingerprint: "00ff".into(),
+            integrator: "pt".into(),
+            part: 2,
+            parts: 3,
+            samples: 5..9,
+            spp: 16,
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("part.exr");
+        write_part(&film, &info, &path).unwrap();
+        let (back, back_info) = read_part(&path).unwrap();
+        assert_eq!(back_info, info);
+        assert_eq!((back.width, back.height), (3, 2));
+        for i in 0..6 {
+            assert_eq!(back.sums(i), film.sums(i), "pixel {i}");
+        }
+    }
+
+    #[test]
+    fn shares_cover_the_samples_once_in_order() {
+        for (parts, spp) in [(1, 7), (4, 64), (3, 10), (8, 5), (64, 1000)] {
+            let shares: Vec<_> = (1..=parts).map(|i| PartInfo::share(i, parts, spp)).collect();
+            assert_eq!(shares[0].start, 0);
+            assert_eq!(shares[parts as usize - 1].end, spp);
+            assert!(shares.windows(2).all(|w| w[0].end == w[1].start));
+        }
+    }
+}
