@@ -40,7 +40,7 @@ pub fn render(args: &RenderArgs) -> Result<bool> {
     let (scene, run) = scene::load_with_sets(&scene_path, &args.set, |run| args.apply(run))?;
     let outputs = output_paths(args, &run, &scene_path);
     check_outputs(&outputs, &inputs(args, &run, &scene_path))?;
-    let part = args.part.map(|(i, k)| part_info(&scene, &run, i, k, &outputs)).transpose()?;
+    let mut part = args.part.map(|(i, k)| part_info(&scene, &run, i, k, &outputs)).transpose()?;
     let reference = args.reference.as_deref().map(output::read_exr).transpose()?;
     let mut renderer =
         Renderer::new(scene, &run).with_context(|| format!("preparing {}", scene_path.display()))?;
@@ -57,10 +57,11 @@ pub fn render(args: &RenderArgs) -> Result<bool> {
             );
         }
     }
-    if let Some(info) = &part {
+    if let Some(info) = &mut part {
         renderer
             .set_samples(info.samples.clone())
             .with_context(|| format!("--part {}/{}", info.part, info.parts))?;
+        info.per_unit = renderer.camera_samples_per_unit();
     }
     watch_for_signals(&renderer);
     let mut display = args.display_server.as_deref().and_then(|address| {
@@ -139,10 +140,10 @@ fn part_info(scene: &scene::Scene, run: &RunFile, i: u32, k: u32, outputs: &[Pat
     if outputs.len() != 1 || !outputs[0].extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
         anyhow::bail!("--part writes one accumulator file: give one -o FILE.exr (got {})", outputs.len());
     }
-    if k > run.render.spp {
+    let units = if run.render.integrator.is_progressive() { run.progressive.passes } else { run.render.spp };
+    if k > units {
         anyhow::bail!(
-            "--part {i}/{k}: {k} parts of {} samples per pixel would leave some parts empty",
-            run.render.spp
+            "--part {i}/{k}: {k} parts of {units} samples per pixel (or passes) would leave some parts empty"
         );
     }
     Ok(PartInfo {
@@ -150,8 +151,9 @@ fn part_info(scene: &scene::Scene, run: &RunFile, i: u32, k: u32, outputs: &[Pat
         integrator: format!("{:?}", run.render.integrator).to_lowercase(),
         part: i,
         parts: k,
-        samples: PartInfo::share(i, k, run.render.spp),
-        spp: run.render.spp,
+        samples: PartInfo::share(i, k, units),
+        spp: units,
+        per_unit: 1,
     })
 }
 

@@ -116,18 +116,18 @@ impl Renderer {
         self.stopped_by = None;
     }
 
-    /// Render only samples `samples` of every pixel: one share of a render split across processes
-    /// or machines (`caustica render --part`). The film then holds those samples' sums, which merge
-    /// with the other shares' into the same bits as one run of all of them. Before the first pass,
-    /// and for the sample integrators only: a progressive render's passes each build on the last, and
-    /// visibility-aware light selection learns from the render's own first samples.
+    /// Render only samples (or `pppm`'s passes) `samples` of every pixel: one share of a render split
+    /// across processes or machines (`caustica render --part`). The film then holds their sums, which
+    /// merge with the other shares' into the same bits as one run of all of them. Before the first
+    /// pass, and not for `ppm`, `sppm`, `appm`, `cppm`, whose passes each build on the one before, nor
+    /// with visibility-aware light selection, which learns from the render's own first samples.
     pub fn set_samples(&mut self, samples: std::ops::Range<u32>) -> Result<()> {
         let refuse = |problem: &str| {
             Err(caustica_core::error::Error::Setting { name: "part".into(), problem: problem.into() })
         };
-        if self.plan.unit != Unit::Samples {
+        if self.plan.unit != Unit::Samples && self.plan.kind != caustica_core::scene::IntegratorKind::Pppm {
             return refuse(
-                "a progressive photon mapper's passes each build on the one before; split pt, pt-naive or pm",
+                "this progressive photon mapper's passes each build on the one before; split pt, pt-naive, pm or pppm",
             );
         }
         if self.features.learns_visibility {
@@ -143,6 +143,17 @@ impl Renderer {
         }
         (self.first, self.done, self.target) = (samples.start, samples.start, samples.end);
         Ok(())
+    }
+
+    /// Camera samples a pixel gets per unit of progress (a sample per pixel, or a pass).
+    pub fn camera_samples_per_unit(&self) -> u32 {
+        match self.plan.unit {
+            Unit::Samples => self.samples_per_unit,
+            Unit::Passes => self
+                .world
+                .get_resource::<crate::resources::ProgressiveConfig>()
+                .map_or(1, |c| c.hit_points_per_pixel),
+        }
     }
 
     /// The film: every sample's sum and count so far.

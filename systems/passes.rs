@@ -60,7 +60,9 @@ pub fn begin_progressive_pass(
     motion: bool,
 ) -> impl FnMut(Res<PassRange>, ResMut<RenderConfig>, ResMut<PhotonWork>, ResMut<ProgressiveConfig>) {
     move |range, mut config, mut work, mut progressive| {
-        let pass = range.index;
+        // The pass's number in the whole render (`begin`), not in this process: a render split by
+        // passes gives each pass the photons and shutter time it has in one run.
+        let pass = range.begin;
         let time = motion.then(|| Sampler::of(config.sampler, config.seed, u32::MAX, pass).get1d(0));
         config.pass_time = time;
         work.time = time;
@@ -78,7 +80,7 @@ pub fn begin_camera_pass(
 ) {
     let per_pixel = config.hit_points_per_pixel;
     for mut state in &mut paths {
-        state.sample = range.index * per_pixel + state.sample % per_pixel;
+        state.sample = range.begin * per_pixel + state.sample % per_pixel;
         state.status = PathStatus::NeedsCamera;
     }
 }
@@ -93,30 +95,32 @@ pub fn cap_initial_radius(
     mut config: ResMut<ProgressiveConfig>,
     mut hit_points: Query<&mut HitPoint>,
 ) {
-    /// A first estimate blurred over up to ten pixels is smooth enough and sharpens within passes.
-    const FOOTPRINT_PIXELS: f32 = 10.0;
     if config.r0_given || range.index > 0 {
         return;
     }
-    let (cx, cy) = (camera.width / 2, camera.height / 2);
-    let ray = |x| camera.generate_ray(x, cy, glam::Vec2::splat(0.5), glam::Vec2::splat(0.5), 0.0);
-    let pixel_angle = ray(cx).d.normalize().angle_between(ray(cx + 1).d.normalize());
-    let origin = camera.origin;
-    let mut distances: Vec<f32> =
-        hit_points.iter().filter(|hp| hp.is_valid()).map(|hp| (hp.p - origin).length()).collect();
-    if distances.is_empty() || pixel_angle.is_nan() || pixel_angle <= 0.0 {
-        return;
-    }
-    let mid = distances.len() / 2;
-    let median = *distances.select_nth_unstable_by(mid, f32::total_cmp).1;
-    let cap = FOOTPRINT_PIXELS * pixel_angle * median;
-    if !(cap > 0.0 && cap < config.r0) {
-        return;
-    }
+    let distances: Vec<f32> =
+        hit_points.iter().filter(|hp| hp.is_valid()).map(|hp| (hp.p - camera.origin).length()).collect();
+    let Some(cap) = radius_cap(&camera, distances).filter(|&cap| cap < config.r0) else { return };
     config.r0 = cap;
     for mut hp in &mut hit_points {
         hp.r2 = cap * cap;
     }
+}
+
+/// `FOOTPRINT_PIXELS` pixel footprints at the median of `distances` from the eye, if there is one.
+pub fn radius_cap(camera: &caustica_core::camera::Camera, mut distances: Vec<f32>) -> Option<f32> {
+    /// A first estimate blurred over up to ten pixels is smooth enough and sharpens within passes.
+    const FOOTPRINT_PIXELS: f32 = 10.0;
+    let (cx, cy) = (camera.width / 2, camera.height / 2);
+    let ray = |x| camera.generate_ray(x, cy, glam::Vec2::splat(0.5), glam::Vec2::splat(0.5), 0.0);
+    let pixel_angle = ray(cx).d.normalize().angle_between(ray(cx + 1).d.normalize());
+    if distances.is_empty() || pixel_angle.is_nan() || pixel_angle <= 0.0 {
+        return None;
+    }
+    let mid = distances.len() / 2;
+    let median = *distances.select_nth_unstable_by(mid, f32::total_cmp).1;
+    let cap = FOOTPRINT_PIXELS * pixel_angle * median;
+    (cap > 0.0).then_some(cap)
 }
 
 /// Start a photon pass: every photon entity takes a photon of the pass in entity order (those beyond

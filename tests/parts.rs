@@ -20,6 +20,8 @@ fn setup(kind: IntegratorKind, seed: u64) -> (Scene, RunFile) {
     run.render.seed = seed;
     run.photons.photons = 20_000;
     run.photons.caustic_photons = 20_000;
+    run.progressive.passes = SPP;
+    run.progressive.photons_per_pass = 4096;
     (run.film.width, run.film.height) = (Some(40), Some(30));
     (scene, run)
 }
@@ -43,6 +45,7 @@ fn part(kind: IntegratorKind, seed: u64, i: u32, k: u32, dir: &Path) -> PathBuf 
         parts: k,
         samples: PartInfo::share(i, k, SPP),
         spp: SPP,
+        per_unit: 1,
     };
     let mut renderer = Renderer::new(scene, &run).expect("prepares");
     renderer.set_samples(info.samples.clone()).expect("a sample integrator splits");
@@ -79,6 +82,11 @@ fn pt_parts_merge_into_the_bits_of_one_run_in_any_order() {
 #[test]
 fn pm_parts_merge_into_the_bits_of_one_run_in_any_order() {
     four_parts_merge_into_one_run(IntegratorKind::Pm);
+}
+
+#[test]
+fn pppm_parts_merge_into_the_bits_of_one_run_in_any_order() {
+    four_parts_merge_into_one_run(IntegratorKind::Pppm);
 }
 
 #[test]

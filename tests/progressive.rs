@@ -68,7 +68,7 @@ fn log_log_slope(passes: &[u32], errors: &[f64]) -> f64 {
 fn stochastic_ppm_error_falls_at_the_theoretical_rate_on_the_cornell_box() {
     let reference = half_reference("cornell-box.ref.exr");
     let checkpoints = [16, 32, 64];
-    for kind in [IntegratorKind::Sppm, IntegratorKind::Appm, IntegratorKind::Cppm] {
+    for kind in [IntegratorKind::Sppm, IntegratorKind::Appm, IntegratorKind::Cppm, IntegratorKind::Pppm] {
         let mut renderer = progressive("cornell-box.gltf", kind, 16_384, 64);
         let errors = errors_at(&mut renderer, &reference, &checkpoints, None);
         let slope = log_log_slope(&checkpoints, &errors);

@@ -31,10 +31,13 @@ pub struct PartInfo {
     pub part: u32,
     /// Shares in all.
     pub parts: u32,
-    /// Sample indices per pixel this share covers.
+    /// Units of progress this share covers: sample indices per pixel, or pass indices (`pppm`).
     pub samples: std::ops::Range<u32>,
-    /// Samples per pixel of the whole render.
+    /// Units of the whole render: samples per pixel, or passes.
     pub spp: u32,
+    /// Camera samples a pixel gets per unit (`pm`'s final-gather samples, `pppm`'s hit points per
+    /// pixel): what a complete share's pixels count.
+    pub per_unit: u32,
 }
 
 impl PartInfo {
@@ -79,6 +82,7 @@ pub fn write_part(film: &Film, info: &PartInfo, path: &Path) -> Result<()> {
         text("part", format!("{}/{}", info.part, info.parts)),
         text("samples", format!("{}..{}", info.samples.start, info.samples.end)),
         text("spp", info.spp.to_string()),
+        text("per_unit", info.per_unit.to_string()),
     ]);
     let layer = Layer::new(
         (film.width as usize, film.height as usize),
@@ -88,9 +92,12 @@ pub fn write_part(film: &Film, info: &PartInfo, path: &Path) -> Result<()> {
     );
     let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir).map_err(|e| out_err(format!("cannot create folder: {e}")))?;
-    let mut file = tempfile::Builder::new()
-        .prefix(".caustica-part-")
-        .suffix(".partial")
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(".caustica-part-").suffix(".partial");
+    // An ordinary file, readable as the umask allows, not the 0600 of a temporary one.
+    #[cfg(unix)]
+    builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
+    let mut file = builder
         .tempfile_in(dir)
         .map_err(|e| out_err(format!("cannot create a file in {}: {e}", dir.display())))?;
     Image::from_layer(layer)
@@ -140,6 +147,7 @@ pub fn read_part(path: &Path) -> Result<(Film, PartInfo)> {
         parts: number(k)?,
         samples: number(s0)?..number(s1)?,
         spp: number(&attribute("spp")?)?,
+        per_unit: number(&attribute("per_unit")?)?,
     };
     let (width, height) = (layer.size.width() as u32, layer.size.height() as u32);
     let channel = |name: &str| -> crate::error::Result<&[u32]> {
@@ -199,7 +207,7 @@ pub fn merge_parts(paths: &[impl AsRef<Path>]) -> Result<(Film, PartInfo)> {
         if info.fingerprint != base.fingerprint {
             return Err(differs("scene or settings (fingerprint)"));
         }
-        if info.parts != base.parts || info.spp != base.spp {
+        if info.parts != base.parts || info.spp != base.spp || info.per_unit != base.per_unit {
             return Err(differs("split (parts or samples per pixel)"));
         }
         if (film.width, film.height) != (width, height) {
@@ -228,7 +236,7 @@ pub fn merge_parts(paths: &[impl AsRef<Path>]) -> Result<(Film, PartInfo)> {
             )));
         }
         *slot = Some(path);
-        let want = info.samples.len() as u32;
+        let want = info.samples.len() as u32 * info.per_unit;
         if let Some(pixel) = (0..width * height).find(|&i| film.samples(i) != want) {
             return Err(merge_err(format!(
                 "{}: part {}/{} is incomplete: pixel ({}, {}) has {} of its {want} samples (was it stopped before its end?)",
@@ -282,6 +290,7 @@ mod tests {
             parts: 3,
             samples: 5..9,
             spp: 16,
+            per_unit: 1,
         };
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("part.exr");

@@ -16,6 +16,9 @@ pub enum RadiusRule {
     /// Lin et al. 2020: per-pass estimates averaged, radius kept while the χ² test finds the photons
     /// uniform in the disc; L as for `Adaptive`.
     ChiSquare,
+    /// Knaus & Zwicker 2011 (`pppm`): every pass gathers at the global radius of its index and adds
+    /// its estimate Φ/(π r²) to the film as it ends; τ stays zero.
+    Global,
 }
 
 impl RadiusRule {
@@ -27,7 +30,7 @@ impl RadiusRule {
     pub fn radiance(self, tau: DVec3, r2: f32, passes: u32) -> DVec3 {
         let area = match self {
             Self::Shrinking => std::f64::consts::PI * r2 as f64,
-            Self::Adaptive | Self::ChiSquare => std::f64::consts::PI,
+            Self::Adaptive | Self::ChiSquare | Self::Global => std::f64::consts::PI,
         };
         tau / (area * passes.max(1) as f64)
     }

@@ -29,16 +29,19 @@ pub enum IntegratorKind {
     Appm,
     /// Chi-squared PPM (Lin et al. 2020): keep the radius while photons look uniform in the disc.
     Cppm,
+    /// Probabilistic PPM (Knaus & Zwicker 2011): every pass an independent estimate at a global
+    /// radius sequence, averaged; no pass depends on another, so passes split across machines.
+    Pppm,
 }
 
 impl IntegratorKind {
     /// Every integrator.
-    pub const ALL: [IntegratorKind; 7] =
-        [Self::Pt, Self::PtNaive, Self::Pm, Self::Ppm, Self::Sppm, Self::Appm, Self::Cppm];
+    pub const ALL: [IntegratorKind; 8] =
+        [Self::Pt, Self::PtNaive, Self::Pm, Self::Ppm, Self::Sppm, Self::Appm, Self::Cppm, Self::Pppm];
 
     /// Whether this integrator runs passes of photons into persistent hit points.
     pub fn is_progressive(self) -> bool {
-        matches!(self, Self::Ppm | Self::Sppm | Self::Appm | Self::Cppm)
+        matches!(self, Self::Ppm | Self::Sppm | Self::Appm | Self::Cppm | Self::Pppm)
     }
 }
 
@@ -81,6 +84,11 @@ impl Choice for IntegratorKind {
         (Self::Sppm, "sppm", "stochastic progressive photon mapping: hit points re-traced every pass"),
         (Self::Appm, "appm", "adaptive PPM: per-pixel radius from estimated variance and bias"),
         (Self::Cppm, "cppm", "chi-squared PPM: the radius shrinks when photons are not uniform in the disc"),
+        (
+            Self::Pppm,
+            "pppm",
+            "probabilistic PPM: independent passes at a global radius, averaged (splits by pass)",
+        ),
     ];
 }
 

@@ -120,13 +120,19 @@ impl ScheduleSettings {
     pub fn check(&self, integrator: IntegratorKind) -> Result<(), String> {
         self.stage_order()?;
         if self.passes.is_some() && !integrator.is_progressive() {
-            return Err(format!("schedule.passes applies to ppm, sppm, appm and cppm, not {integrator:?}"));
+            return Err(format!(
+                "schedule.passes applies to ppm, sppm, appm, cppm and pppm, not {integrator:?}"
+            ));
         }
         self.pass_order()?;
         match (self.nee, integrator) {
             (
                 Some(_),
-                IntegratorKind::Pt | IntegratorKind::Sppm | IntegratorKind::Appm | IntegratorKind::Cppm,
+                IntegratorKind::Pt
+                | IntegratorKind::Sppm
+                | IntegratorKind::Appm
+                | IntegratorKind::Cppm
+                | IntegratorKind::Pppm,
             )
             | (None, _) => {}
             (Some(true), IntegratorKind::PtNaive | IntegratorKind::Ppm) => {
@@ -163,6 +169,7 @@ impl ScheduleSettings {
                 | IntegratorKind::Sppm
                 | IntegratorKind::Appm
                 | IntegratorKind::Cppm
+                | IntegratorKind::Pppm
         );
         self.nee.unwrap_or(default)
     }

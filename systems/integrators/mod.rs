@@ -7,6 +7,7 @@ pub mod cppm;
 pub mod path;
 pub mod photon_map;
 pub mod ppm;
+pub mod pppm;
 pub mod progressive;
 pub mod sppm;
 
@@ -89,6 +90,7 @@ pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result
         IntegratorKind::Sppm => sppm::plan(world, run, features),
         IntegratorKind::Appm => appm::plan(world, run, features),
         IntegratorKind::Cppm => cppm::plan(world, run, features),
+        IntegratorKind::Pppm => pppm::plan(world, run, features),
     }
 }
 

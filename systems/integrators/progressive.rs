@@ -174,7 +174,7 @@ fn spawn_hit_points(world: &mut World, rule: RadiusRule, per_pixel: u32, r0: f32
     };
     let hit_point = HitPoint::new(r0 * r0);
     match rule {
-        RadiusRule::Shrinking => {
+        RadiusRule::Shrinking | RadiusRule::Global => {
             world.spawn_batch((0..count).map(|k| (path(k), hit_point)));
         }
         RadiusRule::Adaptive => {
