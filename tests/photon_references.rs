@@ -413,3 +413,8 @@ fn appm_matches_the_reference_within_its_variance_and_boundary_bias() {
 fn cppm_matches_the_reference_within_its_variance_and_boundary_bias() {
     assert_matches_the_reference(IntegratorKind::Cppm);
 }
+
+#[test]
+fn pppm_matches_the_reference_within_its_variance_and_boundary_bias() {
+    assert_matches_the_reference(IntegratorKind::Pppm);
+}
