@@ -109,38 +109,47 @@ pub fn write_part(film: &Film, info: &PartInfo, path: &Path) -> Result<()> {
     file.persist(path).map(drop).map_err(|e| out_err(e.error.to_string()))
 }
 
-/// Read an accumulator: its film and what it is of. A file that is not one (an ordinary image, a
-/// truncated file, a newer format) is an error naming it.
-pub fn read_part(path: &Path) -> Result<(Film, PartInfo)> {
-    use exr::prelude::*;
-    let bad = |message: String| crate::error::Error::Accumulator { path: path.to_path_buf(), message };
-    let image = read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .first_valid_layer()
-        .all_attributes()
-        .from_file(path)
-        .map_err(|e| bad(format!("not a readable EXR accumulator: {e}")))?;
-    let layer = &image.layer_data;
-    let attribute = |key: &str| -> crate::error::Result<String> {
-        match layer.attributes.other.get(&Text::from(format!("{ATTRIBUTE_PREFIX}{key}").as_str())) {
+/// What an accumulator's header says it is, and its size, without reading its pixels.
+pub fn read_info(path: &Path) -> Result<(PartInfo, (u32, u32))> {
+    let meta = exr::meta::MetaData::read_from_file(path, false)
+        .map_err(|e| bad(path, format!("not a readable EXR accumulator: {e}")))?;
+    let header = meta.headers.first().ok_or_else(|| bad(path, "an EXR file without a part".into()))?;
+    let info = info_from(&header.own_attributes, path)?;
+    Ok((info, (header.layer_size.width() as u32, header.layer_size.height() as u32)))
+}
+
+fn bad(path: &Path, message: String) -> Error {
+    Error::Accumulator { path: path.to_path_buf(), message }
+}
+
+fn info_from(attributes: &exr::meta::header::LayerAttributes, path: &Path) -> Result<PartInfo> {
+    use exr::prelude::{AttributeValue, Text};
+    let attribute = |key: &str| -> Result<String> {
+        match attributes.other.get(&Text::from(format!("{ATTRIBUTE_PREFIX}{key}").as_str())) {
             Some(AttributeValue::Text(t)) => Ok(t.to_string()),
-            _ => Err(bad(format!(
-                "no {ATTRIBUTE_PREFIX}{key} attribute: not a caustica accumulator (written with --part)"
-            ))),
+            _ => Err(bad(
+                path,
+                format!(
+                    "no {ATTRIBUTE_PREFIX}{key} attribute: not a caustica accumulator (written with --part)"
+                ),
+            )),
         }
     };
-    let format: u32 = attribute("format")?.parse().map_err(|_| bad("unreadable format version".into()))?;
+    let format: u32 =
+        attribute("format")?.parse().map_err(|_| bad(path, "unreadable format version".into()))?;
     if format != FORMAT_VERSION {
-        return Err(bad(format!("accumulator format {format}; this build reads format {FORMAT_VERSION}")));
+        return Err(bad(
+            path,
+            format!("accumulator format {format}; this build reads format {FORMAT_VERSION}"),
+        ));
     }
-    let number = |s: &str| s.parse::<u32>().map_err(|_| bad(format!("'{s}' is not a count")));
+    let number = |s: &str| s.parse::<u32>().map_err(|_| bad(path, format!("'{s}' is not a count")));
     let part = attribute("part")?;
-    let (i, k) = part.split_once('/').ok_or_else(|| bad(format!("part '{part}' is not I/K")))?;
+    let (i, k) = part.split_once('/').ok_or_else(|| bad(path, format!("part '{part}' is not I/K")))?;
     let samples = attribute("samples")?;
-    let (s0, s1) = samples.split_once("..").ok_or_else(|| bad(format!("samples '{samples}' is not A..B")))?;
-    let info = PartInfo {
+    let (s0, s1) =
+        samples.split_once("..").ok_or_else(|| bad(path, format!("samples '{samples}' is not A..B")))?;
+    Ok(PartInfo {
         fingerprint: attribute("fingerprint")?,
         integrator: attribute("integrator")?,
         part: number(i)?,
@@ -148,12 +157,28 @@ pub fn read_part(path: &Path) -> Result<(Film, PartInfo)> {
         samples: number(s0)?..number(s1)?,
         spp: number(&attribute("spp")?)?,
         per_unit: number(&attribute("per_unit")?)?,
-    };
+    })
+}
+
+/// Read an accumulator: its film and what it is of. A file that is not one (an ordinary image, a
+/// truncated file, a newer format) is an error naming it.
+pub fn read_part(path: &Path) -> Result<(Film, PartInfo)> {
+    use exr::prelude::*;
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_file(path)
+        .map_err(|e| bad(path, format!("not a readable EXR accumulator: {e}")))?;
+    let layer = &image.layer_data;
+    let info = info_from(&layer.attributes, path)?;
     let (width, height) = (layer.size.width() as u32, layer.size.height() as u32);
     let channel = |name: &str| -> crate::error::Result<&[u32]> {
         match layer.channel_data.list.iter().find(|c| c.name == Text::from(name)).map(|c| &c.sample_data) {
             Some(FlatSamples::U32(v)) => Ok(v),
-            _ => Err(bad(format!("no uint channel '{name}'"))),
+            _ => Err(bad(path, format!("no uint channel '{name}'"))),
         }
     };
     let film = Film::new(width, height);
@@ -184,19 +209,17 @@ pub fn read_part(path: &Path) -> Result<(Film, PartInfo)> {
 /// integers, so the order of `paths` cannot change a bit.
 pub fn merge_parts(paths: &[impl AsRef<Path>]) -> Result<(Film, PartInfo)> {
     let merge_err = |problem: String| Error::Merge { problem };
-    let mut parts = Vec::new();
+    // The headers first: a foreign, duplicate or missing part is found before any pixel is read.
+    let mut headers = Vec::new();
     for path in paths {
-        let path = path.as_ref();
-        let (film, info) = read_part(path)?;
-        parts.push((path.to_path_buf(), film, info));
+        let (info, size) = read_info(path.as_ref())?;
+        headers.push((path.as_ref(), info, size));
     }
-    let Some((first_path, first, base)) = parts.first() else {
+    let Some((first_path, base, size)) = headers.first().cloned() else {
         return Err(merge_err("no parts given".into()));
     };
-    let (first_path, base) = (first_path.clone(), base.clone());
-    let (width, height) = (first.width, first.height);
     let mut by_index: Vec<Option<&Path>> = vec![None; base.parts as usize];
-    for (path, film, info) in &parts {
+    for (path, info, part_size) in &headers {
         let differs = |what: &str| {
             merge_err(format!(
                 "{} is not a part of the same render as {}: its {what} differs",
@@ -210,7 +233,7 @@ pub fn merge_parts(paths: &[impl AsRef<Path>]) -> Result<(Film, PartInfo)> {
         if info.parts != base.parts || info.spp != base.spp || info.per_unit != base.per_unit {
             return Err(differs("split (parts or samples per pixel)"));
         }
-        if (film.width, film.height) != (width, height) {
+        if *part_size != size {
             return Err(differs("image size"));
         }
         if info.part == 0
@@ -236,18 +259,6 @@ pub fn merge_parts(paths: &[impl AsRef<Path>]) -> Result<(Film, PartInfo)> {
             )));
         }
         *slot = Some(path);
-        let want = info.samples.len() as u32 * info.per_unit;
-        if let Some(pixel) = (0..width * height).find(|&i| film.samples(i) != want) {
-            return Err(merge_err(format!(
-                "{}: part {}/{} is incomplete: pixel ({}, {}) has {} of its {want} samples (was it stopped before its end?)",
-                path.display(),
-                info.part,
-                info.parts,
-                pixel % width,
-                pixel / width,
-                film.samples(pixel)
-            )));
-        }
     }
     let missing: Vec<String> = by_index
         .iter()
@@ -262,8 +273,23 @@ pub fn merge_parts(paths: &[impl AsRef<Path>]) -> Result<(Film, PartInfo)> {
             missing.join(", ")
         )));
     }
+    // Then the pixels, one part at a time: memory for the whole film and one part.
+    let (width, height) = size;
     let whole = Film::new(width, height);
-    for (_, film, _) in &parts {
+    for (path, _, _) in &headers {
+        let (film, info) = read_part(path)?;
+        let want = info.samples.len() as u32 * info.per_unit;
+        if let Some(pixel) = (0..width * height).find(|&i| film.samples(i) != want) {
+            return Err(merge_err(format!(
+                "{}: part {}/{} is incomplete: pixel ({}, {}) has {} of its {want} samples (was it stopped before its end?)",
+                path.display(),
+                info.part,
+                info.parts,
+                pixel % width,
+                pixel / width,
+                film.samples(pixel)
+            )));
+        }
         for i in 0..width * height {
             let (sums, count) = film.sums(i);
             whole.add_sums(i, sums, count);
