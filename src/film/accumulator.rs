@@ -176,7 +176,7 @@ pub fn read_part(path: &Path) -> Result<(Film, PartInfo)> {
     let info = info_from(&layer.attributes, path)?;
     let (width, height) = (layer.size.width() as u32, layer.size.height() as u32);
     let channel = |name: &str| -> crate::error::Result<&[u32]> {
-        match layer.channel_data.list.iter().find(|c| c.name == Text::from(name)).map(|c| &c.sample_data) {
+        match layer.channel_data.list.iter().find(|c| c.name == *name).map(|c| &c.sample_data) {
             Some(FlatSamples::U32(v)) => Ok(v),
             _ => Err(bad(path, format!("no uint channel '{name}'"))),
         }
