@@ -282,6 +282,17 @@ pub struct RenderArgs {
     /// exact sums) to the one `-o FILE.exr`; `caustica merge` makes the image of all K.
     #[arg(long, value_name = "I/K", value_parser = parse_part)]
     pub part: Option<(u32, u32)>,
+    /// Write a checkpoint (an accumulator EXR of the whole passes so far) to FILE every
+    /// --checkpoint-every seconds, on SIGINT or SIGTERM, and at the end (pt, pt-naive, pm, pppm).
+    #[arg(long, value_name = "FILE.exr")]
+    pub checkpoint: Option<PathBuf>,
+    /// Seconds between checkpoints.
+    #[arg(long, value_name = "SECONDS", default_value_t = 60.0)]
+    pub checkpoint_every: f64,
+    /// Continue the render a checkpoint holds (the same scene and settings; --spp or --passes may
+    /// raise the target): once it reaches the target, the same bits as a render never stopped.
+    #[arg(long, value_name = "FILE.exr")]
+    pub resume: Option<PathBuf>,
     /// No progress bar.
     #[arg(short, long)]
     pub quiet: bool,

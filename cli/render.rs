@@ -41,6 +41,21 @@ pub fn render(args: &RenderArgs) -> Result<bool> {
     let outputs = output_paths(args, &run, &scene_path);
     check_outputs(&outputs, &inputs(args, &run, &scene_path))?;
     let mut part = args.part.map(|(i, k)| part_info(&scene, &run, i, k, &outputs)).transpose()?;
+    if part.is_some() && (args.checkpoint.is_some() || args.resume.is_some()) {
+        anyhow::bail!("--part renders a share of its own; it does not combine with --checkpoint or --resume");
+    }
+    let resumed =
+        args.resume.as_deref().map(|path| crate::checkpoint::read_resume(path, &scene, &run)).transpose()?;
+    let mut checkpoints = match &args.checkpoint {
+        Some(path) => {
+            if outputs.iter().chain(args.reference.iter()).any(|o| o == path) {
+                anyhow::bail!("{}: the checkpoint is also an image output or the reference", path.display());
+            }
+            output::check_output_path(path)?;
+            Some(crate::checkpoint::Checkpoints::new(path, args.checkpoint_every, &scene, &run)?)
+        }
+        None => None,
+    };
     let reference = args.reference.as_deref().map(output::read_exr).transpose()?;
     let mut renderer =
         Renderer::new(scene, &run).with_context(|| format!("preparing {}", scene_path.display()))?;
@@ -72,11 +87,22 @@ pub fn render(args: &RenderArgs) -> Result<bool> {
             .ok()
     });
     renderer.set_max_pass(run.output.write_every);
+    if let Some(resumed) = resumed {
+        resumed.apply(&mut renderer)?;
+    }
+    if let Some(checkpoints) = &mut checkpoints {
+        checkpoints.configure(&mut renderer, run.output.write_every)?;
+    }
 
     let bar = progress_bar(&renderer, args.quiet);
     let render_start = Instant::now();
     let mut written_marks = 0;
     let report = renderer.run(run.render.time_limit, |renderer| {
+        if let Some(checkpoints) = &mut checkpoints
+            && let Err(e) = checkpoints.write_if_due(renderer)
+        {
+            bar.suspend(|| tracing::warn!("{e:#}; rendering goes on"));
+        }
         let progress = renderer.progress();
         show_progress(&bar, &progress, render_start.elapsed().as_secs_f64());
         if let Some(server) = &mut display
@@ -102,6 +128,8 @@ pub fn render(args: &RenderArgs) -> Result<bool> {
         }
     });
     bar.finish_and_clear();
+    // The last checkpoint: at the end, or where a signal stopped the render (between passes).
+    let checkpoint_failed = checkpoints.as_mut().and_then(|c| c.write(&renderer).err());
     let image = renderer.image();
     if let Some(server) = &mut display
         && let Err(e) = server.update(&image)
@@ -127,6 +155,9 @@ pub fn render(args: &RenderArgs) -> Result<bool> {
     }
     for path in &outputs {
         println!("wrote       {}", path.display());
+    }
+    if let Some(e) = checkpoint_failed {
+        anyhow::bail!("the checkpoint was not written: {e:#}");
     }
     if !failed.is_empty() {
         anyhow::bail!("{}", failed.join("; "));

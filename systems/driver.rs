@@ -60,6 +60,10 @@ pub struct Renderer {
     max_pass: Option<u32>,
     /// Why the last `run` ended early, if it did.
     stopped_by: Option<StopReason>,
+    /// Stop only between passes, so that the film holds whole passes (checkpoints).
+    whole_passes: bool,
+    /// The last pass has ended and no step of the next has run: the film holds exactly `done`.
+    at_pass_boundary: bool,
 }
 
 /// Why a render ended before its target.
@@ -100,6 +104,8 @@ impl Renderer {
             interrupt: Arc::new(AtomicBool::new(false)),
             max_pass: None,
             stopped_by: None,
+            whole_passes: false,
+            at_pass_boundary: true,
         })
     }
 
@@ -145,6 +151,59 @@ impl Renderer {
         Ok(())
     }
 
+    /// Whether this render's film alone says where it stands, so that a partial render or a
+    /// checkpoint of it continues exactly: true for `pt`, `pt-naive`, `pm` and `pppm`; the other
+    /// progressive mappers keep per-pixel statistics that chain their passes.
+    pub fn film_is_the_state(&self) -> bool {
+        self.plan.unit == Unit::Samples || self.plan.kind == caustica_core::scene::IntegratorKind::Pppm
+    }
+
+    /// Continue from `film`, which holds units `0..done` (samples per pixel, or `pppm`'s passes) of
+    /// this render, towards the current target: the same bits, once it is reached, as a render that
+    /// never stopped. Before the first pass.
+    pub fn resume(&mut self, film: caustica_core::film::Film, done: u32) -> Result<()> {
+        let refuse =
+            |problem: String| Err(caustica_core::error::Error::Setting { name: "resume".into(), problem });
+        if !self.film_is_the_state() {
+            return refuse(format!(
+                "{:?} keeps per-pixel statistics between passes, which checkpoints do not hold yet",
+                self.plan.kind
+            ));
+        }
+        if self.features.learns_visibility {
+            return refuse("visibility-aware light selection learns from the first samples, which a checkpoint does not hold; use uniform, power or tree".into());
+        }
+        let current = self.film();
+        if (film.width, film.height) != (current.width, current.height) {
+            return refuse(format!(
+                "the checkpoint is {}x{}, the render {}x{}",
+                film.width, film.height, current.width, current.height
+            ));
+        }
+        if self.passes > 0 {
+            return refuse("the render has started".into());
+        }
+        self.world.insert_resource(FilmResource(film));
+        (self.first, self.done) = (done, done);
+        Ok(())
+    }
+
+    /// Stop for a signal or the time limit only between passes, so that the film always holds whole
+    /// passes (what a checkpoint needs); a pass in flight is finished first.
+    pub fn set_whole_passes(&mut self, whole: bool) {
+        self.whole_passes = whole;
+    }
+
+    /// Whether the film holds exactly the passes done (no step of a next pass has run).
+    pub fn at_pass_boundary(&self) -> bool {
+        self.at_pass_boundary
+    }
+
+    /// Units of progress whole in the film: samples per pixel, or passes.
+    pub fn units_done(&self) -> u32 {
+        self.done
+    }
+
     /// Camera samples a pixel gets per unit of progress (a sample per pixel, or a pass).
     pub fn camera_samples_per_unit(&self) -> u32 {
         match self.plan.unit {
@@ -186,7 +245,7 @@ impl Renderer {
     /// How far the render has come.
     pub fn progress(&self) -> Progress {
         let done = match self.plan.unit {
-            Unit::Passes => self.passes as f64,
+            Unit::Passes => (self.first + self.passes) as f64,
             Unit::Samples => {
                 let film = self.world.resource::<FilmResource>();
                 let pixels = (film.width as u64 * film.height as u64).max(1) as f64;
@@ -221,6 +280,7 @@ impl Renderer {
             end = end.min(begin.saturating_add(units));
         }
         self.world.insert_resource(PassRange { index, begin, end, stop: false });
+        self.at_pass_boundary = false;
         let _span = tracing::info_span!("pass", index).entered();
         for i in 0..self.plan.phases.len() {
             if !self.plan.phases[i].when.includes(index) {
@@ -234,9 +294,11 @@ impl Renderer {
                 runs += 1;
                 let Repeat::WhileBusy(busy) = self.plan.phases[i].repeat else { break };
                 if let Some(reason) = self.should_stop(deadline) {
-                    self.world.resource_mut::<PassRange>().stop = true;
+                    if !self.whole_passes {
+                        self.world.resource_mut::<PassRange>().stop = true;
+                    }
                     self.stopped = true;
-                    self.stopped_by = Some(reason);
+                    self.stopped_by.get_or_insert(reason);
                 }
                 on_step(self);
                 if !busy(&self.world) {
@@ -250,6 +312,7 @@ impl Renderer {
         }
         self.passes += 1;
         self.done = end;
+        self.at_pass_boundary = true;
         self.seconds += pass_start.elapsed().as_secs_f64();
         if let Some(reason) = self.should_stop(deadline)
             && self.done < self.target

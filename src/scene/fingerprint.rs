@@ -1,7 +1,8 @@
 //! A fingerprint of what decides a render's image: the scene's content and every setting that
 //! changes a pixel. Partial renders carry it, so that a merge refuses parts of different renders.
 //! Paths, output settings, time limits and memory budgets are left out: they differ between machines
-//! or runs without changing the bits.
+//! or runs without changing the bits. So is the target (samples per pixel, passes): a resumed render
+//! may go past its first target, and an accumulator records its samples itself.
 
 use super::{RunFile, Scene};
 use std::fmt::Write;
@@ -14,6 +15,8 @@ pub fn fingerprint(scene: &Scene, run: &RunFile) -> String {
     settings.gltf = None;
     settings.output = Default::default();
     settings.render.time_limit = None;
+    settings.render.spp = 0;
+    settings.progressive.passes = 0;
     settings.render.memory_budget_mib = None;
     settings.progressive.memory_budget_mib = None;
     settings.environment.file = None;

@@ -1,0 +1,164 @@
+//! Checkpoint and resume: a render stopped by a signal and continued from its checkpoint gives the
+//! bits of one that never stopped; a checkpoint of another render, or a damaged one, is refused and
+//! nothing is overwritten.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+fn caustica(args: &[&str], paths: &[&Path]) -> Command {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_caustica"));
+    command.arg("render").arg(common::data("cornell-spheres.gltf"));
+    command.args(["--width", "48", "--height", "36", "--quiet"]).args(args);
+    for path in paths {
+        command.arg(path);
+    }
+    command
+}
+
+fn wait_for(path: &Path, child: &mut Child) {
+    let start = Instant::now();
+    while !path.exists() {
+        assert!(child.try_wait().unwrap().is_none(), "the render ended before its first checkpoint");
+        assert!(start.elapsed() < Duration::from_secs(120), "no checkpoint after 120 s");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// Render `flags` to the end in one go, and again stopped by SIGINT after its first checkpoint and
+/// resumed from it: the two EXRs are the same bytes.
+fn interrupted_and_resumed_equals_uninterrupted(flags: &[&str]) {
+    let dir = tempfile::tempdir().unwrap();
+    let whole = dir.path().join("whole.exr");
+    assert!(caustica(flags, &[]).arg("-o").arg(&whole).status().unwrap().success());
+
+    let (checkpoint, stopped, resumed) =
+        (dir.path().join("run.ckpt.exr"), dir.path().join("stopped.exr"), dir.path().join("resumed.exr"));
+    let ck = checkpoint.to_str().unwrap();
+    let mut child = caustica(
+        &[flags, &["--checkpoint", ck, "--checkpoint-every", "0.01", "--threads", "1"]].concat(),
+        &[],
+    )
+    .arg("-o")
+    .arg(&stopped)
+    .stdout(Stdio::null())
+    .spawn()
+    .unwrap();
+    wait_for(&checkpoint, &mut child);
+    let status = Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
+    assert!(status.success());
+    let code = child.wait().unwrap().code();
+    // 130: stopped by the signal, the checkpoint and the image so far written; 0 if the render
+    // reached its end first (then the resume below has nothing left to do, which must work too).
+    assert!(matches!(code, Some(130) | Some(0)), "exit {code:?}");
+    assert!(stopped.exists(), "the image so far is written");
+
+    let status = caustica(&[flags, &["--resume", ck, "--threads", "2"]].concat(), &[])
+        .arg("-o")
+        .arg(&resumed)
+        .status()
+        .unwrap();
+    assert!(status.success(), "resume");
+    assert_eq!(
+        std::fs::read(&resumed).unwrap(),
+        std::fs::read(&whole).unwrap(),
+        "{flags:?}: resumed != whole"
+    );
+}
+
+#[test]
+fn pt_stopped_by_a_signal_and_resumed_is_the_uninterrupted_render() {
+    interrupted_and_resumed_equals_uninterrupted(&["--integrator", "pt", "--spp", "512"]);
+}
+
+#[test]
+fn pppm_stopped_by_a_signal_and_resumed_is_the_uninterrupted_render() {
+    interrupted_and_resumed_equals_uninterrupted(&[
+        "--integrator",
+        "pppm",
+        "--passes",
+        "48",
+        "--photons-per-pass",
+        "20000",
+    ]);
+}
+
+/// A checkpoint's target can be raised: 8 spp resumed to 16 is a 16-spp render.
+#[test]
+fn a_resumed_render_can_go_past_its_first_target() {
+    let dir = tempfile::tempdir().unwrap();
+    let (ck, eight, sixteen, whole) = (
+        dir.path().join("ck.exr"),
+        dir.path().join("8.exr"),
+        dir.path().join("16.exr"),
+        dir.path().join("whole.exr"),
+    );
+    let ck_arg = ck.to_str().unwrap();
+    assert!(
+        caustica(&["--spp", "8", "--checkpoint", ck_arg], &[])
+            .arg("-o")
+            .arg(&eight)
+            .status()
+            .unwrap()
+            .success()
+    );
+    assert!(
+        caustica(&["--spp", "16", "--resume", ck_arg], &[])
+            .arg("-o")
+            .arg(&sixteen)
+            .status()
+            .unwrap()
+            .success()
+    );
+    assert!(caustica(&["--spp", "16"], &[]).arg("-o").arg(&whole).status().unwrap().success());
+    assert_eq!(std::fs::read(&sixteen).unwrap(), std::fs::read(&whole).unwrap());
+}
+
+/// Refused, naming the file, with the outputs left as they were: a checkpoint of another seed, a
+/// truncated one, and one of a progressive mapper whose statistics it does not hold.
+#[test]
+fn a_foreign_or_damaged_checkpoint_is_refused_and_nothing_is_overwritten() {
+    let dir = tempfile::tempdir().unwrap();
+    let ck: PathBuf = dir.path().join("ck.exr");
+    let ck_arg = ck.to_str().unwrap();
+    let out = dir.path().join("out.exr");
+    assert!(
+        caustica(&["--spp", "4", "--checkpoint", ck_arg], &[])
+            .arg("-o")
+            .arg(&out)
+            .status()
+            .unwrap()
+            .success()
+    );
+    let before = std::fs::read(&out).unwrap();
+
+    let refused = |args: &[&str]| {
+        let output = caustica(args, &[]).arg("-o").arg(&out).output().unwrap();
+        assert!(!output.status.success(), "{args:?} should be refused");
+        assert_eq!(std::fs::read(&out).unwrap(), before, "{args:?}: the output was overwritten");
+        String::from_utf8_lossy(&output.stderr).into_owned()
+    };
+    let e = refused(&["--spp", "8", "--seed", "99", "--resume", ck_arg]);
+    assert!(e.contains("ck.exr") && e.contains("another scene or settings"), "{e}");
+
+    let cut = dir.path().join("cut.exr");
+    let bytes = std::fs::read(&ck).unwrap();
+    std::fs::write(&cut, &bytes[..bytes.len() / 3]).unwrap();
+    let e = refused(&["--spp", "8", "--resume", cut.to_str().unwrap()]);
+    assert!(e.contains("cut.exr"), "{e}");
+
+    let e = refused(&["--spp", "2", "--resume", ck_arg]);
+    assert!(e.contains("already holds 4"), "{e}");
+
+    let e = refused(&[
+        "--integrator",
+        "sppm",
+        "--passes",
+        "4",
+        "--checkpoint",
+        dir.path().join("s.exr").to_str().unwrap(),
+    ]);
+    assert!(e.contains("checkpoint") && e.contains("statistics"), "{e}");
+}
