@@ -31,6 +31,7 @@ pub struct Checkpoints {
 /// A checkpoint read for `--resume`, checked against this scene and settings.
 pub struct Resumed {
     film: Film,
+    hit_points: Option<accumulator::HitPointState>,
     done: u32,
     path: PathBuf,
 }
@@ -46,7 +47,7 @@ fn identity(scene: &Scene, run: &RunFile) -> (String, String) {
 /// Read and check `--resume`'s file before anything is rendered or written: a file of another scene
 /// or settings, an incomplete one, or a part of a split render is refused, naming the file.
 pub fn read_resume(path: &Path, scene: &Scene, run: &RunFile) -> Result<Resumed> {
-    let (film, info) = accumulator::read_part(path)?;
+    let (film, info, hit_points) = accumulator::read_checkpoint(path)?;
     let (fingerprint, _) = identity(scene, run);
     if info.fingerprint != fingerprint {
         anyhow::bail!(
@@ -63,15 +64,7 @@ pub fn read_resume(path: &Path, scene: &Scene, run: &RunFile) -> Result<Resumed>
             info.parts
         );
     }
-    let want = info.samples.end * info.per_unit;
-    if let Some(pixel) = (0..film.width * film.height).find(|&i| film.samples(i) != want) {
-        anyhow::bail!(
-            "{}: pixel {pixel} has {} samples where the checkpoint says {want}: not a checkpoint this build wrote",
-            path.display(),
-            film.samples(pixel)
-        );
-    }
-    Ok(Resumed { film, done: info.samples.end, path: path.to_path_buf() })
+    Ok(Resumed { film, hit_points, done: info.samples.end, path: path.to_path_buf() })
 }
 
 impl Resumed {
@@ -85,8 +78,18 @@ impl Resumed {
                 self.done
             );
         }
+        let want = renderer.film_samples_after(self.done);
+        if let Some(pixel) = (0..self.film.width * self.film.height).find(|&i| self.film.samples(i) != want) {
+            anyhow::bail!(
+                "{}: pixel {pixel} has {} samples where the checkpoint says {want}: not a checkpoint this build wrote",
+                self.path.display(),
+                self.film.samples(pixel)
+            );
+        }
         let path = self.path.clone();
-        renderer.resume(self.film, self.done).with_context(|| format!("resuming {}", path.display()))?;
+        renderer
+            .resume(self.film, self.done, self.hit_points.as_ref())
+            .with_context(|| format!("resuming {}", path.display()))?;
         Ok(())
     }
 }
@@ -111,12 +114,8 @@ impl Checkpoints {
 
     /// Stop only between passes, and cut the sample integrators' passes so that there are some.
     pub fn configure(&mut self, renderer: &mut Renderer, write_every: Option<u32>) -> Result<()> {
-        if !renderer.film_is_the_state() {
-            anyhow::bail!(
-                "--checkpoint: {} keeps per-pixel statistics between passes, which checkpoints do not hold yet; \
-                 pt, pt-naive, pm and pppm can be checkpointed",
-                self.integrator
-            );
+        if let Some(problem) = renderer.checkpoint_refusal() {
+            anyhow::bail!("--checkpoint: {problem}");
         }
         renderer.set_whole_passes(true);
         if renderer.progress().unit == caustica::report::Unit::Samples {
@@ -154,7 +153,12 @@ impl Checkpoints {
             spp: renderer.target(),
             per_unit: renderer.camera_samples_per_unit(),
         };
-        accumulator::write_part(renderer.film(), &info, &self.path)?;
+        accumulator::write_checkpoint(
+            renderer.film(),
+            &info,
+            renderer.hit_point_state().as_ref(),
+            &self.path,
+        )?;
         (self.last, self.last_units) = (Instant::now(), done);
         Ok(())
     }

@@ -158,20 +158,38 @@ impl Renderer {
         self.plan.unit == Unit::Samples || self.plan.kind == caustica_core::scene::IntegratorKind::Pppm
     }
 
-    /// Continue from `film`, which holds units `0..done` (samples per pixel, or `pppm`'s passes) of
-    /// this render, towards the current target: the same bits, once it is reached, as a render that
-    /// never stopped. Before the first pass.
-    pub fn resume(&mut self, film: caustica_core::film::Film, done: u32) -> Result<()> {
+    /// Why a checkpoint cannot hold this render, if it cannot. It holds the film, and for the
+    /// progressive mappers but `pppm` their hit points (statistics, and for `ppm`, which traces them
+    /// once, the hits).
+    pub fn checkpoint_refusal(&self) -> Option<String> {
+        self.features.learns_visibility.then(|| {
+            "visibility-aware light selection learns from the first samples, which a checkpoint does not \
+             hold; use uniform, power or tree"
+                .to_string()
+        })
+    }
+
+    /// The hit points' state, for a checkpoint (`None` without hit points).
+    pub fn hit_point_state(&self) -> Option<caustica_core::film::accumulator::HitPointState> {
+        if self.film_is_the_state() { None } else { crate::hit_point_state::save(&self.world) }
+    }
+
+    /// Continue from `film`, which holds units `0..done` (samples per pixel, or passes) of this
+    /// render, and for `sppm`, `appm`, `cppm` and `ppm` from their `hit_points`, towards the current target:
+    /// the same bits, once it is reached, as a render that never stopped. Before the first pass.
+    pub fn resume(
+        &mut self,
+        film: caustica_core::film::Film,
+        done: u32,
+        hit_points: Option<&caustica_core::film::accumulator::HitPointState>,
+    ) -> Result<()> {
         let refuse =
             |problem: String| Err(caustica_core::error::Error::Setting { name: "resume".into(), problem });
-        if !self.film_is_the_state() {
-            return refuse(format!(
-                "{:?} keeps per-pixel statistics between passes, which checkpoints do not hold yet",
-                self.plan.kind
-            ));
+        if let Some(problem) = self.checkpoint_refusal() {
+            return refuse(problem);
         }
-        if self.features.learns_visibility {
-            return refuse("visibility-aware light selection learns from the first samples, which a checkpoint does not hold; use uniform, power or tree".into());
+        if self.passes > 0 {
+            return refuse("the render has started".into());
         }
         let current = self.film();
         if (film.width, film.height) != (current.width, current.height) {
@@ -180,8 +198,11 @@ impl Renderer {
                 film.width, film.height, current.width, current.height
             ));
         }
-        if self.passes > 0 {
-            return refuse("the render has started".into());
+        if !self.film_is_the_state() {
+            let Some(state) = hit_points else {
+                return refuse("the checkpoint holds no hit points, which this integrator needs".into());
+            };
+            crate::hit_point_state::restore(&mut self.world, state)?;
         }
         self.world.insert_resource(FilmResource(film));
         (self.first, self.done) = (done, done);
@@ -212,6 +233,16 @@ impl Renderer {
                 .world
                 .get_resource::<crate::resources::ProgressiveConfig>()
                 .map_or(1, |c| c.hit_points_per_pixel),
+        }
+    }
+
+    /// Camera samples each pixel of the film holds once `units` units are done: `ppm` traces its
+    /// camera paths in the render's first pass only.
+    pub fn film_samples_after(&self, units: u32) -> u32 {
+        if self.plan.kind == caustica_core::scene::IntegratorKind::Ppm {
+            self.camera_samples_per_unit() * units.min(1)
+        } else {
+            self.camera_samples_per_unit() * units
         }
     }
 
@@ -283,7 +314,7 @@ impl Renderer {
         self.at_pass_boundary = false;
         let _span = tracing::info_span!("pass", index).entered();
         for i in 0..self.plan.phases.len() {
-            if !self.plan.phases[i].when.includes(index) {
+            if !self.plan.phases[i].when.includes(index, begin) {
                 continue;
             }
             let phase_start = Instant::now();
@@ -336,7 +367,7 @@ impl Renderer {
 
     /// The image so far.
     pub fn image(&self) -> Image {
-        (self.plan.image)(&self.world, self.passes)
+        (self.plan.image)(&self.world, self.first + self.passes)
     }
 
     /// Start over on the same entities: a black film, zero counters, no passes (a host's next

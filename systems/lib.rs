@@ -88,6 +88,7 @@ pub mod components;
 pub mod driver;
 pub mod emit;
 pub mod gather;
+pub mod hit_point_state;
 pub mod integrators;
 pub mod passes;
 pub mod plan;

@@ -14,18 +14,23 @@ use caustica_core::scene::IntegratorKind;
 pub enum When {
     /// Every pass.
     EveryPass,
-    /// The first pass only (`pm`'s photon maps, `ppm`'s hit points).
+    /// The first pass this process runs (`pm`'s photon maps, which no part or checkpoint holds).
     FirstPass,
+    /// The render's first pass, pass 0 of the whole render (`ppm`'s hit points, which a checkpoint
+    /// holds: a resumed render does not trace them again).
+    RenderStart,
     /// Every pass but the first (what the first pass learned is frozen).
     LaterPasses,
 }
 
 impl When {
-    /// Whether a phase with this rule runs in pass `index`.
-    pub fn includes(self, index: u32) -> bool {
+    /// Whether a phase with this rule runs in this process's pass `index`, which is the render's
+    /// pass or sample `begin`.
+    pub fn includes(self, index: u32, begin: u32) -> bool {
         match self {
             Self::EveryPass => true,
             Self::FirstPass => index == 0,
+            Self::RenderStart => begin == 0,
             Self::LaterPasses => index > 0,
         }
     }

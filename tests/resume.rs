@@ -85,6 +85,30 @@ fn pppm_stopped_by_a_signal_and_resumed_is_the_uninterrupted_render() {
     ]);
 }
 
+fn progressive(kind: &'static str) -> [&'static str; 6] {
+    ["--integrator", kind, "--passes", "40", "--photons-per-pass", "20000"]
+}
+
+#[test]
+fn sppm_stopped_by_a_signal_and_resumed_is_the_uninterrupted_render() {
+    interrupted_and_resumed_equals_uninterrupted(&progressive("sppm"));
+}
+
+#[test]
+fn appm_stopped_by_a_signal_and_resumed_is_the_uninterrupted_render() {
+    interrupted_and_resumed_equals_uninterrupted(&progressive("appm"));
+}
+
+#[test]
+fn ppm_stopped_by_a_signal_and_resumed_is_the_uninterrupted_render() {
+    interrupted_and_resumed_equals_uninterrupted(&progressive("ppm"));
+}
+
+#[test]
+fn cppm_stopped_by_a_signal_and_resumed_is_the_uninterrupted_render() {
+    interrupted_and_resumed_equals_uninterrupted(&progressive("cppm"));
+}
+
 /// A checkpoint's target can be raised: 8 spp resumed to 16 is a 16-spp render.
 #[test]
 fn a_resumed_render_can_go_past_its_first_target() {
@@ -117,7 +141,8 @@ fn a_resumed_render_can_go_past_its_first_target() {
 }
 
 /// Refused, naming the file, with the outputs left as they were: a checkpoint of another seed, a
-/// truncated one, and one of a progressive mapper whose statistics it does not hold.
+/// truncated one, one that already holds more than asked, and a checkpoint of visibility-aware light
+/// selection, which learns from its first samples what the film does not hold.
 #[test]
 fn a_foreign_or_damaged_checkpoint_is_refused_and_nothing_is_overwritten() {
     let dir = tempfile::tempdir().unwrap();
@@ -153,12 +178,12 @@ fn a_foreign_or_damaged_checkpoint_is_refused_and_nothing_is_overwritten() {
     assert!(e.contains("already holds 4"), "{e}");
 
     let e = refused(&[
-        "--integrator",
-        "sppm",
-        "--passes",
+        "--spp",
         "4",
+        "--light-selection",
+        "visibility",
         "--checkpoint",
-        dir.path().join("s.exr").to_str().unwrap(),
+        dir.path().join("v.exr").to_str().unwrap(),
     ]);
-    assert!(e.contains("checkpoint") && e.contains("statistics"), "{e}");
+    assert!(e.contains("--checkpoint") && e.contains("visibility"), "{e}");
 }

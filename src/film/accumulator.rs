@@ -17,6 +17,22 @@ use crate::error::{Error, Result};
 use std::collections::HashMap;
 use std::path::Path;
 
+/// A progressive photon mapper's hit points in a checkpoint: `words_per_point` 32-bit words for
+/// each of `points_per_pixel` hit points per pixel, in entity order (pixel-major), stored as the
+/// uint channels `w.000`, `w.001`, … of a second EXR part, `hit_points`, of width × points per pixel;
+/// and the initial radius, in its header (`caustica.r0`, the f32's bits).
+#[derive(Clone, Debug, PartialEq)]
+pub struct HitPointState {
+    /// Words per hit point.
+    pub words_per_point: u32,
+    /// Hit points per pixel.
+    pub points_per_pixel: u32,
+    /// The initial radius the render chose.
+    pub r0: f32,
+    /// All the words, hit point after hit point.
+    pub words: Vec<u32>,
+}
+
 /// Version of the layout above.
 pub const FORMAT_VERSION: u32 = 1;
 
@@ -54,6 +70,16 @@ const CHANNELS: [&str; 3] = ["R", "G", "B"];
 
 /// Write `film` with `info` to `path` (a temporary file beside it, renamed over it once complete).
 pub fn write_part(film: &Film, info: &PartInfo, path: &Path) -> Result<()> {
+    write_checkpoint(film, info, None, path)
+}
+
+/// Write `film` with `info`, and a progressive mapper's hit points when given, to `path`.
+pub fn write_checkpoint(
+    film: &Film,
+    info: &PartInfo,
+    hit_points: Option<&HitPointState>,
+    path: &Path,
+) -> Result<()> {
     use exr::prelude::*;
     let out_err = |message: String| crate::error::Error::Output { path: path.to_path_buf(), message };
     let n = film.width as usize * film.height as usize;
@@ -100,11 +126,46 @@ pub fn write_part(film: &Film, info: &PartInfo, path: &Path) -> Result<()> {
     let mut file = builder
         .tempfile_in(dir)
         .map_err(|e| out_err(format!("cannot create a file in {}: {e}", dir.display())))?;
-    Image::from_layer(layer)
-        .write()
-        .non_parallel()
-        .to_buffered(&mut file)
-        .map_err(|e| out_err(e.to_string()))?;
+    let mut layers = vec![layer];
+    if let Some(state) = hit_points {
+        let per = state.words_per_point as usize;
+        let width = film.width as usize * state.points_per_pixel as usize;
+        if state.words.len() != per * width * film.height as usize {
+            return Err(out_err(format!(
+                "{} hit-point words do not fill {width}x{}",
+                state.words.len(),
+                film.height
+            )));
+        }
+        let channels: Vec<_> = (0..per)
+            .map(|w| {
+                AnyChannel::new(
+                    format!("w.{w:03}").as_str(),
+                    FlatSamples::U32(state.words.iter().skip(w).step_by(per).copied().collect()),
+                )
+            })
+            .collect();
+        let mut attributes = LayerAttributes::named("hit_points");
+        attributes.other = HashMap::from([
+            text("words_per_point", state.words_per_point.to_string()),
+            text("points_per_pixel", state.points_per_pixel.to_string()),
+            text("r0", state.r0.to_bits().to_string()),
+        ]);
+        layers.push(Layer::new(
+            (width, film.height as usize),
+            attributes,
+            Encoding::SMALL_LOSSLESS,
+            AnyChannels::sort(SmallVec::from_vec(channels)),
+        ));
+    }
+    Image::from_layers(
+        ImageAttributes::new(IntegerBounds::from_dimensions((film.width as usize, film.height as usize))),
+        layers,
+    )
+    .write()
+    .non_parallel()
+    .to_buffered(&mut file)
+    .map_err(|e| out_err(e.to_string()))?;
     file.as_file().sync_all().map_err(|e| out_err(e.to_string()))?;
     file.persist(path).map(drop).map_err(|e| out_err(e.error.to_string()))
 }
@@ -113,7 +174,13 @@ pub fn write_part(film: &Film, info: &PartInfo, path: &Path) -> Result<()> {
 pub fn read_info(path: &Path) -> Result<(PartInfo, (u32, u32))> {
     let meta = exr::meta::MetaData::read_from_file(path, false)
         .map_err(|e| bad(path, format!("not a readable EXR accumulator: {e}")))?;
-    let header = meta.headers.first().ok_or_else(|| bad(path, "an EXR file without a part".into()))?;
+    let header = meta
+        .headers
+        .iter()
+        .find(|h| h.own_attributes.layer_name.as_ref().is_some_and(|n| *n == *"accumulator"))
+        .ok_or_else(|| {
+            bad(path, "no accumulator part: not a caustica accumulator (written with --part)".into())
+        })?;
     let info = info_from(&header.own_attributes, path)?;
     Ok((info, (header.layer_size.width() as u32, header.layer_size.height() as u32)))
 }
@@ -163,16 +230,26 @@ fn info_from(attributes: &exr::meta::header::LayerAttributes, path: &Path) -> Re
 /// Read an accumulator: its film and what it is of. A file that is not one (an ordinary image, a
 /// truncated file, a newer format) is an error naming it.
 pub fn read_part(path: &Path) -> Result<(Film, PartInfo)> {
+    read_checkpoint(path).map(|(film, info, _)| (film, info))
+}
+
+/// Read an accumulator with the hit points a checkpoint of a progressive mapper holds, if any.
+pub fn read_checkpoint(path: &Path) -> Result<(Film, PartInfo, Option<HitPointState>)> {
     use exr::prelude::*;
     let image = read()
         .no_deep_data()
         .largest_resolution_level()
         .all_channels()
-        .first_valid_layer()
+        .all_layers()
         .all_attributes()
         .from_file(path)
         .map_err(|e| bad(path, format!("not a readable EXR accumulator: {e}")))?;
-    let layer = &image.layer_data;
+    let named = |name: &str| {
+        image.layer_data.iter().find(|l| l.attributes.layer_name.as_ref().is_some_and(|n| *n == *name))
+    };
+    let layer = named("accumulator").ok_or_else(|| {
+        bad(path, "no accumulator part: not a caustica accumulator (written with --part)".into())
+    })?;
     let info = info_from(&layer.attributes, path)?;
     let (width, height) = (layer.size.width() as u32, layer.size.height() as u32);
     let channel = |name: &str| -> crate::error::Result<&[u32]> {
@@ -201,7 +278,43 @@ pub fn read_part(path: &Path) -> Result<(Film, PartInfo)> {
         };
         film.add_sums(i as u32, [sum(0), sum(1), sum(2)], count[i]);
     }
-    Ok((film, info))
+    let hit_points = match named("hit_points") {
+        None => None,
+        Some(layer) => {
+            let number = |key: &str| -> crate::error::Result<u32> {
+                match layer.attributes.other.get(&Text::from(format!("{ATTRIBUTE_PREFIX}{key}").as_str())) {
+                    Some(AttributeValue::Text(t)) => {
+                        t.to_string().parse().map_err(|_| bad(path, format!("unreadable {key}")))
+                    }
+                    _ => Err(bad(path, format!("hit points without {ATTRIBUTE_PREFIX}{key}"))),
+                }
+            };
+            let per = number("words_per_point")? as usize;
+            let channels: Vec<&[u32]> = (0..per)
+                .map(|w| {
+                    match layer
+                        .channel_data
+                        .list
+                        .iter()
+                        .find(|c| c.name == *format!("w.{w:03}").as_str())
+                        .map(|c| &c.sample_data)
+                    {
+                        Some(FlatSamples::U32(v)) => Ok(v.as_slice()),
+                        _ => Err(bad(path, format!("no hit-point word channel w.{w:03}"))),
+                    }
+                })
+                .collect::<crate::error::Result<_>>()?;
+            let points = layer.size.area();
+            let words = (0..points).flat_map(|k| channels.iter().map(move |c| c[k])).collect();
+            Some(HitPointState {
+                words_per_point: per as u32,
+                points_per_pixel: number("points_per_pixel")?,
+                r0: f32::from_bits(number("r0")?),
+                words,
+            })
+        }
+    };
+    Ok((film, info, hit_points))
 }
 
 /// Merge accumulators into the film of the whole render, checking first that they make one: the

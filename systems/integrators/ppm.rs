@@ -24,7 +24,7 @@ pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result
     let variant = Variant {
         rule: RadiusRule::Shrinking,
         nee: false,
-        camera: When::FirstPass,
+        camera: When::RenderStart,
         statistics: |schedule| {
             schedule.add_systems(
                 (build_pass_photon_map, gather_photons_into_hit_points).chain().in_set(PassSystems::Gather),

@@ -1,0 +1,162 @@
+//! What a checkpoint of a progressive photon mapper (`sppm`, `appm`, `cppm`) holds beyond its film:
+//! every hit point's statistics as 32-bit words in entity order, and the initial radius the first
+//! pass chose.
+
+use crate::components::{AdaptiveStats, Chi2Cells, HitPoint};
+use crate::resources::ProgressiveConfig;
+use bevy_ecs::prelude::*;
+use caustica_core::error::{Error, Result};
+use caustica_core::film::accumulator::HitPointState;
+use caustica_core::photon::progressive::CHI2_CELLS;
+use glam::{DVec3, Vec3};
+
+/// Words of a `HitPoint`.
+const HIT_POINT_WORDS: usize = 24;
+/// Words of an `AdaptiveStats`.
+const ADAPTIVE_WORDS: usize = 6;
+/// Words of a `Chi2Cells`.
+const CHI2_WORDS: usize = CHI2_CELLS + 1;
+
+fn push_f64(words: &mut Vec<u32>, v: f64) {
+    let bits = v.to_bits();
+    words.extend([bits as u32, (bits >> 32) as u32]);
+}
+
+fn push_vec3(words: &mut Vec<u32>, v: Vec3) {
+    words.extend(v.to_array().map(f32::to_bits));
+}
+
+/// Reads words back in the order they were pushed.
+struct Words<'a>(std::slice::Iter<'a, u32>);
+
+impl Words<'_> {
+    fn u32(&mut self) -> u32 {
+        *self.0.next().expect("the word count was checked")
+    }
+    fn f32(&mut self) -> f32 {
+        f32::from_bits(self.u32())
+    }
+    fn f64(&mut self) -> f64 {
+        let lo = self.u32() as u64;
+        f64::from_bits(lo | (self.u32() as u64) << 32)
+    }
+    fn vec3(&mut self) -> Vec3 {
+        Vec3::new(self.f32(), self.f32(), self.f32())
+    }
+}
+
+fn push_hit_point(words: &mut Vec<u32>, hp: &HitPoint) {
+    let start = words.len();
+    for c in hp.tau.to_array() {
+        push_f64(words, c);
+    }
+    push_f64(words, hp.n);
+    push_vec3(words, hp.p);
+    push_vec3(words, hp.beta);
+    push_vec3(words, hp.phi);
+    words.extend([hp.r2.to_bits(), hp.m, hp.wo, hp.ns]);
+    let [r, g, b] = hp.base_color.map(u32::from);
+    let [metallic, roughness] = hp.metallic_roughness.map(u32::from);
+    words.extend([r | g << 16, b | metallic << 16, roughness | (hp.material as u32) << 16]);
+    debug_assert_eq!(words.len() - start, HIT_POINT_WORDS);
+}
+
+fn read_hit_point(w: &mut Words) -> HitPoint {
+    let tau = DVec3::new(w.f64(), w.f64(), w.f64());
+    let n = w.f64();
+    let (p, beta, phi) = (w.vec3(), w.vec3(), w.vec3());
+    let (r2, m, wo, ns) = (w.f32(), w.u32(), w.u32(), w.u32());
+    let (rg, bm, rough_material) = (w.u32(), w.u32(), w.u32());
+    HitPoint {
+        tau,
+        n,
+        p,
+        beta,
+        phi,
+        r2,
+        m,
+        wo,
+        ns,
+        base_color: [rg as u16, (rg >> 16) as u16, bm as u16],
+        metallic_roughness: [(bm >> 16) as u16, rough_material as u16],
+        material: (rough_material >> 16) as u16,
+    }
+}
+
+/// The hit points' state, or `None` for an integrator without hit points.
+pub fn save(world: &World) -> Option<HitPointState> {
+    let config = *world.get_resource::<ProgressiveConfig>()?;
+    // One query per component (an optional component of a type the World never saw makes the
+    // whole query fail): they visit the hit points' one table in the same order.
+    let hit_points: Vec<HitPoint> = world.try_query::<&HitPoint>()?.iter(world).copied().collect();
+    let stats: Vec<AdaptiveStats> =
+        world.try_query::<&AdaptiveStats>().map_or(Vec::new(), |mut q| q.iter(world).copied().collect());
+    let cells: Vec<Chi2Cells> =
+        world.try_query::<&Chi2Cells>().map_or(Vec::new(), |mut q| q.iter(world).copied().collect());
+    let (adaptive, chi2) = (!stats.is_empty(), !cells.is_empty());
+    let per_point =
+        HIT_POINT_WORDS + if adaptive { ADAPTIVE_WORDS } else { 0 } + if chi2 { CHI2_WORDS } else { 0 };
+    let mut words = Vec::with_capacity(per_point * hit_points.len());
+    for (i, hp) in hit_points.iter().enumerate() {
+        push_hit_point(&mut words, hp);
+        if let Some(stats) = stats.get(i) {
+            let s = &stats.0;
+            push_f64(&mut words, s.laplacian_sum);
+            push_f64(&mut words, s.variance_sum);
+            words.extend([s.passes, s.laplacian.to_bits()]);
+        }
+        if let Some(cells) = cells.get(i) {
+            words.extend(cells.counts);
+            words.push(cells.min_photons.to_bits());
+        }
+    }
+    Some(HitPointState {
+        words_per_point: per_point as u32,
+        points_per_pixel: config.hit_points_per_pixel,
+        r0: config.r0,
+        words,
+    })
+}
+
+/// Put saved hit points back, in the same entity order; the first pass's radius cap is not redone.
+pub fn restore(world: &mut World, state: &HitPointState) -> Result<()> {
+    let Some(expected) = save(world) else {
+        return Err(Error::Setting {
+            name: "resume".into(),
+            problem: "this integrator has no hit points".into(),
+        });
+    };
+    if (expected.words_per_point, expected.points_per_pixel, expected.words.len())
+        != (state.words_per_point, state.points_per_pixel, state.words.len())
+    {
+        return Err(Error::Setting {
+            name: "resume".into(),
+            problem: format!(
+                "the checkpoint holds {} hit points of {} words, the render has {} of {}",
+                state.words.len() / state.words_per_point.max(1) as usize,
+                state.words_per_point,
+                expected.words.len() / expected.words_per_point.max(1) as usize,
+                expected.words_per_point
+            ),
+        });
+    }
+    let mut w = Words(state.words.iter());
+    let mut query = world.query::<(&mut HitPoint, Option<&mut AdaptiveStats>, Option<&mut Chi2Cells>)>();
+    for (mut hp, stats, cells) in query.iter_mut(world) {
+        *hp = read_hit_point(&mut w);
+        if let Some(mut stats) = stats {
+            let s = &mut stats.0;
+            (s.laplacian_sum, s.variance_sum) = (w.f64(), w.f64());
+            (s.passes, s.laplacian) = (w.u32(), w.f32());
+        }
+        if let Some(mut cells) = cells {
+            for c in &mut cells.counts {
+                *c = w.u32();
+            }
+            cells.min_photons = w.f32();
+        }
+    }
+    let mut config = world.resource_mut::<ProgressiveConfig>();
+    (config.r0, config.r0_given) = (state.r0, true);
+    Ok(())
+}
