@@ -3,7 +3,8 @@
 //!
 //! A checkpoint is share 1 of 1 holding samples `0..done` of a render aiming at `spp`. It is written
 //! only between passes (the film then holds exactly `done`), with a temporary file renamed over the
-//! last one, so a crash while writing leaves the previous checkpoint whole.
+//! last one, so a crash while writing leaves the previous checkpoint whole. The render waits only for
+//! a copy of its state: a thread of its own compresses and writes it while the render goes on.
 
 use anyhow::{Context, Result};
 use caustica::Renderer;
@@ -11,12 +12,8 @@ use caustica::film::Film;
 use caustica::film::accumulator::{self, PartInfo};
 use caustica::scene::{RunFile, Scene};
 use std::path::{Path, PathBuf};
+use std::thread::JoinHandle;
 use std::time::Instant;
-
-/// Samples per pixel a pass of the sample integrators may hold while checkpointing, in wavefronts:
-/// enough for the pass's tail (the last paths, alone on the cores) to cost little, few enough that a
-/// signal is answered within seconds.
-const WAVEFRONTS_PER_PASS: u64 = 8;
 
 /// Where and how often to write checkpoints, and what they are of.
 pub struct Checkpoints {
@@ -24,6 +21,13 @@ pub struct Checkpoints {
     every: f64,
     last: Instant,
     last_units: u32,
+    /// The checkpoint being written in the background, and the seconds its write took.
+    writer: Option<JoinHandle<Result<f64>>>,
+    /// Checkpoints written, the seconds the render waited for them, and the seconds their writing
+    /// took on the writer's thread.
+    written: u32,
+    waited: f64,
+    writing: f64,
     fingerprint: String,
     integrator: String,
 }
@@ -107,43 +111,58 @@ impl Checkpoints {
             every,
             last: Instant::now(),
             last_units: 0,
+            writer: None,
+            written: 0,
+            waited: 0.0,
+            writing: 0.0,
             fingerprint,
             integrator,
         })
     }
 
-    /// Stop only between passes, and cut the sample integrators' passes so that there are some.
-    pub fn configure(&mut self, renderer: &mut Renderer, write_every: Option<u32>) -> Result<()> {
+    /// Stop only between passes.
+    pub fn configure(&mut self, renderer: &mut Renderer) -> Result<()> {
         if let Some(problem) = renderer.checkpoint_refusal() {
             anyhow::bail!("--checkpoint: {problem}");
         }
         renderer.set_whole_passes(true);
-        if renderer.progress().unit == caustica::report::Unit::Samples {
-            let report = renderer.report();
-            let pixels = (report.width as u64 * report.height as u64).max(1);
-            let wavefront = pixels.min(caustica::driver::MAX_WAVEFRONT as u64);
-            let units = (WAVEFRONTS_PER_PASS * wavefront).div_ceil(pixels) as u32;
-            renderer.set_max_pass(Some(write_every.map_or(units, |k| k.min(units))));
-        }
         self.last_units = renderer.units_done();
         Ok(())
     }
 
-    /// Write a checkpoint if one is due and the film holds whole passes.
+    /// Start writing a checkpoint if one is due, the film holds whole passes and the last one is
+    /// written; a failed write is reported here, and the render goes on.
     pub fn write_if_due(&mut self, renderer: &Renderer) -> Result<()> {
-        if renderer.at_pass_boundary() && self.last.elapsed().as_secs_f64() >= self.every {
-            self.write(renderer)?;
-        }
-        Ok(())
-    }
-
-    /// Write the checkpoint now (the render must be between passes).
-    pub fn write(&mut self, renderer: &Renderer) -> Result<()> {
-        let done = renderer.units_done();
-        if done == self.last_units && self.path.exists() {
-            self.last = Instant::now();
+        if self.last.elapsed().as_secs_f64() < self.every
+            || self.writer.as_ref().is_some_and(|w| !w.is_finished())
+        {
             return Ok(());
         }
+        if !renderer.at_pass_boundary() {
+            renderer.request_pass_end();
+            return Ok(());
+        }
+        self.finish_writing()?;
+        self.start_writing(renderer)
+    }
+
+    /// Write the checkpoint now and wait for it (the render must be between passes): at the end,
+    /// or when a signal stopped the render.
+    pub fn write(&mut self, renderer: &Renderer) -> Result<()> {
+        let earlier = self.finish_writing();
+        self.start_writing(renderer)?;
+        let last = self.finish_writing();
+        earlier.and(last)
+    }
+
+    /// Copy what the checkpoint holds and hand it to a thread that writes it.
+    fn start_writing(&mut self, renderer: &Renderer) -> Result<()> {
+        let done = renderer.units_done();
+        self.last = Instant::now();
+        if done == self.last_units && self.path.exists() {
+            return Ok(());
+        }
+        let started = Instant::now();
         let info = PartInfo {
             fingerprint: self.fingerprint.clone(),
             integrator: self.integrator.clone(),
@@ -153,13 +172,48 @@ impl Checkpoints {
             spp: renderer.target(),
             per_unit: renderer.camera_samples_per_unit(),
         };
-        accumulator::write_checkpoint(
-            renderer.film(),
-            &info,
-            renderer.hit_point_state().as_ref(),
-            &self.path,
-        )?;
-        (self.last, self.last_units) = (Instant::now(), done);
+        let (film, hit_points, path) =
+            (renderer.film().clone(), renderer.hit_point_state(), self.path.clone());
+        let writer = std::thread::Builder::new().name("checkpoint".into()).spawn(move || {
+            let started = Instant::now();
+            accumulator::write_checkpoint(&film, &info, hit_points.as_ref(), &path)?;
+            Ok(started.elapsed().as_secs_f64())
+        });
+        self.writer = Some(writer.context("cannot start the checkpoint's writer thread")?);
+        self.last_units = done;
+        self.waited += started.elapsed().as_secs_f64();
         Ok(())
+    }
+
+    /// Wait for the checkpoint being written, if any, and say whether it was.
+    fn finish_writing(&mut self) -> Result<()> {
+        let Some(writer) = self.writer.take() else { return Ok(()) };
+        let started = Instant::now();
+        let outcome =
+            writer.join().unwrap_or_else(|_| Err(anyhow::anyhow!("the checkpoint's writer panicked")));
+        self.waited += started.elapsed().as_secs_f64();
+        match outcome {
+            Ok(seconds) => {
+                self.written += 1;
+                self.writing += seconds;
+                Ok(())
+            }
+            Err(e) => {
+                // Written again at the next chance, even if the render has not moved since.
+                self.last_units = u32::MAX;
+                Err(e)
+            }
+        }
+    }
+
+    /// The report's line: how many checkpoints were written and what they cost.
+    pub fn summary(&self) -> String {
+        format!(
+            "{} written to {}; the render waited {:.3} s for them, writing took {:.3} s each on its own thread",
+            self.written,
+            self.path.display(),
+            self.waited,
+            self.writing / self.written.max(1) as f64
+        )
     }
 }

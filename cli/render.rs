@@ -91,7 +91,7 @@ pub fn render(args: &RenderArgs) -> Result<bool> {
         resumed.apply(&mut renderer)?;
     }
     if let Some(checkpoints) = &mut checkpoints {
-        checkpoints.configure(&mut renderer, run.output.write_every)?;
+        checkpoints.configure(&mut renderer)?;
     }
 
     let bar = progress_bar(&renderer, args.quiet);
@@ -155,6 +155,9 @@ pub fn render(args: &RenderArgs) -> Result<bool> {
     }
     for path in &outputs {
         println!("wrote       {}", path.display());
+    }
+    if let Some(checkpoints) = &checkpoints {
+        println!("checkpoints {}", checkpoints.summary());
     }
     if let Some(e) = checkpoint_failed {
         anyhow::bail!("the checkpoint was not written: {e:#}");

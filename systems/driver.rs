@@ -64,6 +64,8 @@ pub struct Renderer {
     whole_passes: bool,
     /// The last pass has ended and no step of the next has run: the film holds exactly `done`.
     at_pass_boundary: bool,
+    /// Asked to end the running sample pass at the next whole unit (a checkpoint is due).
+    pass_end_requested: AtomicBool,
 }
 
 /// Why a render ended before its target.
@@ -106,6 +108,7 @@ impl Renderer {
             stopped_by: None,
             whole_passes: false,
             at_pass_boundary: true,
+            pass_end_requested: AtomicBool::new(false),
         })
     }
 
@@ -171,7 +174,14 @@ impl Renderer {
 
     /// The hit points' state, for a checkpoint (`None` without hit points).
     pub fn hit_point_state(&self) -> Option<caustica_core::film::accumulator::HitPointState> {
-        if self.film_is_the_state() { None } else { crate::hit_point_state::save(&self.world) }
+        if self.film_is_the_state() {
+            None
+        } else {
+            crate::hit_point_state::save(
+                &self.world,
+                self.plan.kind == caustica_core::scene::IntegratorKind::Ppm,
+            )
+        }
     }
 
     /// Continue from `film`, which holds units `0..done` (samples per pixel, or passes) of this
@@ -202,7 +212,11 @@ impl Renderer {
             let Some(state) = hit_points else {
                 return refuse("the checkpoint holds no hit points, which this integrator needs".into());
             };
-            crate::hit_point_state::restore(&mut self.world, state)?;
+            crate::hit_point_state::restore(
+                &mut self.world,
+                state,
+                self.plan.kind == caustica_core::scene::IntegratorKind::Ppm,
+            )?;
         }
         self.world.insert_resource(FilmResource(film));
         (self.first, self.done) = (done, done);
@@ -210,9 +224,35 @@ impl Renderer {
     }
 
     /// Stop for a signal or the time limit only between passes, so that the film always holds whole
-    /// passes (what a checkpoint needs); a pass in flight is finished first.
+    /// passes (what a checkpoint needs): a photon pass in flight is finished first, a sample pass
+    /// is cut at the next whole sample per pixel.
     pub fn set_whole_passes(&mut self, whole: bool) {
         self.whole_passes = whole;
+    }
+
+    /// End the running sample pass at the next whole sample per pixel, so that a checkpoint can be
+    /// written soon without cutting every pass short (each pass's tail, its last paths alone on the
+    /// cores, costs time). Photon passes end by themselves; callable from `on_step`.
+    pub fn request_pass_end(&self) {
+        self.pass_end_requested.store(true, Ordering::Relaxed);
+    }
+
+    /// Cut the running sample pass `begin..end` at the next whole unit past the samples handed out
+    /// so far, and say where it ends now.
+    fn cut_sample_pass(&mut self, begin: u32, end: u32) -> u32 {
+        let per_unit = self.samples_per_unit.max(1);
+        let first_sample = begin.saturating_mul(per_unit);
+        let cut = match self.world.get_resource::<crate::resources::Workload>() {
+            // This pass's samples, some handed out already.
+            Some(work) if work.spp_begin == first_sample && work.spp_end > first_sample => {
+                work.cut_at_unit(per_unit) / per_unit
+            }
+            // None handed out yet (the phase that hands them out has not run): one unit.
+            _ => begin + 1,
+        };
+        let end = cut.clamp(begin + 1, end);
+        self.world.resource_mut::<PassRange>().end = end;
+        end
     }
 
     /// Whether the film holds exactly the passes done (no step of a next pass has run).
@@ -312,6 +352,8 @@ impl Renderer {
         }
         self.world.insert_resource(PassRange { index, begin, end, stop: false });
         self.at_pass_boundary = false;
+        self.pass_end_requested.store(false, Ordering::Relaxed);
+        let mut cut = false;
         let _span = tracing::info_span!("pass", index).entered();
         for i in 0..self.plan.phases.len() {
             if !self.plan.phases[i].when.includes(index, begin) {
@@ -330,6 +372,15 @@ impl Renderer {
                     }
                     self.stopped = true;
                     self.stopped_by.get_or_insert(reason);
+                }
+                let end_requested = self.pass_end_requested.swap(false, Ordering::Relaxed);
+                if self.whole_passes
+                    && self.plan.unit == Unit::Samples
+                    && !cut
+                    && (self.stopped || end_requested)
+                {
+                    end = self.cut_sample_pass(begin, end);
+                    cut = true;
                 }
                 on_step(self);
                 if !busy(&self.world) {

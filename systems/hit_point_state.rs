@@ -1,6 +1,6 @@
-//! What a checkpoint of a progressive photon mapper (`sppm`, `appm`, `cppm`) holds beyond its film:
-//! every hit point's statistics as 32-bit words in entity order, and the initial radius the first
-//! pass chose.
+//! What a checkpoint of a progressive photon mapper (`sppm`, `appm`, `cppm`, `ppm`) holds beyond its
+//! film: every hit point's statistics as 32-bit words in entity order (and for `ppm`, which traces
+//! them once, the visible points), and the initial radius the first pass chose.
 
 use crate::components::{AdaptiveStats, Chi2Cells, HitPoint};
 use crate::resources::ProgressiveConfig;
@@ -10,8 +10,11 @@ use caustica_core::film::accumulator::HitPointState;
 use caustica_core::photon::progressive::CHI2_CELLS;
 use glam::{DVec3, Vec3};
 
-/// Words of a `HitPoint`.
-const HIT_POINT_WORDS: usize = 24;
+/// Words of a `HitPoint`'s statistics: τ, N and R². What a pass gathers (M, Φ) is zero between
+/// passes.
+const STATISTICS_WORDS: usize = 9;
+/// Words of a `HitPoint`'s visible point, which `ppm` traces once and the others every pass.
+const HIT_WORDS: usize = 11;
 /// Words of an `AdaptiveStats`.
 const ADAPTIVE_WORDS: usize = 6;
 /// Words of a `Chi2Cells`.
@@ -45,46 +48,42 @@ impl Words<'_> {
     }
 }
 
-fn push_hit_point(words: &mut Vec<u32>, hp: &HitPoint) {
+fn push_hit_point(words: &mut Vec<u32>, hp: &HitPoint, with_hit: bool) {
     let start = words.len();
     for c in hp.tau.to_array() {
         push_f64(words, c);
     }
     push_f64(words, hp.n);
-    push_vec3(words, hp.p);
-    push_vec3(words, hp.beta);
-    push_vec3(words, hp.phi);
-    words.extend([hp.r2.to_bits(), hp.m, hp.wo, hp.ns]);
-    let [r, g, b] = hp.base_color.map(u32::from);
-    let [metallic, roughness] = hp.metallic_roughness.map(u32::from);
-    words.extend([r | g << 16, b | metallic << 16, roughness | (hp.material as u32) << 16]);
-    debug_assert_eq!(words.len() - start, HIT_POINT_WORDS);
+    words.push(hp.r2.to_bits());
+    if with_hit {
+        push_vec3(words, hp.p);
+        push_vec3(words, hp.beta);
+        words.extend([hp.wo, hp.ns]);
+        let [r, g, b] = hp.base_color.map(u32::from);
+        let [metallic, roughness] = hp.metallic_roughness.map(u32::from);
+        words.extend([r | g << 16, b | metallic << 16, roughness | (hp.material as u32) << 16]);
+    }
+    debug_assert_eq!(words.len() - start, STATISTICS_WORDS + if with_hit { HIT_WORDS } else { 0 });
 }
 
-fn read_hit_point(w: &mut Words) -> HitPoint {
-    let tau = DVec3::new(w.f64(), w.f64(), w.f64());
-    let n = w.f64();
-    let (p, beta, phi) = (w.vec3(), w.vec3(), w.vec3());
-    let (r2, m, wo, ns) = (w.f32(), w.u32(), w.u32(), w.u32());
-    let (rg, bm, rough_material) = (w.u32(), w.u32(), w.u32());
-    HitPoint {
-        tau,
-        n,
-        p,
-        beta,
-        phi,
-        r2,
-        m,
-        wo,
-        ns,
-        base_color: [rg as u16, (rg >> 16) as u16, bm as u16],
-        metallic_roughness: [(bm >> 16) as u16, rough_material as u16],
-        material: (rough_material >> 16) as u16,
+fn read_hit_point(w: &mut Words, hp: &mut HitPoint, with_hit: bool) {
+    hp.tau = DVec3::new(w.f64(), w.f64(), w.f64());
+    hp.n = w.f64();
+    hp.r2 = w.f32();
+    (hp.m, hp.phi) = (0, Vec3::ZERO);
+    if with_hit {
+        (hp.p, hp.beta) = (w.vec3(), w.vec3());
+        (hp.wo, hp.ns) = (w.u32(), w.u32());
+        let (rg, bm, rough_material) = (w.u32(), w.u32(), w.u32());
+        hp.base_color = [rg as u16, (rg >> 16) as u16, bm as u16];
+        hp.metallic_roughness = [(bm >> 16) as u16, rough_material as u16];
+        hp.material = (rough_material >> 16) as u16;
     }
 }
 
-/// The hit points' state, or `None` for an integrator without hit points.
-pub fn save(world: &World) -> Option<HitPointState> {
+/// The hit points' state, or `None` for an integrator without hit points; `with_hits` for `ppm`,
+/// whose visible points are traced in the render's first pass only.
+pub fn save(world: &World, with_hits: bool) -> Option<HitPointState> {
     let config = *world.get_resource::<ProgressiveConfig>()?;
     // One query per component (an optional component of a type the World never saw makes the
     // whole query fail): they visit the hit points' one table in the same order.
@@ -94,11 +93,13 @@ pub fn save(world: &World) -> Option<HitPointState> {
     let cells: Vec<Chi2Cells> =
         world.try_query::<&Chi2Cells>().map_or(Vec::new(), |mut q| q.iter(world).copied().collect());
     let (adaptive, chi2) = (!stats.is_empty(), !cells.is_empty());
-    let per_point =
-        HIT_POINT_WORDS + if adaptive { ADAPTIVE_WORDS } else { 0 } + if chi2 { CHI2_WORDS } else { 0 };
+    let per_point = STATISTICS_WORDS
+        + if with_hits { HIT_WORDS } else { 0 }
+        + if adaptive { ADAPTIVE_WORDS } else { 0 }
+        + if chi2 { CHI2_WORDS } else { 0 };
     let mut words = Vec::with_capacity(per_point * hit_points.len());
     for (i, hp) in hit_points.iter().enumerate() {
-        push_hit_point(&mut words, hp);
+        push_hit_point(&mut words, hp, with_hits);
         if let Some(stats) = stats.get(i) {
             let s = &stats.0;
             push_f64(&mut words, s.laplacian_sum);
@@ -119,8 +120,8 @@ pub fn save(world: &World) -> Option<HitPointState> {
 }
 
 /// Put saved hit points back, in the same entity order; the first pass's radius cap is not redone.
-pub fn restore(world: &mut World, state: &HitPointState) -> Result<()> {
-    let Some(expected) = save(world) else {
+pub fn restore(world: &mut World, state: &HitPointState, with_hits: bool) -> Result<()> {
+    let Some(expected) = save(world, with_hits) else {
         return Err(Error::Setting {
             name: "resume".into(),
             problem: "this integrator has no hit points".into(),
@@ -143,7 +144,7 @@ pub fn restore(world: &mut World, state: &HitPointState) -> Result<()> {
     let mut w = Words(state.words.iter());
     let mut query = world.query::<(&mut HitPoint, Option<&mut AdaptiveStats>, Option<&mut Chi2Cells>)>();
     for (mut hp, stats, cells) in query.iter_mut(world) {
-        *hp = read_hit_point(&mut w);
+        read_hit_point(&mut w, &mut hp, with_hits);
         if let Some(mut stats) = stats {
             let s = &mut stats.0;
             (s.laplacian_sum, s.variance_sum) = (w.f64(), w.f64());

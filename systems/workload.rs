@@ -48,12 +48,16 @@ pub struct Workload {
     lanes: Vec<LaneCounter>,
     /// Bit `l` set while lane `l` may have items left.
     open: AtomicU64,
+    /// Items past this are not handed out: the total, or less once the pass is cut short.
+    limit: AtomicU64,
 }
 
 impl Clone for Workload {
     fn clone(&self) -> Self {
         let lanes = self.lanes.iter().map(|c| LaneCounter(c.0.load(Ordering::Relaxed).into())).collect();
-        Self { lanes, open: self.open.load(Ordering::Relaxed).into(), ..*self }
+        let (open, limit) =
+            (self.open.load(Ordering::Relaxed).into(), self.limit.load(Ordering::Relaxed).into());
+        Self { lanes, open, limit, ..*self }
     }
 }
 
@@ -66,7 +70,8 @@ impl Workload {
         let entity_block = wavefront.div_ceil(count).max(1);
         let lanes = (0..count).map(|_| LaneCounter::default()).collect();
         let open = (u64::MAX >> (64 - count)).into();
-        Self { pixels, spp_begin, spp_end, wavefront, entity_block, lanes, open }
+        let limit = (pixels as u64 * spp_end.saturating_sub(spp_begin) as u64).into();
+        Self { pixels, spp_begin, spp_end, wavefront, entity_block, lanes, open, limit }
     }
 
     /// Work with nothing left to hand out (the progressive integrators' camera passes assign their
@@ -110,12 +115,38 @@ impl Workload {
         }
     }
 
+    /// The index of the `j`-th item lane `lane` hands out.
+    fn item(&self, lane: usize, j: u64) -> u64 {
+        (lane as u64 + self.lanes.len() as u64 * (j / ITEM_BLOCK)) * ITEM_BLOCK + j % ITEM_BLOCK
+    }
+
+    /// Hand out no more than the samples per pixel up to the first multiple of `unit` samples past
+    /// every item handed out so far (at least one unit), and say where that is: the sample index
+    /// the pass now ends at. The items below it not yet handed out still are, so the pass ends
+    /// with whole units. Call it between steps, while no path takes work.
+    pub fn cut_at_unit(&self, unit: u32) -> u32 {
+        let last = self
+            .lanes
+            .iter()
+            .enumerate()
+            .filter_map(|(lane, counter)| {
+                counter.0.load(Ordering::Relaxed).checked_sub(1).map(|j| self.item(lane, j))
+            })
+            .max();
+        let limit = self.limit.load(Ordering::Relaxed);
+        let unit_items = self.pixels as u64 * unit.max(1) as u64;
+        let handed = last.map_or(0, |k| k.min(limit.saturating_sub(1)) + 1);
+        let cut = handed.div_ceil(unit_items).max(1).saturating_mul(unit_items).min(limit);
+        self.limit.store(cut, Ordering::Relaxed);
+        self.spp_begin + (cut / self.pixels.max(1) as u64) as u32
+    }
+
     /// The next item of `lane` itself; a lane found empty is marked closed.
     #[inline]
     fn take_from(&self, lane: usize) -> Option<(u32, u32)> {
         let j = self.lanes[lane].0.fetch_add(1, Ordering::Relaxed);
-        let k = (lane as u64 + self.lanes.len() as u64 * (j / ITEM_BLOCK)) * ITEM_BLOCK + j % ITEM_BLOCK;
-        if k >= self.total_samples() {
+        let k = self.item(lane, j);
+        if k >= self.limit.load(Ordering::Relaxed) {
             self.open.fetch_and(!(1 << lane), Ordering::Relaxed);
             return None;
         }
@@ -149,6 +180,32 @@ mod tests {
             }
             assert!(seen.iter().all(|&n| n == 1), "{pixels} px × {spp}: an item missed or repeated");
         }
+    }
+
+    /// A pass cut short ends at the first whole unit past everything handed out, and hands out
+    /// exactly the items below it.
+    #[test]
+    fn a_cut_pass_hands_out_whole_units() {
+        let (pixels, unit) = (3000u32, 2u32);
+        let workload = Workload::new(pixels, 4, 14, 2048);
+        let lanes = workload.lanes.len();
+        let mut seen = vec![0u8; (pixels * 10) as usize];
+        let mut take =
+            |lane: usize| workload.take(lane).map(|(p, s)| seen[((s - 4) * pixels + p) as usize] += 1);
+        // A little over two units handed out unevenly across lanes.
+        for i in 0..(2 * unit * pixels + 1000) as usize {
+            take((i * 7) % lanes.max(1));
+        }
+        let end = workload.cut_at_unit(unit);
+        assert_eq!(end, 4 + 3 * unit, "the first unit boundary past the items handed out");
+        for i in 0.. {
+            if take(i % lanes).is_none() && workload.open.load(Ordering::Relaxed) == 0 {
+                break;
+            }
+        }
+        let whole = (3 * unit * pixels) as usize;
+        assert!(seen[..whole].iter().all(|&n| n == 1), "every item below the cut, once");
+        assert!(seen[whole..].iter().all(|&n| n == 0), "nothing past it");
     }
 
     /// The first hand-out gives the entities the first `wavefront` items, as one counter would.

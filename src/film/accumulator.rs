@@ -68,17 +68,29 @@ impl PartInfo {
 const ATTRIBUTE_PREFIX: &str = "caustica.";
 const CHANNELS: [&str; 3] = ["R", "G", "B"];
 
-/// Write `film` with `info` to `path` (a temporary file beside it, renamed over it once complete).
+/// Write `film` with `info` to `path` (a temporary file beside it, renamed over it once complete),
+/// ZIP-compressed: a part travels between machines.
 pub fn write_part(film: &Film, info: &PartInfo, path: &Path) -> Result<()> {
-    write_checkpoint(film, info, None, path)
+    write_accumulator(film, info, None, path, exr::prelude::Encoding::SMALL_LOSSLESS)
 }
 
-/// Write `film` with `info`, and a progressive mapper's hit points when given, to `path`.
+/// Write `film` with `info`, and a progressive mapper's hit points when given, to `path`,
+/// uncompressed: a checkpoint is written often, during the render, and read at most once.
 pub fn write_checkpoint(
     film: &Film,
     info: &PartInfo,
     hit_points: Option<&HitPointState>,
     path: &Path,
+) -> Result<()> {
+    write_accumulator(film, info, hit_points, path, exr::prelude::Encoding::UNCOMPRESSED)
+}
+
+fn write_accumulator(
+    film: &Film,
+    info: &PartInfo,
+    hit_points: Option<&HitPointState>,
+    path: &Path,
+    encoding: exr::prelude::Encoding,
 ) -> Result<()> {
     use exr::prelude::*;
     let out_err = |message: String| crate::error::Error::Output { path: path.to_path_buf(), message };
@@ -113,7 +125,7 @@ pub fn write_checkpoint(
     let layer = Layer::new(
         (film.width as usize, film.height as usize),
         attributes,
-        Encoding::SMALL_LOSSLESS,
+        encoding,
         AnyChannels::sort(SmallVec::from_vec(channels)),
     );
     let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
@@ -154,7 +166,7 @@ pub fn write_checkpoint(
         layers.push(Layer::new(
             (width, film.height as usize),
             attributes,
-            Encoding::SMALL_LOSSLESS,
+            encoding,
             AnyChannels::sort(SmallVec::from_vec(channels)),
         ));
     }
