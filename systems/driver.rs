@@ -297,6 +297,12 @@ impl Renderer {
         self.interrupt.clone()
     }
 
+    /// Clear a stop (an interrupt, a time limit) so that `run` goes on from where it stopped.
+    pub fn clear_stop(&mut self) {
+        self.interrupt.store(false, Ordering::Relaxed);
+        self.stopped = false;
+    }
+
     /// Cut passes to at most `units` samples per pixel (or passes), so that a caller gets control —
     /// to write the image so far — that often; the sample integrators otherwise run one pass to the end.
     pub fn set_max_pass(&mut self, units: Option<u32>) {

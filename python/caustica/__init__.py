@@ -1,0 +1,74 @@
+"""Caustica from Python: load a glTF or run file, render it to numpy arrays, or step a
+progressive render between the steps of your own simulation.
+
+    import caustica
+    scene = caustica.load("scenes/cornell-box.gltf", spp=64, width=256, height=256)
+    result = scene.render()
+    result.color          # float32, height x width x 3, linear RGB
+    result.stats          # samples, rays, seconds, NaN count, ...
+
+Rendering releases the GIL, so other Python threads keep running; Ctrl-C stops a render at its
+next step and raises KeyboardInterrupt. Refused input raises ``CausticaError`` with the message the
+command line prints (the file, the object, the problem).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from typing import Any, Union
+
+from ._caustica import CausticaError, RenderResult, Scene, Session, read_exr
+from ._caustica import load as _load
+
+__all__ = ["CausticaError", "RenderResult", "Scene", "Session", "load", "read_exr"]
+
+# The run-file section of each short keyword (`spp=` is `render.spp`); any other key is given
+# dotted, as in the run file: `caustica.load(path, **{"environment.strength": 2.0})`.
+_SECTION = {
+    **dict.fromkeys(
+        ["integrator", "spp", "seed", "max_depth", "rr_depth", "light_selection", "sampler", "time_limit",
+         "memory_budget_mib"],
+        "render",
+    ),
+    **dict.fromkeys(["width", "height", "filter", "exposure"], "film"),
+    **dict.fromkeys(
+        ["eye", "target", "up", "yfov_degrees", "aperture_radius", "focus_distance", "shutter"], "camera"
+    ),
+    **dict.fromkeys(["photons", "caustic_photons", "k", "max_radius", "kernel", "final_gather"], "photons"),
+    **dict.fromkeys(
+        ["passes", "photons_per_pass", "alpha", "initial_radius", "hit_points_per_pixel"], "progressive"
+    ),
+    **dict.fromkeys(["order", "nee", "caustic_map"], "schedule"),
+}
+
+
+def _toml(value: Any, key: str) -> str:
+    """A Python value as a TOML value, for a run-file assignment."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        if not math.isfinite(value):
+            raise ValueError(f"{key} = {value}: must be finite")
+        return repr(value)
+    if isinstance(value, (str, os.PathLike)):
+        return json.dumps(os.fspath(value))  # a TOML basic string
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml(v, key) for v in value) + "]"
+    if hasattr(value, "tolist"):  # numpy arrays and scalars
+        return _toml(value.tolist(), key)
+    raise TypeError(f"{key} = {value!r}: a run-file value is a bool, number, string or list")
+
+
+def load(path: Union[str, os.PathLike], **overrides: Any) -> Scene:
+    """Load a glTF (.gltf, .glb) or run file (.toml), with the run file's keys as overrides:
+    ``spp=``, ``integrator=``, ``width=``, ``seed=``, ``light_selection=``, ``passes=``, ... or any
+    key dotted (``**{"progressive.alpha": 0.7}``)."""
+    sets = []
+    for key, value in overrides.items():
+        dotted = key if "." in key else f"{_SECTION.get(key, 'render')}.{key}"
+        sets.append(f"{dotted}={_toml(value, key)}")
+    return _load(os.fspath(path), sets)

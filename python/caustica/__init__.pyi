@@ -1,0 +1,13 @@
+import os
+from typing import Any, Union
+
+from ._caustica import CausticaError as CausticaError
+from ._caustica import RenderResult as RenderResult
+from ._caustica import Scene as Scene
+from ._caustica import Session as Session
+from ._caustica import read_exr as read_exr
+
+def load(path: Union[str, os.PathLike[str]], **overrides: Any) -> Scene:
+    """Load a glTF (.gltf, .glb) or run file (.toml), with the run file's keys as overrides:
+    ``spp=``, ``integrator=``, ``width=``, ``seed=``, ``light_selection=``, ``passes=``, ... or any
+    key dotted (``**{"progressive.alpha": 0.7}``)."""

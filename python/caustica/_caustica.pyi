@@ -1,0 +1,55 @@
+"""Type stubs of the compiled module (see ``caustica/__init__.py`` for the API's overview)."""
+
+import os
+from typing import Any, Optional, Union
+
+import numpy as np
+import numpy.typing as npt
+
+class CausticaError(Exception):
+    """A scene, setting or file Caustica refused: the message names the file, the object and the problem."""
+
+class RenderResult:
+    """A finished (or stopped) render."""
+
+    @property
+    def color(self) -> npt.NDArray[np.float32]:
+        """Linear RGB, float32, height x width x 3."""
+    @property
+    def stats(self) -> dict[str, Any]:
+        """integrator, unit ("spp" or "passes"), done, target, seed, seconds, samples, rays,
+        shadow_rays, nan_samples, stopped_by (None, "interrupted" or "timelimit")."""
+
+class Session:
+    """A render a host advances a few units at a time."""
+
+    def step(self, units: Optional[int] = None) -> dict[str, Any]:
+        """Add ``units`` samples per pixel (or passes, for the progressive photon mappers), with
+        the GIL released; without an argument, run to the settings' target. Returns the stats."""
+    def image(self) -> npt.NDArray[np.float32]:
+        """The image so far: linear RGB, float32, height x width x 3."""
+    @property
+    def done(self) -> int:
+        """Units done: samples per pixel, or passes."""
+    @property
+    def unit(self) -> str:
+        """What the session counts: "spp" or "passes"."""
+
+class Scene:
+    """A scene and its settings; every render builds its own renderer from them."""
+
+    @property
+    def path(self) -> str: ...
+    @property
+    def integrator(self) -> str: ...
+    def render(
+        self, spp: Optional[int] = None, passes: Optional[int] = None, time_limit: Optional[float] = None
+    ) -> RenderResult:
+        """Render to the settings' target, or to ``spp`` samples per pixel (path tracers, ``pm``) or
+        ``passes`` (the progressive photon mappers), or until ``time_limit`` seconds."""
+    def session(self) -> Session:
+        """A render to step: ``s = scene.session(); s.step(8); s.image()``."""
+
+def load(path: Union[str, os.PathLike[str]], sets: list[str] = ...) -> Scene: ...
+def read_exr(path: Union[str, os.PathLike[str]]) -> npt.NDArray[np.float32]:
+    """Read an OpenEXR image (a reference, or the command line's output) as float32, height x width x 3."""

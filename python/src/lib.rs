@@ -1,0 +1,245 @@
+//! `caustica._caustica`, the compiled half of the `caustica` Python package: a scene loaded from a
+//! glTF or run file, rendered to numpy arrays with the GIL released, and a progressive session a
+//! host steps between its own simulation steps. The pure-Python half (`caustica/__init__.py`) turns
+//! keyword overrides into run-file assignments and documents the API.
+
+use caustica::Renderer;
+use caustica::report::Unit;
+use caustica::scene::{self, RunFile};
+use numpy::{PyArray1, PyArrayMethods};
+use pyo3::exceptions::{PyException, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::path::PathBuf;
+use std::sync::atomic::Ordering;
+
+pyo3::create_exception!(
+    _caustica,
+    CausticaError,
+    PyException,
+    "A scene, setting or file Caustica refused: the message names the file, the object and the problem."
+);
+
+fn refused(e: impl std::fmt::Display) -> PyErr {
+    CausticaError::new_err(e.to_string())
+}
+
+/// A linear RGB image as a float32 array of height × width × 3.
+fn color_array<'py>(py: Python<'py>, image: &caustica::film::Image) -> PyResult<Bound<'py, PyAny>> {
+    let flat: Vec<f32> = image.pixels.iter().flat_map(|p| p.to_array()).collect();
+    let array = PyArray1::from_vec(py, flat).reshape([image.height as usize, image.width as usize, 3])?;
+    Ok(array.into_any())
+}
+
+/// Run `renderer` to its target (or `time_limit`) with the GIL released. Ctrl-C (or any pending
+/// Python signal) stops it at its next step; the signal's exception is raised once it has stopped,
+/// so the image so far stays valid and the renderer can go on later.
+fn run_detached(
+    py: Python<'_>,
+    renderer: &mut Renderer,
+    time_limit: Option<f64>,
+) -> PyResult<caustica::Report> {
+    let flag = renderer.interrupt_flag();
+    let mut pending: Option<PyErr> = None;
+    let report = py.detach(|| {
+        renderer.run(time_limit, |_| {
+            if pending.is_none()
+                && let Err(e) = Python::attach(|py| py.check_signals())
+            {
+                pending = Some(e);
+                flag.store(true, Ordering::Relaxed);
+            }
+        })
+    });
+    match pending {
+        Some(e) => {
+            renderer.clear_stop();
+            Err(e)
+        }
+        None => Ok(report),
+    }
+}
+
+/// What a render did, as a dict of plain numbers.
+fn stats<'py>(py: Python<'py>, report: &caustica::Report) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("integrator", format!("{:?}", report.integrator).to_lowercase())?;
+    d.set_item("unit", if report.unit == Unit::Samples { "spp" } else { "passes" })?;
+    d.set_item("done", report.done)?;
+    d.set_item("target", report.target)?;
+    d.set_item("seed", report.seed)?;
+    d.set_item("seconds", report.seconds)?;
+    d.set_item("samples", report.paths.samples)?;
+    d.set_item("rays", report.paths.rays)?;
+    d.set_item("shadow_rays", report.paths.shadow_rays)?;
+    d.set_item("nan_samples", report.paths.nan_samples)?;
+    d.set_item("stopped_by", report.stopped_by.map(|s| format!("{s:?}").to_lowercase()))?;
+    Ok(d)
+}
+
+/// A scene and its settings, loaded once; every render builds its own renderer from them.
+#[pyclass(module = "caustica", frozen)]
+struct Scene {
+    scene: scene::Scene,
+    run: RunFile,
+    path: PathBuf,
+}
+
+impl Scene {
+    /// A renderer of this scene with `sets` applied on top of the loaded settings, aiming at
+    /// `target` units (samples per pixel, or passes) when given.
+    fn renderer(&self, py: Python<'_>, target: Option<(u32, &str)>) -> PyResult<Renderer> {
+        let mut renderer = py.detach(|| Renderer::new(self.scene.clone(), &self.run)).map_err(refused)?;
+        // Stop (Ctrl-C, a time limit) only at whole samples per pixel or passes, so that `done` is
+        // exact and a session that goes on renders what an uninterrupted one would.
+        renderer.set_whole_passes(true);
+        if let Some((target, name)) = target {
+            let unit = renderer.progress().unit;
+            let wanted = if unit == Unit::Samples { "spp" } else { "passes" };
+            if name != wanted {
+                return Err(PyValueError::new_err(format!(
+                    "{}: {:?} counts its progress in {wanted}, not {name}",
+                    self.path.display(),
+                    self.run.render.integrator
+                )));
+            }
+            if target == 0 {
+                return Err(PyValueError::new_err(format!("{name} must be at least 1")));
+            }
+            renderer.set_target(target);
+        }
+        Ok(renderer)
+    }
+}
+
+fn target_of(spp: Option<u32>, passes: Option<u32>) -> PyResult<Option<(u32, &'static str)>> {
+    match (spp, passes) {
+        (Some(_), Some(_)) => Err(PyValueError::new_err("give spp or passes, not both")),
+        (Some(n), None) => Ok(Some((n, "spp"))),
+        (None, Some(n)) => Ok(Some((n, "passes"))),
+        (None, None) => Ok(None),
+    }
+}
+
+#[pymethods]
+impl Scene {
+    /// The file the scene was loaded from.
+    #[getter]
+    fn path(&self) -> PathBuf {
+        self.path.clone()
+    }
+
+    /// The integrator the settings choose.
+    #[getter]
+    fn integrator(&self) -> String {
+        format!("{:?}", self.run.render.integrator).to_lowercase()
+    }
+
+    /// Render to the target, or to `spp`/`passes` when given, or until `time_limit` seconds.
+    #[pyo3(signature = (spp=None, passes=None, time_limit=None))]
+    fn render(
+        &self,
+        py: Python<'_>,
+        spp: Option<u32>,
+        passes: Option<u32>,
+        time_limit: Option<f64>,
+    ) -> PyResult<RenderResult> {
+        if time_limit.is_some_and(|t| !(t.is_finite() && t > 0.0)) {
+            return Err(PyValueError::new_err("time_limit must be a positive number of seconds"));
+        }
+        let mut renderer = self.renderer(py, target_of(spp, passes)?)?;
+        let report = run_detached(py, &mut renderer, time_limit)?;
+        let image = py.detach(|| renderer.image());
+        Ok(RenderResult { color: color_array(py, &image)?.unbind(), stats: stats(py, &report)?.unbind() })
+    }
+
+    /// A render that a host advances a few units at a time (`step`), looking at it in between.
+    fn session(&self, py: Python<'_>) -> PyResult<Session> {
+        let renderer = self.renderer(py, None)?;
+        let final_target = renderer.target();
+        Ok(Session { renderer, final_target })
+    }
+}
+
+/// A finished (or stopped) render: `color` (float32, height × width × 3, linear) and `stats`.
+#[pyclass(module = "caustica", frozen)]
+struct RenderResult {
+    #[pyo3(get)]
+    color: Py<PyAny>,
+    #[pyo3(get)]
+    stats: Py<PyDict>,
+}
+
+/// A progressive render a host steps: `step(n)` adds n samples per pixel (or passes), `image()`
+/// is the image so far.
+#[pyclass(module = "caustica")]
+struct Session {
+    renderer: Renderer,
+    /// The settings' target, what `step()` with no argument runs to.
+    final_target: u32,
+}
+
+#[pymethods]
+impl Session {
+    /// Add `units` samples per pixel (or passes, for the progressive photon mappers), with the GIL
+    /// released; without an argument, run to the settings' target.
+    #[pyo3(signature = (units=None))]
+    fn step(&mut self, py: Python<'_>, units: Option<u32>) -> PyResult<Py<PyDict>> {
+        let done = self.renderer.units_done();
+        let target = match units {
+            Some(0) => return Err(PyValueError::new_err("step(units): units must be at least 1")),
+            Some(n) => done.saturating_add(n),
+            None => self.final_target.max(done),
+        };
+        self.renderer.set_target(target);
+        let report = run_detached(py, &mut self.renderer, None)?;
+        Ok(stats(py, &report)?.unbind())
+    }
+
+    /// The image so far: float32, height × width × 3, linear.
+    fn image<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let image = py.detach(|| self.renderer.image());
+        color_array(py, &image)
+    }
+
+    /// Units done: samples per pixel, or passes.
+    #[getter]
+    fn done(&self) -> u32 {
+        self.renderer.units_done()
+    }
+
+    /// What the session counts: "spp" or "passes".
+    #[getter]
+    fn unit(&self) -> &'static str {
+        if self.renderer.progress().unit == Unit::Samples { "spp" } else { "passes" }
+    }
+}
+
+/// Load a glTF (.gltf, .glb) or run file (.toml), with `sets` (`"render.spp=16"`, any run-file key)
+/// applied as if the run file had them.
+#[pyfunction]
+#[pyo3(signature = (path, sets=Vec::new()))]
+fn load(py: Python<'_>, path: PathBuf, sets: Vec<String>) -> PyResult<Scene> {
+    let (scene, run) = py.detach(|| scene::load_with_sets(&path, &sets, |_| {})).map_err(refused)?;
+    Ok(Scene { scene, run, path })
+}
+
+/// Read an OpenEXR image (a reference, or the command line's output) as float32, height × width × 3.
+#[pyfunction]
+fn read_exr<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyAny>> {
+    let image = py.detach(|| caustica::film::output::read_exr(&path)).map_err(refused)?;
+    color_array(py, &image)
+}
+
+#[pymodule]
+fn _caustica(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    // Every core, as the command line without --threads: the pools are per process.
+    caustica::world::init_thread_pools(None);
+    m.add("CausticaError", m.py().get_type::<CausticaError>())?;
+    m.add_class::<Scene>()?;
+    m.add_class::<RenderResult>()?;
+    m.add_class::<Session>()?;
+    m.add_function(wrap_pyfunction!(load, m)?)?;
+    m.add_function(wrap_pyfunction!(read_exr, m)?)?;
+    Ok(())
+}
