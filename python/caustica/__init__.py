@@ -19,10 +19,10 @@ import math
 import os
 from typing import Any, Union
 
-from ._caustica import CausticaError, RenderResult, Scene, Session, read_exr
+from ._caustica import CausticaError, RenderResult, Scene, Session, merge, read_exr, write_image
 from ._caustica import load as _load
 
-__all__ = ["CausticaError", "RenderResult", "Scene", "Session", "load", "read_exr"]
+__all__ = ["CausticaError", "RenderResult", "Scene", "Session", "load", "merge", "read_exr", "write_image"]
 
 # The run-file section of each short keyword (`spp=` is `render.spp`); any other key is given
 # dotted, as in the run file: `caustica.load(path, **{"environment.strength": 2.0})`.

@@ -47,9 +47,27 @@ class Scene:
     ) -> RenderResult:
         """Render to the settings' target, or to ``spp`` samples per pixel (path tracers, ``pm``) or
         ``passes`` (the progressive photon mappers), or until ``time_limit`` seconds."""
+    def splits(self) -> bool:
+        """Whether these settings split into parts that merge exactly: pt, pt-naive, pm and pppm,
+        unless light selection is visibility-aware."""
+    def render_part(
+        self,
+        part: int,
+        parts: int,
+        path: Union[str, os.PathLike[str]],
+        spp: Optional[int] = None,
+        passes: Optional[int] = None,
+    ) -> dict[str, Any]:
+        """Render share ``part`` (from 1) of ``parts`` and write its accumulator (.exr) to ``path``;
+        ``merge`` of every part gives the bits of one render. Returns the stats."""
     def session(self) -> Session:
         """A render to step: ``s = scene.session(); s.step(8); s.image()``."""
 
 def load(path: Union[str, os.PathLike[str]], sets: list[str] = ...) -> Scene: ...
+def merge(paths: list[Union[str, os.PathLike[str]]]) -> tuple[npt.NDArray[np.float32], dict[str, Any]]:
+    """Merge a split render's accumulators: the image and {integrator, parts, units}. Refused,
+    naming the files, when a part is missing, repeated, of another render or incomplete."""
+def write_image(path: Union[str, os.PathLike[str]], color: npt.NDArray[np.float32], exposure: float = 1.0) -> None:
+    """Write a linear float32 height x width x 3 image as .exr or .png (tone-mapped as the CLI's PNGs)."""
 def read_exr(path: Union[str, os.PathLike[str]]) -> npt.NDArray[np.float32]:
     """Read an OpenEXR image (a reference, or the command line's output) as float32, height x width x 3."""

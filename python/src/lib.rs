@@ -4,6 +4,7 @@
 //! keyword overrides into run-file assignments and documents the API.
 
 use caustica::Renderer;
+use caustica::film::accumulator::{self, PartInfo};
 use caustica::report::Unit;
 use caustica::scene::{self, RunFile};
 use numpy::{PyArray1, PyArrayMethods};
@@ -153,6 +154,69 @@ impl Scene {
         Ok(RenderResult { color: color_array(py, &image)?.unbind(), stats: stats(py, &report)?.unbind() })
     }
 
+    /// Whether a render of these settings splits into parts that merge exactly (`render_part`):
+    /// `pt`, `pt-naive`, `pm` and `pppm`, unless light selection learns from the render's own first
+    /// samples (`visibility`). The renderer has the last word when a part is rendered.
+    fn splits(&self) -> bool {
+        use caustica::scene::{IntegratorKind, LightSelection};
+        matches!(
+            self.run.render.integrator,
+            IntegratorKind::Pt | IntegratorKind::PtNaive | IntegratorKind::Pm | IntegratorKind::Pppm
+        ) && self.run.render.light_selection != LightSelection::Visibility
+    }
+
+    /// Render share `part` (from 1) of `parts` of the render of `spp` samples per pixel or `passes`
+    /// (the settings' when not given) and write its accumulator to `path` (.exr): the shares of
+    /// every part, merged by `merge`, are the bits of one render of the whole. `pt`, `pt-naive`,
+    /// `pm` and `pppm` split; the others refuse.
+    #[pyo3(signature = (part, parts, path, spp=None, passes=None))]
+    fn render_part(
+        &self,
+        py: Python<'_>,
+        part: u32,
+        parts: u32,
+        path: PathBuf,
+        spp: Option<u32>,
+        passes: Option<u32>,
+    ) -> PyResult<Py<PyDict>> {
+        let mut run = self.run.clone();
+        let progressive = run.render.integrator.is_progressive();
+        match target_of(spp, passes)? {
+            Some((n, "spp")) if !progressive => run.render.spp = n,
+            Some((n, "passes")) if progressive => run.progressive.passes = n,
+            Some((_, name)) => {
+                return Err(PyValueError::new_err(format!(
+                    "{}: {:?} does not count its progress in {name}",
+                    self.path.display(),
+                    run.render.integrator
+                )));
+            }
+            None => {}
+        }
+        let units = if progressive { run.progressive.passes } else { run.render.spp };
+        if part == 0 || part > parts || parts > units {
+            return Err(PyValueError::new_err(format!(
+                "part {part} of {parts}: parts are numbered 1..={parts}, and {units} units split into at most {units} parts"
+            )));
+        }
+        let mut info = PartInfo {
+            fingerprint: scene::fingerprint::fingerprint(&self.scene, &run),
+            integrator: format!("{:?}", run.render.integrator).to_lowercase(),
+            part,
+            parts,
+            samples: PartInfo::share(part, parts, units),
+            spp: units,
+            per_unit: 1,
+        };
+        let mut renderer = py.detach(|| Renderer::new(self.scene.clone(), &run)).map_err(refused)?;
+        renderer.set_whole_passes(true);
+        renderer.set_samples(info.samples.clone()).map_err(refused)?;
+        info.per_unit = renderer.camera_samples_per_unit();
+        let report = run_detached(py, &mut renderer, None)?;
+        py.detach(|| accumulator::write_part(renderer.film(), &info, &path)).map_err(refused)?;
+        Ok(stats(py, &report)?.unbind())
+    }
+
     /// A render that a host advances a few units at a time (`step`), looking at it in between.
     fn session(&self, py: Python<'_>) -> PyResult<Session> {
         let renderer = self.renderer(py, None)?;
@@ -224,6 +288,41 @@ fn load(py: Python<'_>, path: PathBuf, sets: Vec<String>) -> PyResult<Scene> {
     Ok(Scene { scene, run, path })
 }
 
+/// Merge the accumulators of a split render (`Scene.render_part`, or `caustica render --part`):
+/// the image, float32 height × width × 3, and what it is (integrator, parts, units). Refused,
+/// naming the files, when a part is missing, repeated, of another render or incomplete.
+#[pyfunction]
+fn merge<'py>(py: Python<'py>, paths: Vec<PathBuf>) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyDict>)> {
+    let (film, info) = py.detach(|| accumulator::merge_parts(&paths)).map_err(refused)?;
+    let image = py.detach(|| film.image());
+    let d = PyDict::new(py);
+    d.set_item("integrator", info.integrator)?;
+    d.set_item("parts", paths.len())?;
+    d.set_item("units", info.spp)?;
+    Ok((color_array(py, &image)?, d))
+}
+
+/// Write a float32 height × width × 3 linear image as .exr or .png (tone-mapped as the command
+/// line's PNGs), through a temporary file renamed over `path`.
+#[pyfunction]
+#[pyo3(signature = (path, color, exposure=1.0))]
+fn write_image(
+    py: Python<'_>,
+    path: PathBuf,
+    color: numpy::PyReadonlyArray3<'_, f32>,
+    exposure: f32,
+) -> PyResult<()> {
+    let array = color.as_array();
+    let shape = array.shape();
+    if shape[2] != 3 {
+        return Err(PyValueError::new_err(format!("an image is height x width x 3, not {shape:?}")));
+    }
+    let (height, width) = (shape[0] as u32, shape[1] as u32);
+    let pixels = array.rows().into_iter().map(|p| glam::Vec3::new(p[0], p[1], p[2])).collect();
+    let image = caustica::film::Image { width, height, pixels };
+    py.detach(|| caustica::film::output::write_image(&image, &path, exposure)).map_err(refused)
+}
+
 /// Read an OpenEXR image (a reference, or the command line's output) as float32, height × width × 3.
 #[pyfunction]
 fn read_exr<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyAny>> {
@@ -241,5 +340,7 @@ fn _caustica(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Session>()?;
     m.add_function(wrap_pyfunction!(load, m)?)?;
     m.add_function(wrap_pyfunction!(read_exr, m)?)?;
+    m.add_function(wrap_pyfunction!(merge, m)?)?;
+    m.add_function(wrap_pyfunction!(write_image, m)?)?;
     Ok(())
 }
