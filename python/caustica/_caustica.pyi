@@ -26,6 +26,10 @@ class Session:
     def step(self, units: Optional[int] = None) -> dict[str, Any]:
         """Add ``units`` samples per pixel (or passes, for the progressive photon mappers), with
         the GIL released; without an argument, run to the settings' target. Returns the stats."""
+    def set_transform(self, node: str, matrix: npt.ArrayLike) -> None:
+        """Move glTF node ``node`` (its name, or its index as a string) by the 4 x 4 row-major
+        ``matrix``, applied to its geometry as loaded (the identity puts it back); the geometry is
+        rebuilt and the image starts over (``done`` is 0)."""
     def image(self) -> npt.NDArray[np.float32]:
         """The image so far: linear RGB, float32, height x width x 3."""
     @property

@@ -221,7 +221,13 @@ impl Scene {
     fn session(&self, py: Python<'_>) -> PyResult<Session> {
         let renderer = self.renderer(py, None)?;
         let final_target = renderer.target();
-        Ok(Session { renderer, final_target })
+        Ok(Session {
+            renderer,
+            final_target,
+            loaded: self.scene.clone(),
+            light_selection: self.run.render.light_selection,
+            transforms: Vec::new(),
+        })
     }
 }
 
@@ -241,6 +247,36 @@ struct Session {
     renderer: Renderer,
     /// The settings' target, what `step()` with no argument runs to.
     final_target: u32,
+    /// The scene as loaded, which `set_transform`'s matrices apply to.
+    loaded: scene::Scene,
+    light_selection: caustica::scene::LightSelection,
+    /// Each moved node's matrix, by the name or index it was given as.
+    transforms: Vec<(String, glam::Mat4)>,
+}
+
+/// Whether `mesh` is the glTF node called `node` (its name, or its index as a string).
+fn is_node(mesh: &caustica::scene::Mesh, node: &str) -> bool {
+    mesh.node_name.as_deref() == Some(node) || mesh.node.is_some_and(|i| i.to_string() == node)
+}
+
+/// `mesh` moved by `m`: positions, normals and tangents, and the winding when `m` mirrors.
+fn transform_mesh(mesh: &mut caustica::scene::Mesh, m: glam::Mat4) {
+    let normal_matrix = glam::Mat3::from_mat4(m).inverse().transpose();
+    let linear = glam::Mat3::from_mat4(m);
+    mesh.positions.iter_mut().for_each(|p| *p = m.transform_point3(*p));
+    if let Some(normals) = &mut mesh.normals {
+        normals.iter_mut().for_each(|n| *n = (normal_matrix * *n).normalize_or_zero());
+    }
+    let mirrored = linear.determinant() < 0.0;
+    if let Some(tangents) = &mut mesh.tangents {
+        for t in tangents.iter_mut() {
+            let xyz = (linear * t.truncate()).normalize_or_zero();
+            *t = xyz.extend(if mirrored { -t.w } else { t.w });
+        }
+    }
+    if mirrored {
+        mesh.indices.iter_mut().for_each(|tri| tri.swap(1, 2));
+    }
 }
 
 #[pymethods]
@@ -258,6 +294,39 @@ impl Session {
         self.renderer.set_target(target);
         let report = run_detached(py, &mut self.renderer, None)?;
         Ok(stats(py, &report)?.unbind())
+    }
+
+    /// Move glTF node `node` (its name, or its index) by the 4 × 4 `matrix` (row-major, applied to
+    /// the node's geometry as loaded, so the identity puts it back), rebuild what the renderer
+    /// traces against, and start the image over: `done` is 0 again, and the next `step` renders
+    /// the moved scene.
+    fn set_transform(&mut self, py: Python<'_>, node: String, matrix: [[f32; 4]; 4]) -> PyResult<()> {
+        let m = glam::Mat4::from_cols_array_2d(&matrix).transpose();
+        let determinant = glam::Mat3::from_mat4(m).determinant();
+        if !m.is_finite() || determinant.abs() < 1e-12 {
+            return Err(PyValueError::new_err(format!(
+                "set_transform({node:?}): the matrix must be finite and invertible"
+            )));
+        }
+        if !self.loaded.meshes.iter().any(|mesh| is_node(mesh, &node)) {
+            return Err(refused(format!(
+                "{}: no mesh of a node named or numbered {node:?}",
+                self.loaded.source.display()
+            )));
+        }
+        self.transforms.retain(|(name, _)| *name != node);
+        self.transforms.push((node, m));
+        let mut moved = self.loaded.clone();
+        for (name, m) in &self.transforms {
+            for mesh in moved.meshes.iter_mut().filter(|mesh| is_node(mesh, name)) {
+                transform_mesh(mesh, *m);
+            }
+        }
+        let selection = self.light_selection;
+        let render_scene = py.detach(|| caustica::RenderScene::build(&moved, selection));
+        self.renderer.world.insert_resource(caustica::resources::SceneResource(render_scene));
+        self.renderer.restart();
+        Ok(())
     }
 
     /// The image so far: float32, height × width × 3, linear.

@@ -2,6 +2,7 @@
 GIL released while rendering, Ctrl-C, and a session's steps adding up to one render."""
 
 import _thread
+import json
 import os
 import pathlib
 import shutil
@@ -130,3 +131,30 @@ def test_ctrl_c_stops_a_render_and_the_session_goes_on():
     session.step(1)
     assert session.done == stopped_at + 1, "the session goes on after an interrupt"
     assert np.isfinite(session.image()).all()
+
+
+def test_a_moved_object_changes_the_image_and_the_identity_puts_it_back(tmp_path):
+    session = caustica.load(BOX, spp=4, seed=1, width=48, height=48).session()
+    session.step()
+    before = session.image()
+    shift = np.eye(4)
+    shift[0, 3] = 0.12  # 12 cm along +x, row-major: the translation is the last column
+    session.set_transform("short_block", shift)
+    assert session.done == 0, "moving an object starts the image over"
+    session.step()
+    assert not np.array_equal(session.image(), before)
+    # The same scene written as a glTF whose node carries the translation renders the same bits.
+    gltf = json.loads(BOX.read_text())
+    (node,) = [n for n in gltf["nodes"] if n.get("name") == "short_block"]
+    node["translation"] = [0.12, 0.0, 0.0]
+    moved_file = tmp_path / "moved.gltf"
+    moved_file.write_text(json.dumps(gltf))
+    expected = caustica.load(moved_file, spp=4, seed=1, width=48, height=48).render().color
+    assert np.array_equal(session.image(), expected), "not the scene with the block moved"
+    session.set_transform("short_block", np.eye(4))
+    session.step()
+    assert np.array_equal(session.image(), before), "the identity does not restore the loaded scene"
+    with pytest.raises(caustica.CausticaError, match="no_such_node"):
+        session.set_transform("no_such_node", np.eye(4))
+    with pytest.raises(ValueError, match="invertible"):
+        session.set_transform("short_block", np.zeros((4, 4)))
