@@ -1,10 +1,10 @@
 //! `caustica compare`: the error of one image against another.
 
 use anyhow::{Context, Result};
-use caustica::film::{compare::compare, output};
+use caustica::film::{compare::compare, flip::flip, output};
 use std::path::Path;
 
-/// Print RMSE, relMSE and MAE of `image` against `reference`, over `window` (X0,Y0,X1,Y1) if given.
+/// Print RMSE, relMSE, MAE and mean FLIP of `image` against `reference`, over `window` (X0,Y0,X1,Y1) if given.
 pub fn compare_files(image: &Path, reference: &Path, window: Option<&[u32]>) -> Result<()> {
     let mut a = output::read_exr(image)?;
     let mut b = output::read_exr(reference)?;
@@ -34,6 +34,8 @@ pub fn compare_files(image: &Path, reference: &Path, window: Option<&[u32]>) -> 
             b.height
         )
     })?;
+    let perceptual = flip(&a, &b).expect("sizes checked above");
     println!("RMSE {:.6}\nrelMSE {:.6}\nMAE {:.6}", e.rmse, e.relmse, e.mae);
+    println!("FLIP {:.6}  (mean LDR-FLIP after the PNG tone map, 67 pixels per degree)", perceptual.mean);
     Ok(())
 }

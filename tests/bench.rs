@@ -25,7 +25,10 @@ fn bench_writes_a_monotone_csv_with_finite_errors_and_decodable_plots() {
     );
     let csv = std::fs::read_to_string(dir.join("errors.csv")).unwrap();
     let mut lines = csv.lines();
-    assert_eq!(lines.next(), Some("integrator,seconds,samples_or_passes,rmse,relmse,mae,light_selection"));
+    assert_eq!(
+        lines.next(),
+        Some("integrator,seconds,samples_or_passes,rmse,relmse,mae,flip,light_selection")
+    );
     let rows: Vec<Vec<String>> = lines.map(|l| l.split(',').map(str::to_owned).collect()).collect();
     for integrator in ["pt", "sppm"] {
         let mine: Vec<&Vec<String>> = rows.iter().filter(|r| r[0] == integrator).collect();
@@ -37,7 +40,12 @@ fn bench_writes_a_monotone_csv_with_finite_errors_and_decodable_plots() {
         }
         for r in &mine {
             assert!((3..6).all(|i| number(r, i).is_finite() && number(r, i) >= 0.0), "{integrator}: {r:?}");
+            assert!((0.0..=1.0).contains(&number(r, 6)), "{integrator}: FLIP out of [0, 1]: {r:?}");
         }
+        // More samples look more like the reference: the last checkpoint's FLIP is below the first's.
+        assert!(number(mine[mine.len() - 1], 6) < number(mine[0], 6), "{integrator}: FLIP did not fall");
+        let map = image::open(dir.join(format!("{integrator}-flip.png"))).expect("the FLIP map decodes");
+        assert_eq!((map.width(), map.height()), (24, 24));
         let error = image::open(dir.join(format!("{integrator}-error.png"))).expect("error image decodes");
         assert_eq!((error.width(), error.height()), (24, 24));
     }

@@ -63,9 +63,10 @@ fn unknown_output_format_fails_before_rendering() {
 }
 
 /// Two constant images, 1 and 1.5 in every channel but one pixel at 3: RMSE, relMSE
-/// = mean((a − b)² / (b² + 0.01)) and MAE computed by hand.
+/// = mean((a − b)² / (b² + 0.01)) and MAE computed by hand, and FLIP 0 (LDR-FLIP compares the tone
+/// mapped images, and both saturate to white); black against that white is FLIP's largest difference.
 #[test]
-fn compare_prints_the_three_metrics_of_two_images() {
+fn compare_prints_the_four_metrics_of_two_images() {
     use caustica::film::{Image, output::write_image};
     let dir = scratch("compare");
     let mut a = Image { width: 4, height: 2, pixels: vec![glam::Vec3::splat(1.5); 8] };
@@ -82,12 +83,24 @@ fn compare_prints_the_three_metrics_of_two_images() {
         format!("RMSE {:.6}", squared.sqrt()),
         format!("relMSE {:.6}", squared / 1.01),
         format!("MAE {:.6}", (7.0 * 0.5 + 2.0) / 8.0),
+        "FLIP 0.000000".to_string(),
     ];
     for metric in expected {
         assert!(stdout.contains(&metric), "missing {metric}: {stdout}");
     }
     let same = caustica(&["compare", pb.to_str().unwrap(), pb.to_str().unwrap()]);
     assert!(String::from_utf8_lossy(&same.stdout).contains("RMSE 0.000000"));
+    let black = dir.join("black.exr");
+    write_image(&Image { width: 4, height: 2, pixels: vec![glam::Vec3::ZERO; 8] }, &black, 0.0).unwrap();
+    let out = caustica(&["compare", black.to_str().unwrap(), pb.to_str().unwrap()]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let flip: f64 = stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("FLIP "))
+        .and_then(|l| l.split_whitespace().next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("no FLIP line: {stdout}"));
+    assert!(flip > 0.9, "black against white: FLIP {flip}");
 }
 
 /// Every setting is checked the same way whether it comes from the run file or the command line, before

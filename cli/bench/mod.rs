@@ -10,6 +10,7 @@ use crate::args::BenchArgs;
 use caustica::Renderer;
 use caustica::film::Image;
 use caustica::film::compare::compare;
+use caustica::film::flip::flip;
 use caustica::film::output::{read_exr, write_image};
 use caustica::scene::{IntegratorKind, LightSelection, RunFile, Scene, load_with};
 use caustica::{Choice, Error, Result};
@@ -34,6 +35,8 @@ pub struct Checkpoint {
     pub relmse: f64,
     /// Mean absolute error.
     pub mae: f64,
+    /// Mean LDR-FLIP (`caustica::film::flip`).
+    pub flip: f64,
 }
 
 /// What a bench run produced.
@@ -100,6 +103,7 @@ pub fn run(args: &BenchArgs) -> Result<BenchReport> {
                         rmse: e.rmse,
                         relmse: e.relmse,
                         mae: e.mae,
+                        flip: flip(image, &reference).map_or(f64::NAN, |f| f.mean),
                     });
                 }
             };
@@ -111,7 +115,9 @@ pub fn run(args: &BenchArgs) -> Result<BenchReport> {
             write_image(&image, &exr, run.film.exposure)?;
             let error_png = args.out_dir.join(format!("{name}-error.png"));
             false_colour::write_error_image(&image, &reference, &error_png)?;
-            files.extend([exr, error_png]);
+            let flip_png = args.out_dir.join(format!("{name}-flip.png"));
+            write_flip_map(&image, &reference, &flip_png)?;
+            files.extend([exr, error_png, flip_png]);
             series.push((integrator, light_selection, name));
         }
     }
@@ -179,12 +185,13 @@ pub fn print(args: &BenchArgs, report: &BenchReport) {
     }
     for c in &report.checkpoints {
         println!(
-            "{:<6} {:>9.3} s {:>10.1} spp|passes  relMSE {:.6}  RMSE {:.6}",
+            "{:<6} {:>9.3} s {:>10.1} spp|passes  relMSE {:.6}  RMSE {:.6}  FLIP {:.4}",
             c.integrator.name(),
             c.seconds,
             c.samples_or_passes,
             c.relmse,
-            c.rmse
+            c.rmse,
+            c.flip
         );
     }
     for path in &report.files {
@@ -192,20 +199,30 @@ pub fn print(args: &BenchArgs, report: &BenchReport) {
     }
 }
 
+/// FLIP's per-pixel error map of `image` against `reference`, through its magma colour map.
+fn write_flip_map(image: &Image, reference: &Image, path: &std::path::Path) -> Result<()> {
+    let Some(map) = flip(image, reference) else { return Ok(()) };
+    let io = |message: String| Error::Output { path: path.to_path_buf(), message };
+    image::save_buffer(path, &map.magma(), map.width, map.height, image::ExtendedColorType::Rgb8)
+        .map_err(|e| io(e.to_string()))
+}
+
 fn write_csv(path: &std::path::Path, checkpoints: &[Checkpoint]) -> Result<()> {
     let io = |source| Error::Io { path: path.to_path_buf(), source };
     let mut file = std::io::BufWriter::new(std::fs::File::create(path).map_err(io)?);
-    writeln!(file, "integrator,seconds,samples_or_passes,rmse,relmse,mae,light_selection").map_err(io)?;
+    writeln!(file, "integrator,seconds,samples_or_passes,rmse,relmse,mae,flip,light_selection")
+        .map_err(io)?;
     for c in checkpoints {
         writeln!(
             file,
-            "{},{:.6},{:.4},{:.8},{:.8},{:.8},{}",
+            "{},{:.6},{:.4},{:.8},{:.8},{:.8},{:.8},{}",
             c.integrator.name(),
             c.seconds,
             c.samples_or_passes,
             c.rmse,
             c.relmse,
             c.mae,
+            c.flip,
             c.light_selection.name()
         )
         .map_err(io)?;

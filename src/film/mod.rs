@@ -2,6 +2,7 @@
 pub mod accumulator;
 pub mod compare;
 pub mod fixed;
+pub mod flip;
 pub mod output;
 
 use fixed::PixelSums;

@@ -85,20 +85,25 @@ pub fn linear_to_srgb(v: f32) -> f32 {
     if v <= 0.003_130_8 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 }
 }
 
-fn write_png(
-    image: &Image,
-    out: &mut (impl std::io::Write + std::io::Seek),
-    exposure: f32,
-) -> Result<(), String> {
+/// The PNG outputs' tone map: linear × 2^exposure, clamped to [0, 1], the sRGB curve, 8 bits, RGB.
+pub fn to_srgb8(image: &Image, exposure: f32) -> Vec<u8> {
     let scale = 2f32.powf(exposure);
-    let bytes: Vec<u8> = image
+    image
         .pixels
         .iter()
         .flat_map(|p| {
             let c = *p * scale;
             [c.x, c.y, c.z].map(|v| (linear_to_srgb(v.clamp(0.0, 1.0)) * 255.0 + 0.5) as u8)
         })
-        .collect();
+        .collect()
+}
+
+fn write_png(
+    image: &Image,
+    out: &mut (impl std::io::Write + std::io::Seek),
+    exposure: f32,
+) -> Result<(), String> {
+    let bytes = to_srgb8(image, exposure);
     image::write_buffer_with_format(
         &mut std::io::BufWriter::new(out),
         &bytes,
