@@ -22,7 +22,9 @@ from typing import Any, Union
 from ._caustica import CausticaError, RenderResult, Scene, Session, merge, read_exr, write_image
 from ._caustica import load as _load
 
-__all__ = ["CausticaError", "RenderResult", "Scene", "Session", "load", "merge", "read_exr", "write_image"]
+__all__ = [
+    "CausticaError", "RenderResult", "Scene", "Session", "from_dict", "load", "merge", "read_exr", "write_image",
+]
 
 # The run-file section of each short keyword (`spp=` is `render.spp`); any other key is given
 # dotted, as in the run file: `caustica.load(path, **{"environment.strength": 2.0})`.
@@ -72,3 +74,6 @@ def load(path: Union[str, os.PathLike], **overrides: Any) -> Scene:
         dotted = key if "." in key else f"{_SECTION.get(key, 'render')}.{key}"
         sets.append(f"{dotted}={_toml(value, key)}")
     return _load(os.fspath(path), sets)
+
+
+from .scene_dict import from_dict  # noqa: E402  (it needs `load` above)

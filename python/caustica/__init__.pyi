@@ -13,3 +13,8 @@ def load(path: Union[str, os.PathLike[str]], **overrides: Any) -> Scene:
     """Load a glTF (.gltf, .glb) or run file (.toml), with the run file's keys as overrides:
     ``spp=``, ``integrator=``, ``width=``, ``seed=``, ``light_selection=``, ``passes=``, ... or any
     key dotted (``**{"progressive.alpha": 0.7}``)."""
+
+def from_dict(scene: dict[str, Any], **overrides: Any) -> Scene:
+    """A scene described in Python: ``camera`` (eye, target, up, yfov_degrees), ``materials`` (name ->
+    base_color, metallic, roughness, emission, specular, transmission, ior) and ``meshes`` (name,
+    positions N x 3, indices M x 3, normals, material); the run file's keys as overrides."""

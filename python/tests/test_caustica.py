@@ -2,7 +2,9 @@
 GIL released while rendering, Ctrl-C, and a session's steps adding up to one render."""
 
 import _thread
+import base64
 import json
+import math
 import os
 import pathlib
 import shutil
@@ -158,3 +160,69 @@ def test_a_moved_object_changes_the_image_and_the_identity_puts_it_back(tmp_path
         session.set_transform("no_such_node", np.eye(4))
     with pytest.raises(ValueError, match="invertible"):
         session.set_transform("short_block", np.zeros((4, 4)))
+
+
+def cornell_box_as_dict():
+    """The Cornell box glTF's meshes, materials and camera, read with numpy, as a scene dict."""
+    gltf = json.loads(BOX.read_text())
+    blob = base64.b64decode(gltf["buffers"][0]["uri"].split(",", 1)[1])
+
+    def accessor(i, dtype, columns):
+        a, view = gltf["accessors"][i], gltf["bufferViews"][gltf["accessors"][i]["bufferView"]]
+        start = view.get("byteOffset", 0) + a.get("byteOffset", 0)
+        return np.frombuffer(blob, dtype, a["count"] * columns, start).reshape(-1, columns)
+
+    materials = {}
+    for m in gltf["materials"]:
+        pbr = m["pbrMetallicRoughness"]
+        strength = m.get("extensions", {}).get("KHR_materials_emissive_strength", {}).get("emissiveStrength", 1.0)
+        materials[m["name"]] = {
+            "base_color": pbr["baseColorFactor"][:3],
+            "metallic": pbr["metallicFactor"],
+            "roughness": pbr["roughnessFactor"],
+            "emission": [c * strength for c in m.get("emissiveFactor", [0, 0, 0])],
+            "specular": m["extensions"]["KHR_materials_specular"]["specularFactor"],
+        }
+    meshes = []
+    for node in gltf["nodes"]:
+        if "mesh" not in node:
+            continue
+        (primitive,) = gltf["meshes"][node["mesh"]]["primitives"]
+        meshes.append({
+            "name": node["name"],
+            "positions": accessor(primitive["attributes"]["POSITION"], np.float32, 3),
+            "normals": accessor(primitive["attributes"]["NORMAL"], np.float32, 3),
+            "indices": accessor(primitive["indices"], np.uint32, 1).reshape(-1, 3),
+            "material": gltf["materials"][primitive["material"]]["name"],
+        })
+    (camera_node,) = [n for n in gltf["nodes"] if "camera" in n]
+    eye = camera_node["translation"]
+    yfov = gltf["cameras"][0]["perspective"]["yfov"]
+    camera = {"eye": eye, "target": [eye[0], eye[1], eye[2] - 1.0], "yfov_degrees": math.degrees(yfov)}
+    return {"camera": camera, "materials": materials, "meshes": meshes}
+
+
+def test_a_scene_from_a_dict_renders_the_bits_of_the_same_scene_from_gltf():
+    settings = dict(spp=4, seed=3, width=40, height=40)
+    from_gltf = caustica.load(BOX, **settings).render().color
+    from_dict = caustica.from_dict(cornell_box_as_dict(), **settings).render().color
+    assert np.array_equal(from_dict, from_gltf)
+
+
+def test_a_bad_scene_dict_is_refused_naming_the_mesh_or_material():
+    scene = cornell_box_as_dict()
+    scene["meshes"][0]["indices"] = scene["meshes"][0]["indices"] + 100
+    with pytest.raises(ValueError, match="mesh 'floor' indices"):
+        caustica.from_dict(scene)
+    scene = cornell_box_as_dict()
+    scene["meshes"][1]["positions"] = scene["meshes"][1]["positions"] * np.nan
+    with pytest.raises(ValueError, match="mesh 'ceiling' positions: not every value is finite"):
+        caustica.from_dict(scene)
+    scene = cornell_box_as_dict()
+    scene["meshes"][2]["material"] = "chrome"
+    with pytest.raises(ValueError, match="no material named 'chrome'"):
+        caustica.from_dict(scene)
+    scene = cornell_box_as_dict()
+    scene["materials"]["white"]["colour"] = [1, 1, 1]
+    with pytest.raises(ValueError, match="material 'white': unknown keys"):
+        caustica.from_dict(scene)
