@@ -19,11 +19,12 @@ import math
 import os
 from typing import Any, Union
 
-from ._caustica import CausticaError, RenderResult, Scene, Session, merge, read_exr, write_image
+from ._caustica import CausticaError, RenderResult, Scene, Session, compare, merge, read_exr, write_image
 from ._caustica import load as _load
 
 __all__ = [
-    "CausticaError", "RenderResult", "Scene", "Session", "from_dict", "load", "merge", "read_exr", "write_image",
+    "CausticaError", "RenderResult", "Scene", "Session", "compare", "from_dict", "load", "merge", "read_exr",
+    "write_image",
 ]
 
 # The run-file section of each short keyword (`spp=` is `render.spp`); any other key is given

@@ -73,5 +73,8 @@ def merge(paths: list[Union[str, os.PathLike[str]]]) -> tuple[npt.NDArray[np.flo
     naming the files, when a part is missing, repeated, of another render or incomplete."""
 def write_image(path: Union[str, os.PathLike[str]], color: npt.NDArray[np.float32], exposure: float = 1.0) -> None:
     """Write a linear float32 height x width x 3 image as .exr or .png (tone-mapped as the CLI's PNGs)."""
+def compare(image: npt.NDArray[np.float32], reference: npt.NDArray[np.float32]) -> dict[str, float]:
+    """rmse, relmse, mae (linear RGB) and flip (mean LDR-FLIP after the PNG tone map), as
+    ``caustica compare`` prints them."""
 def read_exr(path: Union[str, os.PathLike[str]]) -> npt.NDArray[np.float32]:
     """Read an OpenEXR image (a reference, or the command line's output) as float32, height x width x 3."""

@@ -381,15 +381,41 @@ fn write_image(
     color: numpy::PyReadonlyArray3<'_, f32>,
     exposure: f32,
 ) -> PyResult<()> {
+    let image = image_of(&color)?;
+    py.detach(|| caustica::film::output::write_image(&image, &path, exposure)).map_err(refused)
+}
+
+/// A float32 height × width × 3 array as an image.
+fn image_of(color: &numpy::PyReadonlyArray3<'_, f32>) -> PyResult<caustica::film::Image> {
     let array = color.as_array();
     let shape = array.shape();
     if shape[2] != 3 {
         return Err(PyValueError::new_err(format!("an image is height x width x 3, not {shape:?}")));
     }
-    let (height, width) = (shape[0] as u32, shape[1] as u32);
     let pixels = array.rows().into_iter().map(|p| glam::Vec3::new(p[0], p[1], p[2])).collect();
-    let image = caustica::film::Image { width, height, pixels };
-    py.detach(|| caustica::film::output::write_image(&image, &path, exposure)).map_err(refused)
+    Ok(caustica::film::Image { width: shape[1] as u32, height: shape[0] as u32, pixels })
+}
+
+/// The error of `image` against `reference` (float32 height × width × 3, linear): RMSE, relMSE and
+/// MAE over linear RGB, and mean LDR-FLIP, as `caustica compare` prints them.
+#[pyfunction]
+fn compare<'py>(
+    py: Python<'py>,
+    image: numpy::PyReadonlyArray3<'_, f32>,
+    reference: numpy::PyReadonlyArray3<'_, f32>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let (a, b) = (image_of(&image)?, image_of(&reference)?);
+    let sizes =
+        || PyValueError::new_err(format!("{}x{} against {}x{}", a.width, a.height, b.width, b.height));
+    let (e, perceptual) =
+        py.detach(|| (caustica::film::compare::compare(&a, &b), caustica::film::flip::flip(&a, &b)));
+    let (e, perceptual) = (e.ok_or_else(sizes)?, perceptual.ok_or_else(sizes)?);
+    let d = PyDict::new(py);
+    d.set_item("rmse", e.rmse)?;
+    d.set_item("relmse", e.relmse)?;
+    d.set_item("mae", e.mae)?;
+    d.set_item("flip", perceptual.mean)?;
+    Ok(d)
 }
 
 /// Read an OpenEXR image (a reference, or the command line's output) as float32, height × width × 3.
@@ -411,5 +437,6 @@ fn _caustica(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(read_exr, m)?)?;
     m.add_function(wrap_pyfunction!(merge, m)?)?;
     m.add_function(wrap_pyfunction!(write_image, m)?)?;
+    m.add_function(wrap_pyfunction!(compare, m)?)?;
     Ok(())
 }

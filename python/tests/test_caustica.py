@@ -226,3 +226,17 @@ def test_a_bad_scene_dict_is_refused_naming_the_mesh_or_material():
     scene["materials"]["white"]["colour"] = [1, 1, 1]
     with pytest.raises(ValueError, match="material 'white': unknown keys"):
         caustica.from_dict(scene)
+
+
+def test_compare_gives_the_metrics_of_caustica_compare():
+    scene = caustica.load(BOX, seed=4, **SMALL)
+    noisy, reference = scene.render(spp=2).color, scene.render(spp=32).color
+    e = caustica.compare(noisy, reference)
+    a, b = noisy.astype(np.float64), reference.astype(np.float64)
+    assert e["relmse"] == pytest.approx(np.mean((a - b) ** 2 / (b**2 + 0.01)), rel=1e-9)
+    assert e["rmse"] == pytest.approx(np.sqrt(np.mean((a - b) ** 2)), rel=1e-9)
+    assert e["mae"] == pytest.approx(np.mean(np.abs(a - b)), rel=1e-9)
+    assert 0.0 < e["flip"] < 1.0
+    assert caustica.compare(reference, reference) == {"rmse": 0.0, "relmse": 0.0, "mae": 0.0, "flip": 0.0}
+    with pytest.raises(ValueError, match="32x24 against 24x32"):
+        caustica.compare(noisy, np.ascontiguousarray(noisy.transpose(1, 0, 2)))
