@@ -176,7 +176,7 @@ impl Checkpoints {
             (renderer.film().clone(), renderer.hit_point_state(), self.path.clone());
         let writer = std::thread::Builder::new().name("checkpoint".into()).spawn(move || {
             let started = Instant::now();
-            accumulator::write_checkpoint(&film, &info, hit_points.as_ref(), &path)?;
+            accumulator::write_checkpoint(&film, &info, hit_points, &path)?;
             Ok(started.elapsed().as_secs_f64())
         });
         self.writer = Some(writer.context("cannot start the checkpoint's writer thread")?);

@@ -177,10 +177,7 @@ impl Renderer {
         if self.film_is_the_state() {
             None
         } else {
-            crate::hit_point_state::save(
-                &self.world,
-                self.plan.kind == caustica_core::scene::IntegratorKind::Ppm,
-            )
+            crate::hit_point_state::save(&self.world, self.traces_visible_points_once())
         }
     }
 
@@ -212,11 +209,8 @@ impl Renderer {
             let Some(state) = hit_points else {
                 return refuse("the checkpoint holds no hit points, which this integrator needs".into());
             };
-            crate::hit_point_state::restore(
-                &mut self.world,
-                state,
-                self.plan.kind == caustica_core::scene::IntegratorKind::Ppm,
-            )?;
+            let with_hits = self.traces_visible_points_once();
+            crate::hit_point_state::restore(&mut self.world, state, with_hits)?;
         }
         self.world.insert_resource(FilmResource(film));
         (self.first, self.done) = (done, done);
@@ -276,14 +270,16 @@ impl Renderer {
         }
     }
 
-    /// Camera samples each pixel of the film holds once `units` units are done: `ppm` traces its
-    /// camera paths in the render's first pass only.
+    /// Whether the camera pass runs in the render's first pass only (`ppm`): its visible points are
+    /// then state a checkpoint must hold, and the film's counts stop growing after it.
+    fn traces_visible_points_once(&self) -> bool {
+        self.plan.phases.iter().any(|phase| phase.when == crate::plan::When::RenderStart)
+    }
+
+    /// Camera samples each pixel of the film holds once `units` units are done.
     pub fn film_samples_after(&self, units: u32) -> u32 {
-        if self.plan.kind == caustica_core::scene::IntegratorKind::Ppm {
-            self.camera_samples_per_unit() * units.min(1)
-        } else {
-            self.camera_samples_per_unit() * units
-        }
+        let units = if self.traces_visible_points_once() { units.min(1) } else { units };
+        self.camera_samples_per_unit() * units
     }
 
     /// The film: every sample's sum and count so far.

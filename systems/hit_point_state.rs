@@ -81,69 +81,83 @@ fn read_hit_point(w: &mut Words, hp: &mut HitPoint, with_hit: bool) {
     }
 }
 
+/// What a World's hit points are made of: how many, and the words each takes.
+struct Layout {
+    points: usize,
+    adaptive: bool,
+    chi2: bool,
+    words_per_point: usize,
+}
+
+fn layout(world: &World, with_hits: bool) -> Option<Layout> {
+    let points = world.try_query::<&HitPoint>()?.iter(world).len();
+    // A component type the World never saw makes its query fail: then no hit point has it.
+    let adaptive = world.try_query::<&AdaptiveStats>().is_some_and(|mut q| q.iter(world).next().is_some());
+    let chi2 = world.try_query::<&Chi2Cells>().is_some_and(|mut q| q.iter(world).next().is_some());
+    let words_per_point = STATISTICS_WORDS
+        + if with_hits { HIT_WORDS } else { 0 }
+        + if adaptive { ADAPTIVE_WORDS } else { 0 }
+        + if chi2 { CHI2_WORDS } else { 0 };
+    Some(Layout { points, adaptive, chi2, words_per_point })
+}
+
 /// The hit points' state, or `None` for an integrator without hit points; `with_hits` for `ppm`,
 /// whose visible points are traced in the render's first pass only.
 pub fn save(world: &World, with_hits: bool) -> Option<HitPointState> {
     let config = *world.get_resource::<ProgressiveConfig>()?;
-    // One query per component (an optional component of a type the World never saw makes the
-    // whole query fail): they visit the hit points' one table in the same order.
-    let hit_points: Vec<HitPoint> = world.try_query::<&HitPoint>()?.iter(world).copied().collect();
-    let stats: Vec<AdaptiveStats> =
-        world.try_query::<&AdaptiveStats>().map_or(Vec::new(), |mut q| q.iter(world).copied().collect());
-    let cells: Vec<Chi2Cells> =
-        world.try_query::<&Chi2Cells>().map_or(Vec::new(), |mut q| q.iter(world).copied().collect());
-    let (adaptive, chi2) = (!stats.is_empty(), !cells.is_empty());
-    let per_point = STATISTICS_WORDS
-        + if with_hits { HIT_WORDS } else { 0 }
-        + if adaptive { ADAPTIVE_WORDS } else { 0 }
-        + if chi2 { CHI2_WORDS } else { 0 };
-    let mut words = Vec::with_capacity(per_point * hit_points.len());
-    for (i, hp) in hit_points.iter().enumerate() {
+    let layout = layout(world, with_hits)?;
+    let mut channels = vec![Vec::with_capacity(layout.points); layout.words_per_point];
+    // One query per component, visiting the hit points' one table in the same order.
+    let mut stats = world.try_query::<&AdaptiveStats>().filter(|_| layout.adaptive);
+    let mut cells = world.try_query::<&Chi2Cells>().filter(|_| layout.chi2);
+    let mut stats = stats.as_mut().map(|q| q.iter(world));
+    let mut cells = cells.as_mut().map(|q| q.iter(world));
+    // One hit point's words, then dealt to the channels.
+    let mut words = Vec::with_capacity(layout.words_per_point);
+    for hp in world.try_query::<&HitPoint>()?.iter(world) {
+        words.clear();
         push_hit_point(&mut words, hp, with_hits);
-        if let Some(stats) = stats.get(i) {
-            let s = &stats.0;
+        if let Some(s) = stats.as_mut().and_then(Iterator::next) {
+            let s = &s.0;
             push_f64(&mut words, s.laplacian_sum);
             push_f64(&mut words, s.variance_sum);
             words.extend([s.passes, s.laplacian.to_bits()]);
         }
-        if let Some(cells) = cells.get(i) {
+        if let Some(cells) = cells.as_mut().and_then(Iterator::next) {
             words.extend(cells.counts);
             words.push(cells.min_photons.to_bits());
         }
+        for (channel, &word) in channels.iter_mut().zip(&words) {
+            channel.push(word);
+        }
     }
-    Some(HitPointState {
-        words_per_point: per_point as u32,
-        points_per_pixel: config.hit_points_per_pixel,
-        r0: config.r0,
-        words,
-    })
+    Some(HitPointState { points_per_pixel: config.hit_points_per_pixel, r0: config.r0, channels })
 }
 
 /// Put saved hit points back, in the same entity order; the first pass's radius cap is not redone.
 pub fn restore(world: &mut World, state: &HitPointState, with_hits: bool) -> Result<()> {
-    let Some(expected) = save(world, with_hits) else {
-        return Err(Error::Setting {
-            name: "resume".into(),
-            problem: "this integrator has no hit points".into(),
-        });
+    let refuse = |problem: String| Err(Error::Setting { name: "resume".into(), problem });
+    let (Some(config), Some(layout)) = (world.get_resource::<ProgressiveConfig>(), layout(world, with_hits))
+    else {
+        return refuse("this integrator has no hit points".into());
     };
-    if (expected.words_per_point, expected.points_per_pixel, expected.words.len())
-        != (state.words_per_point, state.points_per_pixel, state.words.len())
+    if (layout.words_per_point, config.hit_points_per_pixel, layout.points)
+        != (state.channels.len(), state.points_per_pixel, state.points())
     {
-        return Err(Error::Setting {
-            name: "resume".into(),
-            problem: format!(
-                "the checkpoint holds {} hit points of {} words, the render has {} of {}",
-                state.words.len() / state.words_per_point.max(1) as usize,
-                state.words_per_point,
-                expected.words.len() / expected.words_per_point.max(1) as usize,
-                expected.words_per_point
-            ),
-        });
+        return refuse(format!(
+            "the checkpoint holds {} hit points of {} words, the render has {} of {}",
+            state.points(),
+            state.channels.len(),
+            layout.points,
+            layout.words_per_point
+        ));
     }
-    let mut w = Words(state.words.iter());
+    let mut words = Vec::with_capacity(layout.words_per_point);
     let mut query = world.query::<(&mut HitPoint, Option<&mut AdaptiveStats>, Option<&mut Chi2Cells>)>();
-    for (mut hp, stats, cells) in query.iter_mut(world) {
+    for (i, (mut hp, stats, cells)) in query.iter_mut(world).enumerate() {
+        words.clear();
+        words.extend(state.channels.iter().map(|c| c[i]));
+        let mut w = Words(words.iter());
         read_hit_point(&mut w, &mut hp, with_hits);
         if let Some(mut stats) = stats {
             let s = &mut stats.0;

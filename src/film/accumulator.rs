@@ -17,20 +17,26 @@ use crate::error::{Error, Result};
 use std::collections::HashMap;
 use std::path::Path;
 
-/// A progressive photon mapper's hit points in a checkpoint: `words_per_point` 32-bit words for
-/// each of `points_per_pixel` hit points per pixel, in entity order (pixel-major), stored as the
-/// uint channels `w.000`, `w.001`, … of a second EXR part, `hit_points`, of width × points per pixel;
-/// and the initial radius, in its header (`caustica.r0`, the f32's bits).
+/// A progressive photon mapper's hit points in a checkpoint: each of `points_per_pixel` hit points
+/// per pixel is `channels.len()` 32-bit words, channel `k` holding word `k` of every hit point in
+/// entity order (pixel-major): the uint channels `w.000`, `w.001`, … of a second EXR part,
+/// `hit_points`, of width × points per pixel, as they are; and the initial radius, in its header
+/// (`caustica.r0`, the f32's bits).
 #[derive(Clone, Debug, PartialEq)]
 pub struct HitPointState {
-    /// Words per hit point.
-    pub words_per_point: u32,
     /// Hit points per pixel.
     pub points_per_pixel: u32,
     /// The initial radius the render chose.
     pub r0: f32,
-    /// All the words, hit point after hit point.
-    pub words: Vec<u32>,
+    /// One channel per word of a hit point, each as long as there are hit points.
+    pub channels: Vec<Vec<u32>>,
+}
+
+impl HitPointState {
+    /// Hit points held.
+    pub fn points(&self) -> usize {
+        self.channels.first().map_or(0, Vec::len)
+    }
 }
 
 /// Version of the layout above.
@@ -79,7 +85,7 @@ pub fn write_part(film: &Film, info: &PartInfo, path: &Path) -> Result<()> {
 pub fn write_checkpoint(
     film: &Film,
     info: &PartInfo,
-    hit_points: Option<&HitPointState>,
+    hit_points: Option<HitPointState>,
     path: &Path,
 ) -> Result<()> {
     write_accumulator(film, info, hit_points, path, exr::prelude::Encoding::UNCOMPRESSED)
@@ -88,7 +94,7 @@ pub fn write_checkpoint(
 fn write_accumulator(
     film: &Film,
     info: &PartInfo,
-    hit_points: Option<&HitPointState>,
+    hit_points: Option<HitPointState>,
     path: &Path,
     encoding: exr::prelude::Encoding,
 ) -> Result<()> {
@@ -140,28 +146,24 @@ fn write_accumulator(
         .map_err(|e| out_err(format!("cannot create a file in {}: {e}", dir.display())))?;
     let mut layers = vec![layer];
     if let Some(state) = hit_points {
-        let per = state.words_per_point as usize;
         let width = film.width as usize * state.points_per_pixel as usize;
-        if state.words.len() != per * width * film.height as usize {
-            return Err(out_err(format!(
-                "{} hit-point words do not fill {width}x{}",
-                state.words.len(),
-                film.height
-            )));
+        let points = width * film.height as usize;
+        if state.channels.is_empty() || state.channels.iter().any(|c| c.len() != points) {
+            return Err(out_err(format!("hit-point channels do not fill {width}x{}", film.height)));
         }
-        let channels: Vec<_> = (0..per)
-            .map(|w| {
-                AnyChannel::new(
-                    format!("w.{w:03}").as_str(),
-                    FlatSamples::U32(state.words.iter().skip(w).step_by(per).copied().collect()),
-                )
-            })
+        let (words_per_point, points_per_pixel, r0) =
+            (state.channels.len(), state.points_per_pixel, state.r0);
+        let channels: Vec<_> = state
+            .channels
+            .into_iter()
+            .enumerate()
+            .map(|(w, words)| AnyChannel::new(format!("w.{w:03}").as_str(), FlatSamples::U32(words)))
             .collect();
         let mut attributes = LayerAttributes::named("hit_points");
         attributes.other = HashMap::from([
-            text("words_per_point", state.words_per_point.to_string()),
-            text("points_per_pixel", state.points_per_pixel.to_string()),
-            text("r0", state.r0.to_bits().to_string()),
+            text("words_per_point", words_per_point.to_string()),
+            text("points_per_pixel", points_per_pixel.to_string()),
+            text("r0", r0.to_bits().to_string()),
         ]);
         layers.push(Layer::new(
             (width, film.height as usize),
@@ -302,7 +304,7 @@ pub fn read_checkpoint(path: &Path) -> Result<(Film, PartInfo, Option<HitPointSt
                 }
             };
             let per = number("words_per_point")? as usize;
-            let channels: Vec<&[u32]> = (0..per)
+            let channels = (0..per)
                 .map(|w| {
                     match layer
                         .channel_data
@@ -311,18 +313,15 @@ pub fn read_checkpoint(path: &Path) -> Result<(Film, PartInfo, Option<HitPointSt
                         .find(|c| c.name == *format!("w.{w:03}").as_str())
                         .map(|c| &c.sample_data)
                     {
-                        Some(FlatSamples::U32(v)) => Ok(v.as_slice()),
+                        Some(FlatSamples::U32(v)) => Ok(v.clone()),
                         _ => Err(bad(path, format!("no hit-point word channel w.{w:03}"))),
                     }
                 })
                 .collect::<crate::error::Result<_>>()?;
-            let points = layer.size.area();
-            let words = (0..points).flat_map(|k| channels.iter().map(move |c| c[k])).collect();
             Some(HitPointState {
-                words_per_point: per as u32,
                 points_per_pixel: number("points_per_pixel")?,
                 r0: f32::from_bits(number("r0")?),
-                words,
+                channels,
             })
         }
     };
