@@ -174,21 +174,7 @@ fn part_info(scene: &scene::Scene, run: &RunFile, i: u32, k: u32, outputs: &[Pat
     if outputs.len() != 1 || !outputs[0].extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
         anyhow::bail!("--part writes one accumulator file: give one -o FILE.exr (got {})", outputs.len());
     }
-    let units = if run.render.integrator.is_progressive() { run.progressive.passes } else { run.render.spp };
-    if k > units {
-        anyhow::bail!(
-            "--part {i}/{k}: {k} parts of {units} samples per pixel (or passes) would leave some parts empty"
-        );
-    }
-    Ok(PartInfo {
-        fingerprint: caustica::scene::fingerprint::fingerprint(scene, run),
-        integrator: format!("{:?}", run.render.integrator).to_lowercase(),
-        part: i,
-        parts: k,
-        samples: PartInfo::share(i, k, units),
-        spp: units,
-        per_unit: 1,
-    })
+    PartInfo::of_share(scene, run, i, k).map_err(|problem| anyhow::anyhow!("--{problem}"))
 }
 
 /// `caustica merge`: the parts' sums added, the image written to every output.

@@ -193,21 +193,7 @@ impl Scene {
             }
             None => {}
         }
-        let units = if progressive { run.progressive.passes } else { run.render.spp };
-        if part == 0 || part > parts || parts > units {
-            return Err(PyValueError::new_err(format!(
-                "part {part} of {parts}: parts are numbered 1..={parts}, and {units} units split into at most {units} parts"
-            )));
-        }
-        let mut info = PartInfo {
-            fingerprint: scene::fingerprint::fingerprint(&self.scene, &run),
-            integrator: format!("{:?}", run.render.integrator).to_lowercase(),
-            part,
-            parts,
-            samples: PartInfo::share(part, parts, units),
-            spp: units,
-            per_unit: 1,
-        };
+        let mut info = PartInfo::of_share(&self.scene, &run, part, parts).map_err(PyValueError::new_err)?;
         let mut renderer = py.detach(|| Renderer::new(self.scene.clone(), &run)).map_err(refused)?;
         renderer.set_whole_passes(true);
         renderer.set_samples(info.samples.clone()).map_err(refused)?;

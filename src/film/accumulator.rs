@@ -63,6 +63,36 @@ pub struct PartInfo {
 }
 
 impl PartInfo {
+    /// Share `part` (from 1) of `parts` of the render `run` sets up of `scene`: its samples (or
+    /// passes), and the fingerprint a merge checks; `per_unit` is 1 until the renderer says more.
+    /// The problem, if the share cannot exist.
+    pub fn of_share(
+        scene: &crate::scene::Scene,
+        run: &crate::scene::RunFile,
+        part: u32,
+        parts: u32,
+    ) -> std::result::Result<Self, String> {
+        let units =
+            if run.render.integrator.is_progressive() { run.progressive.passes } else { run.render.spp };
+        if part == 0 || part > parts {
+            return Err(format!("part {part}/{parts}: parts are numbered 1 to {parts}"));
+        }
+        if parts > units {
+            return Err(format!(
+                "part {part}/{parts}: {parts} parts of {units} samples per pixel (or passes) would leave some parts empty"
+            ));
+        }
+        Ok(Self {
+            fingerprint: crate::scene::fingerprint::fingerprint(scene, run),
+            integrator: format!("{:?}", run.render.integrator).to_lowercase(),
+            part,
+            parts,
+            samples: Self::share(part, parts, units),
+            spp: units,
+            per_unit: 1,
+        })
+    }
+
     /// The samples per pixel of share `part` (from 1) of `parts` of a render of `spp` samples: as
     /// even as integers allow, in order, together exactly `0..spp`.
     pub fn share(part: u32, parts: u32, spp: u32) -> std::ops::Range<u32> {
