@@ -2,6 +2,7 @@
 
 use caustica::Choice;
 use caustica::density::Kernel;
+use caustica::film::aov::Aov;
 use caustica::sampling::SamplerKind;
 use caustica::scene::{FilterKind, IntegratorKind, LightSelection, RunFile};
 use clap::{Args, Parser, Subcommand};
@@ -195,6 +196,9 @@ pub struct RenderArgs {
     /// PNG exposure in stops; overrides the run file.
     #[arg(long)]
     pub exposure: Option<f32>,
+    /// Feature images to write as layers of the EXR output (comma-separated); overrides the run file.
+    #[arg(long = "aov", value_delimiter = ',', value_parser = choice::<Aov>())]
+    pub aovs: Vec<Aov>,
     /// glTF camera to use, by name; overrides the run file.
     #[arg(long)]
     pub camera: Option<String>,
@@ -342,6 +346,9 @@ impl RenderArgs {
         f.height = self.height.or(f.height);
         f.filter = self.filter.unwrap_or(f.filter);
         f.exposure = self.exposure.unwrap_or(f.exposure);
+        if !self.aovs.is_empty() {
+            f.aovs = self.aovs.clone();
+        }
         let c = &mut run.camera;
         if self.camera.is_some() {
             c.name = self.camera.clone();

@@ -40,6 +40,12 @@ pub fn render(args: &RenderArgs) -> Result<bool> {
     let (scene, run) = scene::load_with_sets(&scene_path, &args.set, |run| args.apply(run))?;
     let outputs = output_paths(args, &run, &scene_path);
     check_outputs(&outputs, &inputs(args, &run, &scene_path))?;
+    if !run.film.aovs.is_empty() && args.part.is_none() && !outputs.iter().any(|o| is_exr(o)) {
+        anyhow::bail!(
+            "feature images (--aov) are written as layers of an EXR: name an output FILE.exr (-o), not only {}",
+            outputs.iter().map(|o| o.display().to_string()).collect::<Vec<_>>().join(", ")
+        );
+    }
     let mut part = args.part.map(|(i, k)| part_info(&scene, &run, i, k, &outputs)).transpose()?;
     if part.is_some() && (args.checkpoint.is_some() || args.resume.is_some()) {
         anyhow::bail!("--part renders a share of its own; it does not combine with --checkpoint or --resume");
@@ -119,11 +125,8 @@ pub fn render(args: &RenderArgs) -> Result<bool> {
         let marks = progress.done as u32 / k;
         if marks > written_marks && progress.done < progress.target as f64 {
             written_marks = marks;
-            let image = renderer.image();
-            for path in &outputs {
-                if let Err(e) = output::write_image(&image, path, run.film.exposure) {
-                    bar.suspend(|| tracing::warn!("{e}; rendering goes on"));
-                }
+            for e in write_outputs(renderer, &renderer.image(), &outputs, &run) {
+                bar.suspend(|| tracing::warn!("{e}; rendering goes on"));
             }
         }
     });
@@ -142,11 +145,7 @@ pub fn render(args: &RenderArgs) -> Result<bool> {
             .into_iter()
             .map(|e| e.to_string())
             .collect(),
-        None => outputs
-            .iter()
-            .filter_map(|path| output::write_image(&image, path, run.film.exposure).err())
-            .map(|e| e.to_string())
-            .collect(),
+        None => write_outputs(&renderer, &image, &outputs, &run),
     };
     print_report(&scene_path, &report, start.elapsed().as_secs_f64());
     if let Some(reference) = &reference {
@@ -166,6 +165,23 @@ pub fn render(args: &RenderArgs) -> Result<bool> {
         anyhow::bail!("{}", failed.join("; "));
     }
     Ok(report.stopped_by != Some(StopReason::Interrupted))
+}
+
+/// Whether `path` names an EXR.
+fn is_exr(path: &Path) -> bool {
+    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"))
+}
+
+/// Write `image` to every output, with the render's feature images as layers of the EXRs; the
+/// errors of the writes that failed.
+fn write_outputs(renderer: &Renderer, image: &caustica::film::Image, outputs: &[PathBuf], run: &RunFile) -> Vec<String> {
+    let features = renderer.aov_images();
+    let aovs = features.as_ref().map(|f| (f, run.film.aovs.as_slice()));
+    outputs
+        .iter()
+        .filter_map(|path| output::write_image_with_aovs(image, aovs, path, run.film.exposure).err())
+        .map(|e| e.to_string())
+        .collect()
 }
 
 /// What share `i` of `k` is: its samples, and the fingerprint a merge checks. A part writes one

@@ -133,6 +133,11 @@ impl Camera {
         }
     }
 
+    /// The direction the camera looks along (its image plane's normal).
+    pub fn view_axis(&self) -> Vec3 {
+        self.forward
+    }
+
     /// Whether rays need a lens sample.
     pub fn has_lens(&self) -> bool {
         self.lens_radius > 0.0

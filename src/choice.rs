@@ -53,6 +53,7 @@ mod tests {
         names_match_serde::<FilterKind>();
         names_match_serde::<Kernel>();
         names_match_serde::<crate::sampling::SamplerKind>();
+        names_match_serde::<crate::film::aov::Aov>();
         assert_eq!(IntegratorKind::CHOICES.len(), IntegratorKind::ALL.len());
     }
 }

@@ -110,6 +110,11 @@ impl PathState {
     }
 }
 
+/// A camera path's search for its feature images' surface; only on paths of a render that asks for
+/// them (a scene pays for what it uses).
+#[derive(Component, Clone, Copy, Debug, Default)]
+pub struct PathAov(pub caustica_core::kernel::aov::FirstSurface);
+
 /// The ray a photon will trace next.
 #[derive(Component, Clone, Copy, Debug, Default)]
 pub struct PhotonRay(pub Ray);

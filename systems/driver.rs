@@ -84,6 +84,7 @@ impl Renderer {
         integrators::check(scene_pixels(&scene, run)?, &scene, run)?;
         let (mut world, features) = scene_world(scene, run)?;
         let plan = integrators::plan(&mut world, run, features)?;
+        crate::aov::equip_paths(&mut world);
         let target = match plan.unit {
             Unit::Samples => run.render.spp,
             Unit::Passes => run.progressive.passes,
@@ -144,6 +145,9 @@ impl Renderer {
                 "visibility-aware light selection learns from the render's first samples, which one share does not have; use uniform, power or tree",
             );
         }
+        if self.has_aovs() {
+            return refuse("a part's accumulator holds colour only: render feature images (--aov) unsplit");
+        }
         if self.passes > 0 {
             return refuse("the render has started");
         }
@@ -165,11 +169,24 @@ impl Renderer {
     /// progressive mappers but `pppm` their hit points (statistics, and for `ppm`, which traces them
     /// once, the hits).
     pub fn checkpoint_refusal(&self) -> Option<String> {
+        if self.has_aovs() {
+            return Some("a checkpoint holds colour only: render feature images (--aov) without one".into());
+        }
         self.features.learns_visibility.then(|| {
             "visibility-aware light selection learns from the first samples, which a checkpoint does not \
              hold; use uniform, power or tree"
                 .to_string()
         })
+    }
+
+    /// Whether the render makes feature images (`film.aovs`).
+    pub fn has_aovs(&self) -> bool {
+        self.world.contains_resource::<crate::resources::AovFilmResource>()
+    }
+
+    /// The feature images so far, when the render makes them.
+    pub fn aov_images(&self) -> Option<caustica_core::film::aov::AovImages> {
+        self.world.get_resource::<crate::resources::AovFilmResource>().map(|film| film.images())
     }
 
     /// The hit points' state, for a checkpoint (`None` without hit points).
@@ -431,6 +448,10 @@ impl Renderer {
             (film.width, film.height)
         };
         self.world.insert_resource(FilmResource(caustica_core::film::Film::new(width, height)));
+        if self.has_aovs() {
+            let film = caustica_core::film::aov::AovFilm::new(width, height);
+            self.world.insert_resource(crate::resources::AovFilmResource(film));
+        }
         self.world.insert_resource(RenderStats::default());
         if self.world.contains_resource::<PhotonStats>() {
             self.world.insert_resource(PhotonStats::default());

@@ -84,6 +84,7 @@
 //! sample) (Laine, Karras & Aila 2013), and state lives in component fields, so no entity changes
 //! archetype while rendering.
 
+pub mod aov;
 pub mod components;
 pub mod driver;
 pub mod emit;

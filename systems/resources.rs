@@ -46,6 +46,10 @@ resource_of!(
     /// The film that `gather` splats finished samples onto.
     FilmResource(Film)
 );
+resource_of!(
+    /// The feature images' film, present only when the run asks for them (`film.aovs`).
+    AovFilmResource(caustica_core::film::aov::AovFilm)
+);
 
 /// Settings of the camera paths.
 #[derive(Resource, Clone, Debug)]

@@ -1,12 +1,13 @@
 //! The World every integrator starts from: the scene's resources, sized and checked.
 
 use crate::resources::{
-    CameraResource, FilmResource, PassRange, RenderConfig, RenderStats, SceneFeatures, SceneResource,
+    AovFilmResource, CameraResource, FilmResource, PassRange, RenderConfig, RenderStats, SceneFeatures, SceneResource,
 };
 use bevy_ecs::prelude::*;
 use caustica_core::camera::Camera;
 use caustica_core::error::{Error, Result};
 use caustica_core::film::Film;
+use caustica_core::film::aov::AovFilm;
 use caustica_core::kernel::PathLimits;
 use caustica_core::render_scene::RenderScene;
 use caustica_core::scene::{RunFile, Scene};
@@ -103,6 +104,9 @@ pub fn scene_world(scene: Scene, run: &RunFile) -> Result<(World, SceneFeatures)
         strata: 1,
     });
     world.insert_resource(FilmResource(Film::new(width, height)));
+    if !run.film.aovs.is_empty() {
+        world.insert_resource(AovFilmResource(AovFilm::new(width, height)));
+    }
     world.insert_resource(CameraResource(camera));
     world.insert_resource(SceneResource(render_scene));
     world.insert_resource(RenderStats::default());

@@ -37,18 +37,29 @@ pub fn from_fixed(sum: i128) -> f64 {
     sum as f64 * (-FRACTION_BITS as f64).exp2()
 }
 
-/// One pixel's sums, added to from many threads at once (40 bytes).
-#[derive(Debug, Default)]
-pub struct PixelSums {
-    lo: [AtomicU64; 3],
-    hi: [AtomicU32; 3],
+/// One pixel's sums of `N` channels, added to from many threads at once (12·N + 4 bytes: 40 for
+/// colour).
+#[derive(Debug)]
+pub struct PixelSums<const N: usize = 3> {
+    lo: [AtomicU64; N],
+    hi: [AtomicU32; N],
     count: AtomicU32,
 }
 
-impl PixelSums {
-    /// Add fixed-point values to the three channels and `count` to the sample count.
+impl<const N: usize> Default for PixelSums<N> {
+    fn default() -> Self {
+        Self {
+            lo: std::array::from_fn(|_| AtomicU64::new(0)),
+            hi: std::array::from_fn(|_| AtomicU32::new(0)),
+            count: AtomicU32::new(0),
+        }
+    }
+}
+
+impl<const N: usize> PixelSums<N> {
+    /// Add fixed-point values to the channels and `count` to the sample count.
     #[inline]
-    pub fn add(&self, values: [i128; 3], count: u32) {
+    pub fn add(&self, values: [i128; N], count: u32) {
         for (c, v) in values.into_iter().enumerate() {
             let bits = v as u128;
             let lo = bits as u64;
@@ -64,13 +75,13 @@ impl PixelSums {
     }
 
     /// The channel sums (sign-extended from 96 bits) and the sample count.
-    pub fn get(&self) -> ([i128; 3], u32) {
+    pub fn get(&self) -> ([i128; N], u32) {
         let channel = |c: usize| {
             let bits = ((self.hi[c].load(Ordering::Relaxed) as u128) << 64)
                 | self.lo[c].load(Ordering::Relaxed) as u128;
             ((bits << 32) as i128) >> 32
         };
-        ([channel(0), channel(1), channel(2)], self.count.load(Ordering::Relaxed))
+        (std::array::from_fn(channel), self.count.load(Ordering::Relaxed))
     }
 }
 
@@ -80,7 +91,7 @@ mod tests {
 
     #[test]
     fn sums_carry_into_the_high_word_and_keep_their_sign() {
-        let sums = PixelSums::default();
+        let sums = PixelSums::<3>::default();
         let big = (u64::MAX as i128) - 5;
         sums.add([big, -3, 7], 1);
         sums.add([big, -3, -10], 1);
@@ -93,8 +104,8 @@ mod tests {
         let values: Vec<f32> = (0..1000)
             .map(|i| ((i * 7919) % 1013) as f32 * 1.37e-3 + 1e5 * (i % 17 == 0) as u8 as f32)
             .collect();
-        let forward = PixelSums::default();
-        let backward = PixelSums::default();
+        let forward = PixelSums::<3>::default();
+        let backward = PixelSums::<3>::default();
         for &v in &values {
             forward.add([to_fixed(v); 3], 1);
         }

@@ -1,8 +1,10 @@
 //! Writing and reading images: linear EXR (float RGB) and sRGB PNG.
 
 use super::Image;
+use super::aov::{Aov, AovImages};
 use crate::error::{Error, Result};
 use glam::Vec3;
+use std::collections::BTreeMap;
 use std::path::Path;
 
 /// Check, before any work is done, that `path` names a format we write (.exr or .png) and a place we
@@ -31,6 +33,18 @@ pub fn check_output_path(path: &Path) -> Result<()> {
 /// over it: a failed write leaves the previous file as it was and nothing else, and two runs writing
 /// the same output cannot mix their bytes. The same image always gives the same bytes.
 pub fn write_image(image: &Image, path: &Path, exposure: f32) -> Result<()> {
+    write_image_with_aovs(image, None, path, exposure)
+}
+
+/// [`write_image`], with the feature images `aovs` asks for as further channels of an EXR
+/// (`albedo.R`, `N.X`, `Z`, …: the layer names compositors and denoisers read); a PNG holds colour
+/// alone.
+pub fn write_image_with_aovs(
+    image: &Image,
+    aovs: Option<(&AovImages, &[Aov])>,
+    path: &Path,
+    exposure: f32,
+) -> Result<()> {
     let out_err = |message: String| Error::Output { path: path.to_path_buf(), message };
     let dir = output_dir(path);
     std::fs::create_dir_all(dir).map_err(|e| out_err(format!("cannot create folder: {e}")))?;
@@ -45,7 +59,10 @@ pub fn write_image(image: &Image, path: &Path, exposure: f32) -> Result<()> {
         .tempfile_in(dir)
         .map_err(|e| out_err(format!("cannot create a file in {}: {e}", dir.display())))?;
     match extension(path).as_deref() {
-        Some("exr") => write_exr(image, &mut file),
+        Some("exr") => match aovs {
+            Some((features, which)) if !which.is_empty() => write_exr_layers(image, features, which, &mut file),
+            _ => write_exr(image, &mut file),
+        },
         Some("png") => write_png(image, &mut file, exposure),
         _ => return Err(out_err("unknown image format: use .exr or .png".into())),
     }
@@ -78,6 +95,76 @@ fn write_exr(image: &Image, out: &mut (impl std::io::Write + std::io::Seek)) -> 
         .non_parallel()
         .to_buffered(out)
         .map_err(|e| e.to_string())
+}
+
+/// The EXR channels of `image` and of the feature images `which`, by name.
+fn exr_channels(image: &Image, features: &AovImages, which: &[Aov]) -> Vec<(String, Vec<f32>)> {
+    let component = |image: &Image, c: usize| image.pixels.iter().map(|p| p[c]).collect::<Vec<f32>>();
+    let mut channels: Vec<(String, Vec<f32>)> =
+        ["R", "G", "B"].iter().enumerate().map(|(c, n)| (n.to_string(), component(image, c))).collect();
+    for &(aov, _, _) in <Aov as crate::Choice>::CHOICES {
+        if !which.contains(&aov) {
+            continue;
+        }
+        match aov {
+            Aov::Albedo => channels.extend(
+                ["albedo.R", "albedo.G", "albedo.B"]
+                    .iter()
+                    .enumerate()
+                    .map(|(c, n)| (n.to_string(), component(&features.albedo, c))),
+            ),
+            Aov::Normal => channels.extend(
+                ["N.X", "N.Y", "N.Z"]
+                    .iter()
+                    .enumerate()
+                    .map(|(c, n)| (n.to_string(), component(&features.normal, c))),
+            ),
+            Aov::Depth => channels.push(("Z".into(), features.depth.clone())),
+        }
+    }
+    channels
+}
+
+fn write_exr_layers(
+    image: &Image,
+    features: &AovImages,
+    which: &[Aov],
+    out: &mut (impl std::io::Write + std::io::Seek),
+) -> Result<(), String> {
+    use exr::prelude::{AnyChannel, AnyChannels, Encoding, FlatSamples, Layer, LayerAttributes, WritableImage};
+    let list = exr_channels(image, features, which)
+        .into_iter()
+        .map(|(name, samples)| AnyChannel::new(name.as_str(), FlatSamples::F32(samples)))
+        .collect();
+    let size = (image.width as usize, image.height as usize);
+    let layer = Layer::new(size, LayerAttributes::default(), Encoding::default(), AnyChannels::sort(list));
+    exr::prelude::Image::from_layer(layer).write().non_parallel().to_buffered(out).map_err(|e| e.to_string())
+}
+
+/// Every channel of the first layer of an EXR file by name (`R`, `albedo.G`, `Z`, …), each row-major
+/// from the top-left, and the image's width and height.
+pub fn read_exr_channels(path: &Path) -> Result<(u32, u32, BTreeMap<String, Vec<f32>>)> {
+    use exr::prelude::{ReadChannels, ReadLayers};
+    let read = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_file(path)
+        .map_err(|e| match e {
+            exr::error::Error::Io(source) => Error::Io { path: path.to_path_buf(), source },
+            other => Error::Image { path: path.to_path_buf(), message: format!("not a readable EXR: {other}") },
+        })?;
+    let size = read.layer_data.size;
+    let channels = read
+        .layer_data
+        .channel_data
+        .list
+        .into_iter()
+        .map(|c| (c.name.to_string(), c.sample_data.values_as_f32().collect()))
+        .collect();
+    Ok((size.width() as u32, size.height() as u32, channels))
 }
 
 /// The sRGB transfer function (IEC 61966-2-1).
@@ -145,6 +232,27 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("caustica-exr-{}", std::process::id()));
         let path = dir.join("round.exr");
         write_image(&image, &path, 0.0).unwrap();
+        assert_eq!(read_exr(&path).unwrap(), image);
+        std::fs::remove_dir_all(dir).ok();
+    }
+
+    #[test]
+    fn feature_images_are_named_channels_of_the_exr() {
+        let image = Image { width: 2, height: 1, pixels: vec![Vec3::new(1.0, 2.0, 3.0), Vec3::splat(0.5)] };
+        let albedo = Image { width: 2, height: 1, pixels: vec![Vec3::new(0.1, 0.2, 0.3), Vec3::ONE] };
+        let normal = Image { width: 2, height: 1, pixels: vec![Vec3::Z, -Vec3::X] };
+        let features = AovImages { albedo, normal, depth: vec![4.0, 0.0] };
+        let dir = std::env::temp_dir().join(format!("caustica-exr-layers-{}", std::process::id()));
+        let path = dir.join("layers.exr");
+        write_image_with_aovs(&image, Some((&features, &[Aov::Depth, Aov::Albedo])), &path, 0.0).unwrap();
+        let (w, h, channels) = read_exr_channels(&path).unwrap();
+        assert_eq!((w, h), (2, 1));
+        let names: Vec<&str> = channels.keys().map(String::as_str).collect();
+        assert_eq!(names, ["B", "G", "R", "Z", "albedo.B", "albedo.G", "albedo.R"]);
+        assert_eq!(channels["R"], [1.0, 0.5]);
+        assert_eq!(channels["albedo.G"], [0.2, 1.0]);
+        assert_eq!(channels["Z"], [4.0, 0.0]);
+        // The colour reads back as ever.
         assert_eq!(read_exr(&path).unwrap(), image);
         std::fs::remove_dir_all(dir).ok();
     }

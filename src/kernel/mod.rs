@@ -13,6 +13,7 @@
 //! Every random number comes from [`dimensions`], the one layout of the sampler's dimensions. The ECS
 //! systems in `systems/` are thin queries over these functions.
 
+pub mod aov;
 pub mod continuation;
 pub mod dimensions;
 pub mod direct;

@@ -163,11 +163,13 @@ pub struct FilmSettings {
     pub filter: FilterKind,
     /// PNG exposure in stops (EXR is always written unscaled).
     pub exposure: f32,
+    /// Feature images to render beside colour (`film::aov`), written as layers of the EXR.
+    pub aovs: Vec<crate::film::aov::Aov>,
 }
 
 impl Default for FilmSettings {
     fn default() -> Self {
-        Self { width: None, height: None, filter: FilterKind::Box, exposure: 0.0 }
+        Self { width: None, height: None, filter: FilterKind::Box, exposure: 0.0, aovs: Vec::new() }
     }
 }
 

@@ -1,0 +1,59 @@
+//! Where a camera sample's feature images come from: its first non-specular vertex. Perfect mirrors
+//! and smooth glass are followed (what a denoiser wants to see is the surface behind them, tinted by
+//! what they pass), as Open Image Denoise's documentation asks of albedo and normal.
+
+use super::Vertex;
+use crate::film::aov::AovSample;
+use crate::geometry::Ray;
+use crate::geometry::bvh::Hit;
+use crate::render_scene::RenderScene;
+use glam::Vec3;
+
+/// A camera sample's search for its first non-specular surface.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FirstSurface {
+    /// What it found (zero until it has).
+    pub sample: AovSample,
+    /// Length of the path so far, through the specular vertices.
+    travelled: f32,
+    /// Cosine between the camera ray and the view axis: the unfolded path's length times it is the
+    /// depth along the axis.
+    view_cos: f32,
+    /// Whether the surface (or the sky) has been found.
+    pub found: bool,
+}
+
+impl FirstSurface {
+    /// A search for the camera ray along `primary`, of a camera looking along `view_axis`.
+    #[inline]
+    pub fn start(primary: Vec3, view_axis: Vec3) -> Self {
+        Self { view_cos: primary.dot(view_axis), ..Self::default() }
+    }
+
+    /// The path's `ray` arrived at `hit` carrying throughput `beta` (what the specular vertices
+    /// before passed): at a non-specular surface or off into the sky, record and stop looking.
+    #[inline]
+    pub fn visit(&mut self, scene: &RenderScene, ray: &Ray, hit: &Hit, beta: Vec3) {
+        if self.found {
+            return;
+        }
+        if !hit.is_hit() {
+            // The sky's albedo is its radiance clamped to [0, 1], as a denoiser reads a background.
+            let sky = scene.lights.environment.as_ref().map_or(Vec3::ZERO, |e| e.le(ray.d));
+            self.sample = AovSample { albedo: (beta * sky).clamp(Vec3::ZERO, Vec3::ONE), ..AovSample::default() };
+            self.found = true;
+            return;
+        }
+        self.travelled += hit.t;
+        let v = Vertex::new(scene, ray, scene.geometry.surface_hit(ray, hit));
+        if v.bsdf.is_delta() {
+            return;
+        }
+        self.sample = AovSample {
+            albedo: (beta * v.bsdf.albedo_hint()).clamp(Vec3::ZERO, Vec3::ONE),
+            normal: v.n_side(),
+            depth: self.travelled * self.view_cos,
+        };
+        self.found = true;
+    }
+}
