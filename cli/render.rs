@@ -174,7 +174,12 @@ fn is_exr(path: &Path) -> bool {
 
 /// Write `image` to every output, with the render's feature images as layers of the EXRs; the
 /// errors of the writes that failed.
-fn write_outputs(renderer: &Renderer, image: &caustica::film::Image, outputs: &[PathBuf], run: &RunFile) -> Vec<String> {
+fn write_outputs(
+    renderer: &Renderer,
+    image: &caustica::film::Image,
+    outputs: &[PathBuf],
+    run: &RunFile,
+) -> Vec<String> {
     let features = renderer.aov_images();
     let aovs = features.as_ref().map(|f| (f, run.film.aovs.as_slice()));
     outputs

@@ -2,14 +2,15 @@
 //! wherever a photon entity needs one.
 //!
 //! `emit_camera_paths` reads `CameraResource`, `RenderConfig`; writes `PathRay`, `PathState` (reset
-//! for the new sample). The lens and time dimensions are compile-time switches, so a pinhole camera
+//! for the new sample), and `PathAov` when the render makes feature images. The lens and time dimensions are compile-time switches, so a pinhole camera
 //! in a static scene draws neither (the integrator picks the instance from `SceneFeatures`).
 //! `emit_photons` reads `SceneResource` (lights), `PhotonWork`; writes `PhotonRay`, `PhotonState`.
 
-use super::components::{PathRay, PathState, PathStatus, PhotonRay, PhotonState};
+use super::components::{PathAov, PathRay, PathState, PathStatus, PhotonRay, PhotonState};
 use super::resources::{CameraResource, PhotonWork, RenderConfig, SceneFeatures, SceneResource};
 use bevy_ecs::prelude::*;
 use caustica_core::kernel::CameraPath;
+use caustica_core::kernel::aov::FirstSurface;
 use caustica_core::kernel::dimensions::{camera as dim, photon_sampler};
 use caustica_core::kernel::photon::{emit_photon, photon_time};
 use caustica_core::sampling::net::net_point;
@@ -20,10 +21,11 @@ use glam::Vec2;
 pub fn emit_camera_paths<const LENS: bool, const MOTION: bool>(
     camera: Res<CameraResource>,
     config: Res<RenderConfig>,
-    mut paths: Query<(&mut PathRay, &mut PathState)>,
+    mut paths: Query<(&mut PathRay, &mut PathState, Option<&mut PathAov>)>,
 ) {
+    let view_axis = camera.view_axis();
     paths.par_iter_mut().batching_strategy(super::resources::wavefront_batching()).for_each(
-        |(mut ray, mut state)| {
+        |(mut ray, mut state, aov)| {
             if state.status != PathStatus::NeedsCamera {
                 return;
             }
@@ -45,6 +47,9 @@ pub fn emit_camera_paths<const LENS: bool, const MOTION: bool>(
             let time =
                 if MOTION { config.pass_time.unwrap_or_else(|| sampler.get1d(dim::TIME)) } else { 0.0 };
             ray.0 = camera.generate_ray(x, y, u_filter, u_lens, time);
+            if let Some(mut aov) = aov {
+                aov.0 = FirstSurface::start(ray.0.d, view_axis);
+            }
             state.path = CameraPath::START;
             state.gathering = false;
             state.status = PathStatus::Active;

@@ -4,7 +4,7 @@
 //!
 //! | system | reads | writes |
 //! |---|---|---|
-//! | `splat_paths_to_film` | finished `PathState`s, `PassRange` | `FilmResource`, `RenderStats`, `Workload`, `PathState` (next pixel and sample) |
+//! | `splat_paths_to_film` | finished `PathState`s and their `PathAov`s, `PassRange` | `FilmResource`, `AovFilmResource`, `RenderStats`, `Workload`, `PathState` (next pixel and sample) |
 //! | `store_photons` | `PhotonState` deposits | `PhotonBuffer`, `PhotonStats`, `PhotonWork` (next photon) |
 //! | `learn_light_visibility` | fresh `ShadowRay`s | `SceneResource` (the visibility grid) |
 //! | `build_pass_photon_map` | `PhotonBuffer` | `PassPhotons` |
@@ -15,9 +15,11 @@
 //! visiting entities in order makes the photon maps and the learned grid bit-identical whatever the
 //! thread count. Each does no more than an add per finished photon or shadow ray.
 
-use super::components::{AdaptiveStats, Chi2Cells, HitPoint, PathState, PathStatus, PhotonState, ShadowRay};
+use super::components::{
+    AdaptiveStats, Chi2Cells, HitPoint, PathAov, PathState, PathStatus, PhotonState, ShadowRay,
+};
 use super::resources::{
-    BadSample, FilmResource, PassPhotons, PassRange, PhotonBuffer, PhotonStats, PhotonWork,
+    AovFilmResource, BadSample, FilmResource, PassPhotons, PassRange, PhotonBuffer, PhotonStats, PhotonWork,
     ProgressiveConfig, RenderStats, SceneResource, Workload, wavefront_batching,
 };
 use bevy_ecs::prelude::*;
@@ -37,13 +39,15 @@ pub fn splat_paths_to_film(
     range: Res<PassRange>,
     workload: Res<Workload>,
     film: Res<FilmResource>,
+    aov_film: Option<Res<AovFilmResource>>,
     mut stats: ResMut<RenderStats>,
-    mut paths: Query<&mut PathState>,
+    mut paths: Query<(&mut PathState, Option<&PathAov>)>,
 ) {
     let totals = SplatTotals::default();
+    let aov_film = aov_film.as_deref();
     paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each_init(
         || SplatTally::new(&totals),
-        |tally, mut state| {
+        |tally, (mut state, aov)| {
             if !finished(state.status, &mut tally.active) {
                 return;
             }
@@ -61,6 +65,11 @@ pub fn splat_paths_to_film(
                 Vec3::ZERO
             };
             film.add(state.pixel, l);
+            // Feature images count every sample, as colour does; one that never found a
+            // non-specular surface adds zeros.
+            if let (Some(aov_film), Some(aov)) = (aov_film, aov) {
+                aov_film.add(state.pixel, &aov.0.sample);
+            }
             tally.samples += 1;
             tally.rays += state.rays as u64;
             tally.shadow_rays += state.shadow_rays as u64;

@@ -13,14 +13,18 @@
 //! NEE are combined with the power heuristic (Veach & Guibas 1995). The photon mappers count only
 //! emission seen directly or through specular bounces; light sampling (unweighted) and photons carry
 //! the rest.
+//!
+//! Every camera-path scatter also records the path's feature images (`PathAov`, when the render
+//! asks for them) at its first non-specular vertex, from the vertex it builds anyway.
 
 use super::components::{
-    HitPoint, PathHit, PathRay, PathState, PathStatus, PhotonHit, PhotonRay, PhotonState, ShadowRay,
+    HitPoint, PathAov, PathHit, PathRay, PathState, PathStatus, PhotonHit, PhotonRay, PhotonState, ShadowRay,
 };
 use super::resources::{PhotonMaps, PhotonWork, RenderConfig, SceneResource, wavefront_batching};
 use bevy_ecs::prelude::*;
 use caustica_core::geometry::Ray;
 use caustica_core::geometry::bvh::Hit;
+use caustica_core::kernel::aov::FirstSurface;
 use caustica_core::kernel::dimensions::photon_sampler;
 use caustica_core::kernel::emission::{add_escaped_radiance, add_surface_emission};
 use caustica_core::kernel::photon::scatter_photon;
@@ -34,15 +38,16 @@ use caustica_core::sampling::Sampler;
 pub fn scatter_paths<const NEE: bool>(
     scene: Res<SceneResource>,
     config: Res<RenderConfig>,
-    mut paths: Query<(&PathHit, &mut PathRay, &mut PathState, &mut ShadowRay)>,
+    mut paths: Query<(&PathHit, &mut PathRay, &mut PathState, &mut ShadowRay, Option<&mut PathAov>)>,
 ) {
     paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each(
-        |(hit, mut ray, mut state, mut shadow)| {
+        |(hit, mut ray, mut state, mut shadow, mut aov)| {
             if state.status != PathStatus::Active {
                 return;
             }
             state.rays += 1;
-            if !path_vertex::<NEE>(&scene, &config, &hit.0, &mut ray.0, &mut state, &mut shadow) {
+            let aov = aov.as_deref_mut().map(|a| &mut a.0);
+            if !path_vertex::<NEE>(&scene, &config, &hit.0, &mut ray.0, &mut state, &mut shadow, aov) {
                 state.status = PathStatus::Finished;
             }
         },
@@ -58,12 +63,16 @@ fn path_vertex<const NEE: bool>(
     ray: &mut Ray,
     state: &mut PathState,
     shadow: &mut ShadowRay,
+    aov: Option<&mut FirstSurface>,
 ) -> bool {
     let rule = if NEE { EmissionWeight::Mis } else { EmissionWeight::One };
     let path = &mut state.path;
     path.travel(scene, hit);
     if !hit.is_hit() {
         add_escaped_radiance(scene, rule, path, ray.d);
+        if let Some(aov) = aov {
+            aov.escaped(scene, ray.d, path.beta);
+        }
         return false;
     }
     let si = scene.geometry.surface_hit(ray, hit);
@@ -73,6 +82,9 @@ fn path_vertex<const NEE: bool>(
         return false;
     }
     let v = Vertex::new(scene, ray, si);
+    if let Some(aov) = aov {
+        aov.reached(&v, hit.t, path.beta);
+    }
     let u =
         VertexSampler::new(Sampler::of(config.sampler, config.seed, state.pixel, state.sample), path.depth);
     if NEE
@@ -103,11 +115,11 @@ pub fn scatter_photon_mapped(
     scene: Res<SceneResource>,
     config: Res<RenderConfig>,
     maps: Res<PhotonMaps>,
-    mut paths: Query<(&PathHit, &mut PathRay, &mut PathState, &mut ShadowRay)>,
+    mut paths: Query<(&PathHit, &mut PathRay, &mut PathState, &mut ShadowRay, Option<&mut PathAov>)>,
 ) {
     paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each_init(
         || Neighbors::with_capacity(maps.k),
-        |neighbors, (hit, mut ray, mut state, mut shadow)| {
+        |neighbors, (hit, mut ray, mut state, mut shadow, mut aov)| {
             if state.status != PathStatus::Active {
                 return;
             }
@@ -121,6 +133,7 @@ pub fn scatter_photon_mapped(
                 &mut ray.0,
                 &mut state,
                 &mut shadow,
+                aov.as_deref_mut().map(|a| &mut a.0),
             ) {
                 state.status = PathStatus::Finished;
             }
@@ -140,6 +153,7 @@ fn photon_mapped_vertex(
     ray: &mut Ray,
     state: &mut PathState,
     shadow: &mut ShadowRay,
+    aov: Option<&mut FirstSurface>,
 ) -> bool {
     // A final-gather ray only reads the global map: light it reaches is in there already.
     let counts_emission = !state.gathering;
@@ -149,6 +163,9 @@ fn photon_mapped_vertex(
         if counts_emission {
             add_escaped_radiance(scene, rule, &mut state.path, ray.d);
         }
+        if let Some(aov) = aov {
+            aov.escaped(scene, ray.d, state.path.beta);
+        }
         return false;
     }
     let si = scene.geometry.surface_hit(ray, hit);
@@ -156,6 +173,9 @@ fn photon_mapped_vertex(
         add_surface_emission(scene, rule, &mut state.path, &si, -ray.d, ray.time);
     }
     let v = Vertex::new(scene, ray, si);
+    if let Some(aov) = aov {
+        aov.reached(&v, hit.t, state.path.beta);
+    }
     let mut estimate = |map: &PhotonMap, lookups: &mut u32| {
         *lookups += 1;
         radiance_estimate(
@@ -215,10 +235,17 @@ fn photon_mapped_vertex(
 pub fn scatter_to_visible_points<const NEE: bool>(
     scene: Res<SceneResource>,
     config: Res<RenderConfig>,
-    mut paths: Query<(&PathHit, &mut PathRay, &mut PathState, &mut ShadowRay, &mut HitPoint)>,
+    mut paths: Query<(
+        &PathHit,
+        &mut PathRay,
+        &mut PathState,
+        &mut ShadowRay,
+        &mut HitPoint,
+        Option<&mut PathAov>,
+    )>,
 ) {
     paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each(
-        |(hit, mut ray, mut state, mut shadow, mut hit_point)| {
+        |(hit, mut ray, mut state, mut shadow, mut hit_point, mut aov)| {
             if state.status != PathStatus::Active {
                 return;
             }
@@ -231,6 +258,7 @@ pub fn scatter_to_visible_points<const NEE: bool>(
                 &mut state,
                 &mut shadow,
                 &mut hit_point,
+                aov.as_deref_mut().map(|a| &mut a.0),
             ) {
                 state.status = PathStatus::Finished;
             }
@@ -239,6 +267,7 @@ pub fn scatter_to_visible_points<const NEE: bool>(
 }
 
 /// One bounce of a progressive camera path; false when the path is done (with or without a hit point).
+#[allow(clippy::too_many_arguments)]
 #[inline]
 fn visible_point_vertex<const NEE: bool>(
     scene: &RenderScene,
@@ -248,6 +277,7 @@ fn visible_point_vertex<const NEE: bool>(
     state: &mut PathState,
     shadow: &mut ShadowRay,
     hit_point: &mut HitPoint,
+    aov: Option<&mut FirstSurface>,
 ) -> bool {
     if state.path.depth == 0 {
         // Until this pass finds a surface, the hit point gathers nothing.
@@ -257,11 +287,17 @@ fn visible_point_vertex<const NEE: bool>(
     state.path.travel(scene, hit);
     if !hit.is_hit() {
         add_escaped_radiance(scene, rule, &mut state.path, ray.d);
+        if let Some(aov) = aov {
+            aov.escaped(scene, ray.d, state.path.beta);
+        }
         return false;
     }
     let si = scene.geometry.surface_hit(ray, hit);
     add_surface_emission(scene, rule, &mut state.path, &si, -ray.d, ray.time);
     let v = Vertex::new(scene, ray, si);
+    if let Some(aov) = aov {
+        aov.reached(&v, hit.t, state.path.beta);
+    }
     let u = VertexSampler::new(
         Sampler::of(config.sampler, config.seed, state.pixel, state.sample),
         state.path.depth,

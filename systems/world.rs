@@ -1,7 +1,8 @@
 //! The World every integrator starts from: the scene's resources, sized and checked.
 
 use crate::resources::{
-    AovFilmResource, CameraResource, FilmResource, PassRange, RenderConfig, RenderStats, SceneFeatures, SceneResource,
+    AovFilmResource, CameraResource, FilmResource, PassRange, RenderConfig, RenderStats, SceneFeatures,
+    SceneResource,
 };
 use bevy_ecs::prelude::*;
 use caustica_core::camera::Camera;

@@ -33,7 +33,9 @@ fn planes(dir: &Path, front: &str, back: &str) -> PathBuf {
         bytes.extend(index.to_le_bytes());
     }
     std::fs::write(dir.join("planes.bin"), &bytes).unwrap();
-    let view = |offset: usize, length: usize| format!(r#"{{"buffer":0,"byteOffset":{offset},"byteLength":{length}}}"#);
+    let view = |offset: usize, length: usize| {
+        format!(r#"{{"buffer":0,"byteOffset":{offset},"byteLength":{length}}}"#)
+    };
     let vec3 = |view: usize, z: f32| {
         format!(
             r#"{{"bufferView":{view},"componentType":5126,"count":4,"type":"VEC3","min":[{m},{m},{z}],"max":[{h},{h},{z}]}}"#,
@@ -41,7 +43,8 @@ fn planes(dir: &Path, front: &str, back: &str) -> PathBuf {
             h = HALF
         )
     };
-    let normal = |view: usize| format!(r#"{{"bufferView":{view},"componentType":5126,"count":4,"type":"VEC3"}}"#);
+    let normal =
+        |view: usize| format!(r#"{{"bufferView":{view},"componentType":5126,"count":4,"type":"VEC3"}}"#);
     let gltf = format!(
         r#"{{
   "asset": {{"version": "2.0"}},
@@ -88,8 +91,7 @@ fn lambertian(rgb: [f32; 3]) -> String {
 }
 
 /// A perfect white mirror (a smooth conductor whose Fresnel is one at every angle).
-const MIRROR: &str =
-    r#"{"pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 1], "metallicFactor": 1, "roughnessFactor": 0}}"#;
+const MIRROR: &str = r#"{"pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 1], "metallicFactor": 1, "roughnessFactor": 0}}"#;
 
 /// Render `scene` with every feature image into `dir/out.exr` and read its channels.
 fn render_aovs(scene: &Path, dir: &Path, extra: &[&str]) -> BTreeMap<String, Vec<f32>> {
@@ -155,8 +157,7 @@ fn the_cornell_box_walls_have_their_base_colours_and_every_normal_is_at_most_uni
     let dir = tempfile::tempdir().unwrap();
     let scene = common::data("cornell-box.gltf");
     let channels = render_aovs(&scene, dir.path(), &["--integrator", "pm"]);
-    let gltf: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&scene).unwrap()).unwrap();
+    let gltf: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&scene).unwrap()).unwrap();
     let bases: Vec<[f32; 3]> = gltf["materials"]
         .as_array()
         .unwrap()
@@ -170,11 +171,13 @@ fn the_cornell_box_walls_have_their_base_colours_and_every_normal_is_at_most_uni
     assert!(bases.len() >= 3, "the Cornell box's walls are Lambertian");
     let albedos = triples(&channels, ["albedo.R", "albedo.G", "albedo.B"]);
     // Pixels inside one wall see only it: most pixels are exactly one of the walls' colours.
-    let on_a_wall = albedos
-        .iter()
-        .filter(|a| bases.iter().any(|b| (0..3).all(|c| (a[c] - b[c]).abs() < 1e-6)))
-        .count();
-    assert!(on_a_wall * 10 >= albedos.len() * 7, "{on_a_wall} of {} pixels show a wall's colour", albedos.len());
+    let on_a_wall =
+        albedos.iter().filter(|a| bases.iter().any(|b| (0..3).all(|c| (a[c] - b[c]).abs() < 1e-6))).count();
+    assert!(
+        on_a_wall * 10 >= albedos.len() * 7,
+        "{on_a_wall} of {} pixels show a wall's colour",
+        albedos.len()
+    );
     for n in triples(&channels, ["N.X", "N.Y", "N.Z"]) {
         let length = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
         assert!(length <= 1.0 + 1e-5, "a mean of unit normals is at most unit: {length}");
@@ -189,7 +192,8 @@ fn feature_images_need_an_exr_output_and_refuse_a_part() {
     let scene = common::data("cornell-box.gltf");
     let png = dir.path().join("out.png");
     let run = |extra: &[&str]| {
-        let mut args = vec!["render", scene.to_str().unwrap(), "-q", "--spp", "2", "--width", "8", "--height", "8"];
+        let mut args =
+            vec!["render", scene.to_str().unwrap(), "-q", "--spp", "2", "--width", "8", "--height", "8"];
         args.extend(extra);
         Command::new(env!("CARGO_BIN_EXE_caustica")).args(&args).output().unwrap()
     };

@@ -5,7 +5,12 @@ progressive render between the steps of your own simulation.
     scene = caustica.load("scenes/cornell-box.gltf", spp=64, width=256, height=256)
     result = scene.render()
     result.color          # float32, height x width x 3, linear RGB
+    result.aovs["depth"]  # float32, height x width (also "albedo" and "normal", height x width x 3)
     result.stats          # samples, rays, seconds, NaN count, ...
+
+    session = scene.session(integrator="sppm", aovs=())   # any run-file key, as in load()
+    session.step(8)
+    frame = session.image()
 
 Rendering releases the GIL, so other Python threads keep running; Ctrl-C stops a render at its
 next step and raises KeyboardInterrupt. Refused input raises ``CausticaError`` with the message the
@@ -19,12 +24,14 @@ import math
 import os
 from typing import Any, Union
 
-from ._caustica import CausticaError, RenderResult, Scene, Session, compare, merge, read_exr, write_image
+from ._caustica import (
+    CausticaError, RenderResult, Scene, Session, compare, merge, read_exr, read_exr_channels, write_image,
+)
 from ._caustica import load as _load
 
 __all__ = [
     "CausticaError", "RenderResult", "Scene", "Session", "compare", "from_dict", "load", "merge", "read_exr",
-    "write_image",
+    "read_exr_channels", "write_image",
 ]
 
 # The run-file section of each short keyword (`spp=` is `render.spp`); any other key is given
@@ -66,15 +73,21 @@ def _toml(value: Any, key: str) -> str:
     raise TypeError(f"{key} = {value!r}: a run-file value is a bool, number, string or list")
 
 
-def load(path: Union[str, os.PathLike], **overrides: Any) -> Scene:
-    """Load a glTF (.gltf, .glb) or run file (.toml), with the run file's keys as overrides:
-    ``spp=``, ``integrator=``, ``width=``, ``seed=``, ``light_selection=``, ``passes=``, ... or any
-    key dotted (``**{"progressive.alpha": 0.7}``)."""
+def _override_sets(overrides: dict[str, Any]) -> list[str]:
+    """Keyword overrides as run-file assignments (``spp=16`` is ``render.spp=16``); also what
+    ``Scene.render(**overrides)`` and ``Scene.session(**overrides)`` use."""
     sets = []
     for key, value in overrides.items():
         dotted = key if "." in key else f"{_SECTION.get(key, 'render')}.{key}"
         sets.append(f"{dotted}={_toml(value, key)}")
-    return _load(os.fspath(path), sets)
+    return sets
+
+
+def load(path: Union[str, os.PathLike], **overrides: Any) -> Scene:
+    """Load a glTF (.gltf, .glb) or run file (.toml), with the run file's keys as overrides:
+    ``spp=``, ``integrator=``, ``width=``, ``seed=``, ``light_selection=``, ``passes=``, ... or any
+    key dotted (``**{"progressive.alpha": 0.7}``)."""
+    return _load(os.fspath(path), _override_sets(overrides))
 
 
 from .scene_dict import from_dict  # noqa: E402  (it needs `load` above)

@@ -8,6 +8,7 @@ from ._caustica import Session as Session
 from ._caustica import compare as compare
 from ._caustica import merge as merge
 from ._caustica import read_exr as read_exr
+from ._caustica import read_exr_channels as read_exr_channels
 from ._caustica import write_image as write_image
 
 def load(path: Union[str, os.PathLike[str]], **overrides: Any) -> Scene:

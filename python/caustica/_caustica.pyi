@@ -1,7 +1,7 @@
 """Type stubs of the compiled module (see ``caustica/__init__.py`` for the API's overview)."""
 
 import os
-from typing import Any, Optional, Union
+from typing import Any, Optional, Sequence, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -15,6 +15,12 @@ class RenderResult:
     @property
     def color(self) -> npt.NDArray[np.float32]:
         """Linear RGB, float32, height x width x 3."""
+    @property
+    def aovs(self) -> dict[str, npt.NDArray[np.float32]]:
+        """The feature images asked for, at each sample's first non-specular surface (through
+        perfect mirrors and glass), averaged like colour: ``albedo`` and ``normal`` (world space,
+        facing the camera) height x width x 3, ``depth`` (from the image plane along the view
+        axis, 0 where the sample left the scene) height x width."""
     @property
     def stats(self) -> dict[str, Any]:
         """integrator, unit ("spp" or "passes"), done, target, seed, seconds, samples, rays,
@@ -32,6 +38,8 @@ class Session:
         rebuilt and the image starts over (``done`` is 0)."""
     def image(self) -> npt.NDArray[np.float32]:
         """The image so far: linear RGB, float32, height x width x 3."""
+    def aovs(self) -> dict[str, npt.NDArray[np.float32]]:
+        """The feature images so far, as ``RenderResult.aovs``."""
     @property
     def done(self) -> int:
         """Units done: samples per pixel, or passes."""
@@ -47,10 +55,18 @@ class Scene:
     @property
     def integrator(self) -> str: ...
     def render(
-        self, spp: Optional[int] = None, passes: Optional[int] = None, time_limit: Optional[float] = None
+        self,
+        spp: Optional[int] = None,
+        passes: Optional[int] = None,
+        time_limit: Optional[float] = None,
+        aovs: Sequence[str] = ("albedo", "normal", "depth"),
+        **overrides: Any,
     ) -> RenderResult:
         """Render to the settings' target, or to ``spp`` samples per pixel (path tracers, ``pm``) or
-        ``passes`` (the progressive photon mappers), or until ``time_limit`` seconds."""
+        ``passes`` (the progressive photon mappers), or until ``time_limit`` seconds, with the
+        feature images ``aovs`` (``()`` for none) and the run file's keys as ``overrides``
+        (``integrator="sppm"``, as in ``load``; not ``camera.name`` or ``environment.*``, which
+        change what is loaded)."""
     def splits(self) -> bool:
         """Whether these settings split into parts that merge exactly: pt, pt-naive, pm and pppm,
         unless light selection is visibility-aware."""
@@ -64,8 +80,9 @@ class Scene:
     ) -> dict[str, Any]:
         """Render share ``part`` (from 1) of ``parts`` and write its accumulator (.exr) to ``path``;
         ``merge`` of every part gives the bits of one render. Returns the stats."""
-    def session(self) -> Session:
-        """A render to step: ``s = scene.session(); s.step(8); s.image()``."""
+    def session(self, aovs: Sequence[str] = ("albedo", "normal", "depth"), **overrides: Any) -> Session:
+        """A render to step: ``s = scene.session(integrator="sppm"); s.step(8); s.image()``, with
+        the feature images ``aovs`` and the run file's keys as ``overrides``, as ``render``."""
 
 def load(path: Union[str, os.PathLike[str]], sets: list[str] = ...) -> Scene: ...
 def merge(paths: list[Union[str, os.PathLike[str]]]) -> tuple[npt.NDArray[np.float32], dict[str, Any]]:
@@ -76,5 +93,8 @@ def write_image(path: Union[str, os.PathLike[str]], color: npt.NDArray[np.float3
 def compare(image: npt.NDArray[np.float32], reference: npt.NDArray[np.float32]) -> dict[str, float]:
     """rmse, relmse, mae (linear RGB) and flip (mean LDR-FLIP after the PNG tone map), as
     ``caustica compare`` prints them."""
+def read_exr_channels(path: Union[str, os.PathLike[str]]) -> dict[str, npt.NDArray[np.float32]]:
+    """Every channel of an OpenEXR file by name (``R``, ``albedo.R``, ``N.X``, ``Z``, ...), each
+    float32 height x width: the command line's ``--aov`` layers."""
 def read_exr(path: Union[str, os.PathLike[str]]) -> npt.NDArray[np.float32]:
     """Read an OpenEXR image (a reference, or the command line's output) as float32, height x width x 3."""

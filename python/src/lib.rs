@@ -3,10 +3,11 @@
 //! host steps between its own simulation steps. The pure-Python half (`caustica/__init__.py`) turns
 //! keyword overrides into run-file assignments and documents the API.
 
-use caustica::Renderer;
 use caustica::film::accumulator::{self, PartInfo};
+use caustica::film::aov::{Aov, AovImages};
 use caustica::report::Unit;
 use caustica::scene::{self, RunFile};
+use caustica::{Choice, Renderer};
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::exceptions::{PyException, PyValueError};
 use pyo3::prelude::*;
@@ -84,13 +85,61 @@ struct Scene {
     scene: scene::Scene,
     run: RunFile,
     path: PathBuf,
+    /// The run file's text ("" for a glTF) and the overrides it was loaded with, which a render's
+    /// own overrides are applied after.
+    text: String,
+    sets: Vec<String>,
+}
+
+/// The feature images `names` ask for, refused by name when one is unknown.
+fn aov_list(names: &[String]) -> PyResult<Vec<Aov>> {
+    names
+        .iter()
+        .map(|name| {
+            Aov::from_name(name).ok_or_else(|| {
+                PyValueError::new_err(format!("unknown feature image {name:?}: use {}", Aov::names()))
+            })
+        })
+        .collect()
+}
+
+/// A Python `**overrides` dict as run-file assignments, by the package's own rule
+/// (`caustica._override_sets`: short keys to their sections, values to TOML).
+fn override_sets(py: Python<'_>, overrides: Option<&Bound<'_, PyDict>>) -> PyResult<Vec<String>> {
+    match overrides {
+        Some(d) if !d.is_empty() => py.import("caustica")?.getattr("_override_sets")?.call1((d,))?.extract(),
+        _ => Ok(Vec::new()),
+    }
 }
 
 impl Scene {
-    /// A renderer of this scene with `sets` applied on top of the loaded settings, aiming at
-    /// `target` units (samples per pixel, or passes) when given.
-    fn renderer(&self, py: Python<'_>, target: Option<(u32, &str)>) -> PyResult<Renderer> {
-        let mut renderer = py.detach(|| Renderer::new(self.scene.clone(), &self.run)).map_err(refused)?;
+    /// The loaded settings with `extra` run-file assignments on top, and `aovs` as the feature
+    /// images. Settings that change what is loaded (the camera's name, the environment) are the
+    /// loader's: they are refused here.
+    fn settings(&self, extra: &[String], aovs: &[String]) -> PyResult<RunFile> {
+        if let Some(set) =
+            extra.iter().find(|s| s.starts_with("camera.name") || s.starts_with("environment."))
+        {
+            return Err(PyValueError::new_err(format!(
+                "{set}: this setting changes what is loaded; give it to caustica.load"
+            )));
+        }
+        let mut run = if extra.is_empty() {
+            self.run.clone()
+        } else {
+            let sets: Vec<String> = self.sets.iter().chain(extra).cloned().collect();
+            let run = RunFile::parse_with_sets(&self.text, &sets).map_err(refused)?;
+            run.check_settings().map_err(refused)?;
+            run
+        };
+        run.film.aovs = aov_list(aovs)?;
+        Ok(run)
+    }
+
+    /// A renderer of this scene with settings `run`, aiming at `target` units (samples per pixel, or
+    /// passes) when given.
+    fn renderer(&self, py: Python<'_>, run: &RunFile, target: Option<(u32, &str)>) -> PyResult<Renderer> {
+        let mut renderer = py.detach(|| Renderer::new(self.scene.clone(), run)).map_err(refused)?;
         // Stop (Ctrl-C, a time limit) only at whole samples per pixel or passes, so that `done` is
         // exact and a session that goes on renders what an uninterrupted one would.
         renderer.set_whole_passes(true);
@@ -101,7 +150,7 @@ impl Scene {
                 return Err(PyValueError::new_err(format!(
                     "{}: {:?} counts its progress in {wanted}, not {name}",
                     self.path.display(),
-                    self.run.render.integrator
+                    run.render.integrator
                 )));
             }
             if target == 0 {
@@ -136,22 +185,30 @@ impl Scene {
         format!("{:?}", self.run.render.integrator).to_lowercase()
     }
 
-    /// Render to the target, or to `spp`/`passes` when given, or until `time_limit` seconds.
-    #[pyo3(signature = (spp=None, passes=None, time_limit=None))]
+    /// Render to the target, or to `spp`/`passes` when given, or until `time_limit` seconds, with
+    /// the feature images `aovs` and the run file's keys as `overrides`.
+    #[pyo3(signature = (spp=None, passes=None, time_limit=None, aovs=default_aovs(), **overrides))]
     fn render(
         &self,
         py: Python<'_>,
         spp: Option<u32>,
         passes: Option<u32>,
         time_limit: Option<f64>,
+        aovs: Vec<String>,
+        overrides: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<RenderResult> {
         if time_limit.is_some_and(|t| !(t.is_finite() && t > 0.0)) {
             return Err(PyValueError::new_err("time_limit must be a positive number of seconds"));
         }
-        let mut renderer = self.renderer(py, target_of(spp, passes)?)?;
+        let run = self.settings(&override_sets(py, overrides)?, &aovs)?;
+        let mut renderer = self.renderer(py, &run, target_of(spp, passes)?)?;
         let report = run_detached(py, &mut renderer, time_limit)?;
-        let image = py.detach(|| renderer.image());
-        Ok(RenderResult { color: color_array(py, &image)?.unbind(), stats: stats(py, &report)?.unbind() })
+        let (image, features) = py.detach(|| (renderer.image(), renderer.aov_images()));
+        Ok(RenderResult {
+            color: color_array(py, &image)?.unbind(),
+            aovs: aov_dict(py, features.as_ref(), &run.film.aovs)?.unbind(),
+            stats: stats(py, &report)?.unbind(),
+        })
     }
 
     /// Whether a render of these settings splits into parts that merge exactly (`render_part`):
@@ -179,7 +236,7 @@ impl Scene {
         spp: Option<u32>,
         passes: Option<u32>,
     ) -> PyResult<Py<PyDict>> {
-        let mut run = self.run.clone();
+        let mut run = self.settings(&[], &[])?;
         let progressive = run.render.integrator.is_progressive();
         match target_of(spp, passes)? {
             Some((n, "spp")) if !progressive => run.render.spp = n,
@@ -203,25 +260,64 @@ impl Scene {
         Ok(stats(py, &report)?.unbind())
     }
 
-    /// A render that a host advances a few units at a time (`step`), looking at it in between.
-    fn session(&self, py: Python<'_>) -> PyResult<Session> {
-        let renderer = self.renderer(py, None)?;
+    /// A render that a host advances a few units at a time (`step`), looking at it in between, with
+    /// the feature images `aovs` and the run file's keys as `overrides`.
+    #[pyo3(signature = (aovs=default_aovs(), **overrides))]
+    fn session(
+        &self,
+        py: Python<'_>,
+        aovs: Vec<String>,
+        overrides: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Session> {
+        let run = self.settings(&override_sets(py, overrides)?, &aovs)?;
+        let renderer = self.renderer(py, &run, None)?;
         let final_target = renderer.target();
         Ok(Session {
             renderer,
             final_target,
             loaded: self.scene.clone(),
-            light_selection: self.run.render.light_selection,
+            light_selection: run.render.light_selection,
+            aovs: run.film.aovs.clone(),
             transforms: Vec::new(),
         })
     }
 }
 
-/// A finished (or stopped) render: `color` (float32, height × width × 3, linear) and `stats`.
+/// The feature images a render makes unless told otherwise.
+fn default_aovs() -> Vec<String> {
+    Aov::CHOICES.iter().map(|(_, name, _)| name.to_string()).collect()
+}
+
+/// The feature images `which` as numpy arrays by name: `albedo` and `normal` float32 height ×
+/// width × 3, `depth` float32 height × width.
+fn aov_dict<'py>(
+    py: Python<'py>,
+    features: Option<&AovImages>,
+    which: &[Aov],
+) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    let Some(features) = features else { return Ok(d) };
+    for &aov in which {
+        let array = match aov {
+            Aov::Albedo => color_array(py, &features.albedo)?,
+            Aov::Normal => color_array(py, &features.normal)?,
+            Aov::Depth => PyArray1::from_slice(py, &features.depth)
+                .reshape([features.albedo.height as usize, features.albedo.width as usize])?
+                .into_any(),
+        };
+        d.set_item(aov.name(), array)?;
+    }
+    Ok(d)
+}
+
+/// A finished (or stopped) render: `color` (float32, height × width × 3, linear), the feature
+/// images `aovs` by name, and `stats`.
 #[pyclass(module = "caustica", frozen)]
 struct RenderResult {
     #[pyo3(get)]
     color: Py<PyAny>,
+    #[pyo3(get)]
+    aovs: Py<PyDict>,
     #[pyo3(get)]
     stats: Py<PyDict>,
 }
@@ -236,6 +332,8 @@ struct Session {
     /// The scene as loaded, which `set_transform`'s matrices apply to.
     loaded: scene::Scene,
     light_selection: caustica::scene::LightSelection,
+    /// The feature images it makes.
+    aovs: Vec<Aov>,
     /// Each moved node's matrix, by the name or index it was given as.
     transforms: Vec<(String, glam::Mat4)>,
 }
@@ -321,6 +419,12 @@ impl Session {
         color_array(py, &image)
     }
 
+    /// The feature images so far, by name (empty when the session makes none).
+    fn aovs<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let features = py.detach(|| self.renderer.aov_images());
+        aov_dict(py, features.as_ref(), &self.aovs)
+    }
+
     /// Units done: samples per pixel, or passes.
     #[getter]
     fn done(&self) -> u32 {
@@ -340,7 +444,13 @@ impl Session {
 #[pyo3(signature = (path, sets=Vec::new()))]
 fn load(py: Python<'_>, path: PathBuf, sets: Vec<String>) -> PyResult<Scene> {
     let (scene, run) = py.detach(|| scene::load_with_sets(&path, &sets, |_| {})).map_err(refused)?;
-    Ok(Scene { scene, run, path })
+    let is_run_file = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+    let text = if is_run_file {
+        std::fs::read_to_string(&path).map_err(|e| refused(format!("{}: {e}", path.display())))?
+    } else {
+        String::new()
+    };
+    Ok(Scene { scene, run, path, text, sets })
 }
 
 /// Merge the accumulators of a split render (`Scene.render_part`, or `caustica render --part`):
@@ -411,6 +521,19 @@ fn read_exr<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyAny>> 
     color_array(py, &image)
 }
 
+/// Every channel of an OpenEXR file by name (`R`, `albedo.R`, `N.X`, `Z`, …), each float32 height
+/// × width: the command line's feature-image layers.
+#[pyfunction]
+fn read_exr_channels<'py>(py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyDict>> {
+    let (width, height, channels) =
+        py.detach(|| caustica::film::output::read_exr_channels(&path)).map_err(refused)?;
+    let d = PyDict::new(py);
+    for (name, samples) in channels {
+        d.set_item(name, PyArray1::from_vec(py, samples).reshape([height as usize, width as usize])?)?;
+    }
+    Ok(d)
+}
+
 #[pymodule]
 fn _caustica(m: &Bound<'_, PyModule>) -> PyResult<()> {
     // Every core, as the command line without --threads: the pools are per process.
@@ -421,6 +544,7 @@ fn _caustica(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Session>()?;
     m.add_function(wrap_pyfunction!(load, m)?)?;
     m.add_function(wrap_pyfunction!(read_exr, m)?)?;
+    m.add_function(wrap_pyfunction!(read_exr_channels, m)?)?;
     m.add_function(wrap_pyfunction!(merge, m)?)?;
     m.add_function(wrap_pyfunction!(write_image, m)?)?;
     m.add_function(wrap_pyfunction!(compare, m)?)?;

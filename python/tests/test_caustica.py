@@ -240,3 +240,49 @@ def test_compare_gives_the_metrics_of_caustica_compare():
     assert caustica.compare(reference, reference) == {"rmse": 0.0, "relmse": 0.0, "mae": 0.0, "flip": 0.0}
     with pytest.raises(ValueError, match="32x24 against 24x32"):
         caustica.compare(noisy, np.ascontiguousarray(noisy.transpose(1, 0, 2)))
+
+
+def test_feature_images_are_float32_arrays_of_the_image_size():
+    result = caustica.load(BOX, spp=2, **SMALL).render()
+    aovs = result.aovs
+    assert sorted(aovs) == ["albedo", "depth", "normal"]
+    assert aovs["albedo"].shape == aovs["normal"].shape == (24, 32, 3)
+    assert aovs["depth"].shape == (24, 32)
+    assert all(a.dtype == np.float32 for a in aovs.values())
+    assert ((aovs["albedo"] >= 0) & (aovs["albedo"] <= 1)).all()
+    assert (np.linalg.norm(aovs["normal"], axis=2) <= 1 + 1e-5).all()
+    assert (aovs["depth"] >= 0).all()
+    assert (aovs["depth"][8:16, 12:20] > 0).all(), "the middle of the frame sees the box"
+    assert caustica.load(BOX, spp=1, **SMALL).render(aovs=()).aovs == {}
+    with pytest.raises(ValueError, match="shadows"):
+        caustica.load(BOX, spp=1, **SMALL).render(aovs=("shadows",))
+
+
+def test_feature_images_are_the_command_lines_layers(tmp_path):
+    out = tmp_path / "cli.exr"
+    subprocess.run(
+        [cli_binary(), "render", str(SPHERES), "--spp", "3", "--seed", "5", "--width", "32", "--height", "24",
+         "--aov", "albedo,normal,depth", "--quiet", "-o", str(out)],
+        check=True,
+        stdout=subprocess.DEVNULL,
+    )
+    layers = caustica.read_exr_channels(out)
+    aovs = caustica.load(SPHERES, spp=3, seed=5, **SMALL).render().aovs
+    assert np.array_equal(np.stack([layers[f"albedo.{c}"] for c in "RGB"], axis=2), aovs["albedo"])
+    assert np.array_equal(np.stack([layers[f"N.{c}"] for c in "XYZ"], axis=2), aovs["normal"])
+    assert np.array_equal(layers["Z"], aovs["depth"])
+
+
+def test_render_and_session_take_run_file_overrides():
+    scene = caustica.load(BOX, spp=2, **SMALL)
+    session = scene.session(integrator="sppm", photons_per_pass=2000, aovs=("depth",))
+    assert session.unit == "passes"
+    session.step(2)
+    assert session.done == 2
+    assert sorted(session.aovs()) == ["depth"]
+    assert session.aovs()["depth"].shape == (24, 32)
+    assert scene.integrator == "pt", "the scene's own settings stay as loaded"
+    result = scene.render(seed=9, aovs=())
+    assert result.stats["seed"] == 9
+    with pytest.raises(ValueError, match="load"):
+        scene.render(**{"camera.name": "other"})

@@ -60,7 +60,9 @@ pub fn write_image_with_aovs(
         .map_err(|e| out_err(format!("cannot create a file in {}: {e}", dir.display())))?;
     match extension(path).as_deref() {
         Some("exr") => match aovs {
-            Some((features, which)) if !which.is_empty() => write_exr_layers(image, features, which, &mut file),
+            Some((features, which)) if !which.is_empty() => {
+                write_exr_layers(image, features, which, &mut file)
+            }
             _ => write_exr(image, &mut file),
         },
         Some("png") => write_png(image, &mut file, exposure),
@@ -131,7 +133,9 @@ fn write_exr_layers(
     which: &[Aov],
     out: &mut (impl std::io::Write + std::io::Seek),
 ) -> Result<(), String> {
-    use exr::prelude::{AnyChannel, AnyChannels, Encoding, FlatSamples, Layer, LayerAttributes, WritableImage};
+    use exr::prelude::{
+        AnyChannel, AnyChannels, Encoding, FlatSamples, Layer, LayerAttributes, WritableImage,
+    };
     let list = exr_channels(image, features, which)
         .into_iter()
         .map(|(name, samples)| AnyChannel::new(name.as_str(), FlatSamples::F32(samples)))
@@ -154,7 +158,9 @@ pub fn read_exr_channels(path: &Path) -> Result<(u32, u32, BTreeMap<String, Vec<
         .from_file(path)
         .map_err(|e| match e {
             exr::error::Error::Io(source) => Error::Io { path: path.to_path_buf(), source },
-            other => Error::Image { path: path.to_path_buf(), message: format!("not a readable EXR: {other}") },
+            other => {
+                Error::Image { path: path.to_path_buf(), message: format!("not a readable EXR: {other}") }
+            }
         })?;
     let size = read.layer_data.size;
     let channels = read

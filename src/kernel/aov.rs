@@ -4,8 +4,6 @@
 
 use super::Vertex;
 use crate::film::aov::AovSample;
-use crate::geometry::Ray;
-use crate::geometry::bvh::Hit;
 use crate::render_scene::RenderScene;
 use glam::Vec3;
 
@@ -30,22 +28,27 @@ impl FirstSurface {
         Self { view_cos: primary.dot(view_axis), ..Self::default() }
     }
 
-    /// The path's `ray` arrived at `hit` carrying throughput `beta` (what the specular vertices
-    /// before passed): at a non-specular surface or off into the sky, record and stop looking.
+    /// The path left the scene along `d` carrying throughput `beta` (what the specular vertices
+    /// before passed): the sky is what it saw.
     #[inline]
-    pub fn visit(&mut self, scene: &RenderScene, ray: &Ray, hit: &Hit, beta: Vec3) {
+    pub fn escaped(&mut self, scene: &RenderScene, d: Vec3, beta: Vec3) {
         if self.found {
             return;
         }
-        if !hit.is_hit() {
-            // The sky's albedo is its radiance clamped to [0, 1], as a denoiser reads a background.
-            let sky = scene.lights.environment.as_ref().map_or(Vec3::ZERO, |e| e.le(ray.d));
-            self.sample = AovSample { albedo: (beta * sky).clamp(Vec3::ZERO, Vec3::ONE), ..AovSample::default() };
-            self.found = true;
+        // The sky's albedo is its radiance clamped to [0, 1], as a denoiser reads a background.
+        let sky = scene.lights.environment.as_ref().map_or(Vec3::ZERO, |e| e.le(d));
+        self.sample = AovSample { albedo: (beta * sky).clamp(Vec3::ZERO, Vec3::ONE), ..AovSample::default() };
+        self.found = true;
+    }
+
+    /// The path reached vertex `v`, `t` along its last ray, carrying `beta`: at a non-specular
+    /// surface, record it and stop looking.
+    #[inline]
+    pub fn reached(&mut self, v: &Vertex, t: f32, beta: Vec3) {
+        if self.found {
             return;
         }
-        self.travelled += hit.t;
-        let v = Vertex::new(scene, ray, scene.geometry.surface_hit(ray, hit));
+        self.travelled += t;
         if v.bsdf.is_delta() {
             return;
         }

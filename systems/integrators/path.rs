@@ -51,7 +51,6 @@ pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result
     let mut bounce =
         Phase::new("bounce", When::EveryPass, Repeat::WhileBusy(paths_busy)).with_begin(hand_out_samples(1));
     add_bounce_systems(&mut bounce.schedule, features, stage_order(run), nee);
-    crate::aov::add_aov_systems(world, &mut bounce.schedule, stage_order(run));
     phases.push(bounce);
     let pass_end: crate::plan::PassEnd = if features.learns_visibility {
         // Learn from the shadow rays of the first sixteenth of the samples (at least one per pixel).

@@ -87,7 +87,6 @@ pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result
     bounce.schedule.add_systems(scatter_photon_mapped.in_set(PassSystems::Scatter));
     bounce.schedule.add_systems(trace_shadow_rays.in_set(PassSystems::Shadow));
     bounce.schedule.add_systems(splat_paths_to_film.in_set(PassSystems::Gather));
-    crate::aov::add_aov_systems(world, &mut bounce.schedule, order);
     phases.push(bounce);
     Ok(Plan {
         kind: run.render.integrator,

@@ -137,7 +137,6 @@ pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures, variant: 
                     .with_begin(begin_camera_pass)
                     .with_end(cap_initial_radius);
                 add_camera_systems(&mut camera.schedule, features, order, variant.nee);
-                crate::aov::add_aov_systems(world, &mut camera.schedule, order);
                 phases.push(camera);
             }
             Pass::Photons => {
