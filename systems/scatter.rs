@@ -227,6 +227,16 @@ fn photon_mapped_vertex(
     continue_from(ray, continue_path(&mut state.path, &v, ray.time, &u, config.limits))
 }
 
+/// What a progressive camera path's scatter reads and writes.
+type VisiblePointPath = (
+    &'static PathHit,
+    &'static mut PathRay,
+    &'static mut PathState,
+    &'static mut ShadowRay,
+    &'static mut HitPoint,
+    Option<&'static mut PathAov>,
+);
+
 /// Advance every active camera path of a progressive pass by one bounce, recording its hit point at
 /// the first non-specular surface. `NEE` adds a light sample there (`sppm`, `appm`, `cppm`,
 /// Hachisuka & Jensen 2009 §4); without it (`ppm`) direct light comes from photons like the rest.
