@@ -245,14 +245,7 @@ type VisiblePointPath = (
 pub fn scatter_to_visible_points<const NEE: bool>(
     scene: Res<SceneResource>,
     config: Res<RenderConfig>,
-    mut paths: Query<(
-        &PathHit,
-        &mut PathRay,
-        &mut PathState,
-        &mut ShadowRay,
-        &mut HitPoint,
-        Option<&mut PathAov>,
-    )>,
+    mut paths: Query<VisiblePointPath>,
 ) {
     paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each(
         |(hit, mut ray, mut state, mut shadow, mut hit_point, mut aov)| {
