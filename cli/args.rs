@@ -297,6 +297,10 @@ pub struct RenderArgs {
     /// raise the target): once it reaches the target, the same bits as a render never stopped.
     #[arg(long, value_name = "FILE.exr")]
     pub resume: Option<PathBuf>,
+    /// Also write each output denoised by Intel Open Image Denoise, guided by albedo and normal, as
+    /// NAME-denoised.EXT beside it (a build with feature `denoise`; README, "Denoising").
+    #[arg(long)]
+    pub denoise: bool,
     /// No progress bar.
     #[arg(short, long)]
     pub quiet: bool,

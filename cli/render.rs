@@ -8,6 +8,7 @@ use caustica::Renderer;
 use caustica::driver::StopReason;
 use caustica::driver::init_thread_pools;
 use caustica::film::accumulator::{self, PartInfo};
+use caustica::film::aov::Aov;
 use caustica::film::output;
 use caustica::scene::{self, RunFile};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -37,14 +38,29 @@ pub fn render(args: &RenderArgs) -> Result<bool> {
             scene_path.display()
         );
     }
-    let (scene, run) = scene::load_with_sets(&scene_path, &args.set, |run| args.apply(run))?;
+    let (scene, mut run) = scene::load_with_sets(&scene_path, &args.set, |run| args.apply(run))?;
     let outputs = output_paths(args, &run, &scene_path);
-    check_outputs(&outputs, &inputs(args, &run, &scene_path))?;
-    if !run.film.aovs.is_empty() && args.part.is_none() && !outputs.iter().any(|o| is_exr(o)) {
+    let denoised = if args.denoise { outputs.iter().map(|o| denoised_path(o)).collect() } else { Vec::new() };
+    let all_outputs: Vec<PathBuf> = outputs.iter().chain(&denoised).cloned().collect();
+    check_outputs(&all_outputs, &inputs(args, &run, &scene_path))?;
+    let written_aovs = run.film.aovs.clone();
+    if !written_aovs.is_empty() && args.part.is_none() && !outputs.iter().any(|o| is_exr(o)) {
         anyhow::bail!(
             "feature images (--aov) are written as layers of an EXR: name an output FILE.exr (-o), not only {}",
             outputs.iter().map(|o| o.display().to_string()).collect::<Vec<_>>().join(", ")
         );
+    }
+    if args.denoise {
+        caustica::film::denoise::check_available()?;
+        if args.part.is_some() {
+            anyhow::bail!("--denoise needs the whole image: denoise the merged parts instead");
+        }
+        // The denoiser's guides.
+        for aov in [Aov::Albedo, Aov::Normal] {
+            if !run.film.aovs.contains(&aov) {
+                run.film.aovs.push(aov);
+            }
+        }
     }
     let mut part = args.part.map(|(i, k)| part_info(&scene, &run, i, k, &outputs)).transpose()?;
     if part.is_some() && (args.checkpoint.is_some() || args.resume.is_some()) {
@@ -125,7 +141,7 @@ pub fn render(args: &RenderArgs) -> Result<bool> {
         let marks = progress.done as u32 / k;
         if marks > written_marks && progress.done < progress.target as f64 {
             written_marks = marks;
-            for e in write_outputs(renderer, &renderer.image(), &outputs, &run) {
+            for e in write_outputs(renderer, &renderer.image(), &outputs, &written_aovs, &run) {
                 bar.suspend(|| tracing::warn!("{e}; rendering goes on"));
             }
         }
@@ -145,14 +161,19 @@ pub fn render(args: &RenderArgs) -> Result<bool> {
             .into_iter()
             .map(|e| e.to_string())
             .collect(),
-        None => write_outputs(&renderer, &image, &outputs, &run),
+        None => write_outputs(&renderer, &image, &outputs, &written_aovs, &run),
+    };
+    let denoise_failed = if args.denoise && part.is_none() {
+        write_denoised(&renderer, &image, &denoised, &run).err()
+    } else {
+        None
     };
     print_report(&scene_path, &report, start.elapsed().as_secs_f64());
     if let Some(reference) = &reference {
         let e = caustica::film::compare::compare(&image, reference).expect("sizes checked before rendering");
         println!("error       RMSE {:.5}  relMSE {:.5}  MAE {:.5}", e.rmse, e.relmse, e.mae);
     }
-    for path in &outputs {
+    for path in outputs.iter().chain(denoised.iter().filter(|_| denoise_failed.is_none())) {
         println!("wrote       {}", path.display());
     }
     if let Some(checkpoints) = &checkpoints {
@@ -164,6 +185,9 @@ pub fn render(args: &RenderArgs) -> Result<bool> {
     if !failed.is_empty() {
         anyhow::bail!("{}", failed.join("; "));
     }
+    if let Some(e) = denoise_failed {
+        return Err(e);
+    }
     Ok(report.stopped_by != Some(StopReason::Interrupted))
 }
 
@@ -172,16 +196,44 @@ fn is_exr(path: &Path) -> bool {
     path.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr"))
 }
 
-/// Write `image` to every output, with the render's feature images as layers of the EXRs; the
+/// `out/NAME.EXT` → `out/NAME-denoised.EXT`.
+fn denoised_path(path: &Path) -> PathBuf {
+    let stem = path.file_stem().map_or("image".into(), |s| s.to_string_lossy().into_owned());
+    let name = match path.extension() {
+        Some(ext) => format!("{stem}-denoised.{}", ext.to_string_lossy()),
+        None => format!("{stem}-denoised"),
+    };
+    path.with_file_name(name)
+}
+
+/// Denoise `image` with the render's albedo and normal and write it to every path of `denoised`.
+fn write_denoised(
+    renderer: &Renderer,
+    image: &caustica::film::Image,
+    denoised: &[PathBuf],
+    run: &RunFile,
+) -> Result<()> {
+    let features = renderer.aov_images().context("the render made no albedo and normal to denoise with")?;
+    let start = Instant::now();
+    let clean = caustica::film::denoise::denoise(image, &features)?;
+    tracing::info!("denoised in {:.3} s", start.elapsed().as_secs_f64());
+    for path in denoised {
+        output::write_image(&clean, path, run.film.exposure)?;
+    }
+    Ok(())
+}
+
+/// Write `image` to every output, with the feature images `aovs` as layers of the EXRs; the
 /// errors of the writes that failed.
 fn write_outputs(
     renderer: &Renderer,
     image: &caustica::film::Image,
     outputs: &[PathBuf],
+    aovs: &[Aov],
     run: &RunFile,
 ) -> Vec<String> {
     let features = renderer.aov_images();
-    let aovs = features.as_ref().map(|f| (f, run.film.aovs.as_slice()));
+    let aovs = features.as_ref().map(|f| (f, aovs));
     outputs
         .iter()
         .filter_map(|path| output::write_image_with_aovs(image, aovs, path, run.film.exposure).err())

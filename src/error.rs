@@ -92,6 +92,12 @@ pub enum Error {
         /// What is wrong.
         message: String,
     },
+    /// The denoiser is missing (a build without feature `denoise`) or failed.
+    #[error("cannot denoise: {problem}")]
+    Denoise {
+        /// Why.
+        problem: String,
+    },
     /// Parts given to a merge that do not make one whole render.
     #[error("cannot merge: {problem}")]
     Merge {

@@ -25,13 +25,14 @@ import os
 from typing import Any, Union
 
 from ._caustica import (
-    CausticaError, RenderResult, Scene, Session, compare, merge, read_exr, read_exr_channels, write_image,
+    CausticaError, RenderResult, Scene, Session, compare, has_denoiser, merge, read_exr, read_exr_channels,
+    write_image,
 )
 from ._caustica import load as _load
 
 __all__ = [
-    "CausticaError", "RenderResult", "Scene", "Session", "compare", "from_dict", "load", "merge", "read_exr",
-    "read_exr_channels", "write_image",
+    "CausticaError", "RenderResult", "Scene", "Session", "compare", "from_dict", "has_denoiser", "load", "merge",
+    "read_exr", "read_exr_channels", "write_image",
 ]
 
 # The run-file section of each short keyword (`spp=` is `render.spp`); any other key is given

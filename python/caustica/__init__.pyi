@@ -6,6 +6,7 @@ from ._caustica import RenderResult as RenderResult
 from ._caustica import Scene as Scene
 from ._caustica import Session as Session
 from ._caustica import compare as compare
+from ._caustica import has_denoiser as has_denoiser
 from ._caustica import merge as merge
 from ._caustica import read_exr as read_exr
 from ._caustica import read_exr_channels as read_exr_channels

@@ -21,6 +21,10 @@ class RenderResult:
         perfect mirrors and glass), averaged like colour: ``albedo`` and ``normal`` (world space,
         facing the camera) height x width x 3, ``depth`` (from the image plane along the view
         axis, 0 where the sample left the scene) height x width."""
+    def denoised(self) -> npt.NDArray[np.float32]:
+        """``color`` denoised by Intel Open Image Denoise, guided by the albedo and normal images
+        (the render must have made both). Needs a package built with feature ``denoise``
+        (``has_denoiser()``); otherwise raises ``CausticaError`` saying how to build one."""
     @property
     def stats(self) -> dict[str, Any]:
         """integrator, unit ("spp" or "passes"), done, target, seed, seconds, samples, rays,
@@ -93,6 +97,8 @@ def write_image(path: Union[str, os.PathLike[str]], color: npt.NDArray[np.float3
 def compare(image: npt.NDArray[np.float32], reference: npt.NDArray[np.float32]) -> dict[str, float]:
     """rmse, relmse, mae (linear RGB) and flip (mean LDR-FLIP after the PNG tone map), as
     ``caustica compare`` prints them."""
+def has_denoiser() -> bool:
+    """Whether this build has the denoiser (``RenderResult.denoised``)."""
 def read_exr_channels(path: Union[str, os.PathLike[str]]) -> dict[str, npt.NDArray[np.float32]]:
     """Every channel of an OpenEXR file by name (``R``, ``albedo.R``, ``N.X``, ``Z``, ...), each
     float32 height x width: the command line's ``--aov`` layers."""

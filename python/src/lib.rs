@@ -322,6 +322,35 @@ struct RenderResult {
     stats: Py<PyDict>,
 }
 
+#[pymethods]
+impl RenderResult {
+    /// `color` denoised by Intel Open Image Denoise, guided by `aovs["albedo"]` and
+    /// `aovs["normal"]` (float32, height × width × 3), with the GIL released. Needs a build with
+    /// feature `denoise` and a render with those two feature images.
+    fn denoised<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        caustica::film::denoise::check_available().map_err(refused)?;
+        let aovs = self.aovs.bind(py);
+        let guide = |name: &str| -> PyResult<caustica::film::Image> {
+            let array = aovs.get_item(name)?.ok_or_else(|| {
+                refused(format!(
+                    "cannot denoise: the render has no {name} image; render with aovs including \"albedo\" and \"normal\""
+                ))
+            })?;
+            image_of(&array.extract::<numpy::PyReadonlyArray3<'_, f32>>()?)
+        };
+        let features = AovImages { albedo: guide("albedo")?, normal: guide("normal")?, depth: Vec::new() };
+        let color = image_of(&self.color.bind(py).extract::<numpy::PyReadonlyArray3<'_, f32>>()?)?;
+        let clean = py.detach(|| caustica::film::denoise::denoise(&color, &features)).map_err(refused)?;
+        color_array(py, &clean)
+    }
+}
+
+/// Whether this build of the package has the denoiser (`RenderResult.denoised`).
+#[pyfunction]
+fn has_denoiser() -> bool {
+    caustica::film::denoise::AVAILABLE
+}
+
 /// A progressive render a host steps: `step(n)` adds n samples per pixel (or passes), `image()`
 /// is the image so far.
 #[pyclass(module = "caustica")]
@@ -545,6 +574,7 @@ fn _caustica(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(load, m)?)?;
     m.add_function(wrap_pyfunction!(read_exr, m)?)?;
     m.add_function(wrap_pyfunction!(read_exr_channels, m)?)?;
+    m.add_function(wrap_pyfunction!(has_denoiser, m)?)?;
     m.add_function(wrap_pyfunction!(merge, m)?)?;
     m.add_function(wrap_pyfunction!(write_image, m)?)?;
     m.add_function(wrap_pyfunction!(compare, m)?)?;

@@ -286,3 +286,20 @@ def test_render_and_session_take_run_file_overrides():
     assert result.stats["seed"] == 9
     with pytest.raises(ValueError, match="load"):
         scene.render(**{"camera.name": "other"})
+
+
+def test_denoised_is_closer_to_the_reference_or_says_how_to_get_a_denoiser():
+    result = caustica.load(ROOT / "tests" / "data" / "cornell-box.gltf", spp=4, seed=2).render()
+    if not caustica.has_denoiser():
+        with pytest.raises(caustica.CausticaError, match="--features denoise"):
+            result.denoised()
+        return
+    clean = result.denoised()
+    assert clean.shape == result.color.shape and clean.dtype == np.float32
+    reference = caustica.read_exr(ROOT / "tests" / "data" / "cornell-box.ref.exr")
+    raw, denoised = caustica.compare(result.color, reference), caustica.compare(clean, reference)
+    assert denoised["relmse"] <= raw["relmse"] / 3, (raw, denoised)
+    assert denoised["flip"] < raw["flip"], (raw, denoised)
+    without_guides = caustica.load(BOX, spp=1, **SMALL).render(aovs=("depth",))
+    with pytest.raises(caustica.CausticaError, match="albedo"):
+        without_guides.denoised()

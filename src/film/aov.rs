@@ -113,7 +113,7 @@ impl AovFilm {
 }
 
 /// The feature images of a render.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct AovImages {
     /// Albedo, linear RGB.
     pub albedo: Image,

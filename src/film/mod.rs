@@ -2,6 +2,7 @@
 pub mod accumulator;
 pub mod aov;
 pub mod compare;
+pub mod denoise;
 pub mod fixed;
 pub mod flip;
 pub mod output;
@@ -80,7 +81,7 @@ impl Film {
 }
 
 /// A linear RGB image.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Image {
     /// Width in pixels.
     pub width: u32,
