@@ -5,6 +5,8 @@ pub mod bvh;
 pub mod offset;
 pub mod sphere;
 pub mod triangle;
+pub mod triangle_pack;
+pub mod wide_bvh;
 
 pub use bvh::{Geometry, PrimitiveKind, SurfaceHit};
 

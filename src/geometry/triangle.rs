@@ -43,6 +43,18 @@ impl ShearedRay {
         Self { kz, shear_xy: Vec3A::new(-d.x * sz, -d.y * sz, 0.0), scale: Vec3A::new(1.0, 1.0, sz) }
     }
 
+    /// The world axis that becomes z of ray space.
+    #[inline]
+    pub fn axis(&self) -> usize {
+        self.kz as usize
+    }
+
+    /// (Sx, Sy, Sz): x' = x + Sx·z, y' = y + Sy·z, z' = Sz·z in the permuted frame.
+    #[inline]
+    pub fn shear(&self) -> (f32, f32, f32) {
+        (self.shear_xy.x, self.shear_xy.y, self.scale.z)
+    }
+
     /// Vertex `p` relative to the origin, in ray space; SIMD lanes do the three coordinates at once.
     #[inline(always)]
     fn transform(&self, p: Vec3A) -> Vec3 {

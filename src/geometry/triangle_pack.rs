@@ -1,0 +1,283 @@
+//! Four triangles tested against one ray at once: the watertight test of `triangle.rs` (Woop, Benthin
+//! & Wald 2013, pbrt-v4's `IntersectTriangle`) on SIMD lanes, one triangle a lane.
+//!
+//! A BVH leaf's triangles are stored as one or more packs, structure of arrays (each vertex
+//! coordinate of the four triangles side by side), so the test loads them straight into lanes. Every
+//! lane runs exactly the floating-point operations of the scalar test in the same order, so a lane
+//! reports what [`super::triangle::intersect_triangle_sheared`] reports for its triangle, bit for
+//! bit: the shared-edge watertightness is the scalar test's (its test holds here too). A lane whose
+//! edge function is exactly zero takes the scalar test's f64 path, as pbrt-v4 does.
+
+use super::offset::gamma;
+use super::triangle::{ShearedRay, intersect_triangle_sheared};
+use glam::Vec3;
+use wide::f32x4;
+
+/// Triangles of a pack.
+pub const LANES: usize = 4;
+
+/// Four triangles, structure of arrays: `v[k][a]` holds coordinate `a` of vertex `k` of each.
+/// A pack with fewer triangles repeats its first one in the unused lanes (a duplicate hit is the same
+/// triangle, so it changes nothing).
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(16))]
+pub struct TrianglePack {
+    v: [[f32x4; 3]; 3],
+}
+
+impl TrianglePack {
+    /// A pack of up to four triangles (at least one).
+    pub fn new(triangles: &[[Vec3; 3]]) -> Self {
+        debug_assert!((1..=LANES).contains(&triangles.len()));
+        let lane = |i: usize| triangles[if i < triangles.len() { i } else { 0 }];
+        let v = std::array::from_fn(|k| {
+            std::array::from_fn(|a| f32x4::new(std::array::from_fn(|i| lane(i)[k][a])))
+        });
+        Self { v }
+    }
+
+    /// The vertices of lane `i`.
+    pub fn triangle(&self, i: usize) -> [Vec3; 3] {
+        std::array::from_fn(|k| {
+            Vec3::new(self.v[k][0].as_array()[i], self.v[k][1].as_array()[i], self.v[k][2].as_array()[i])
+        })
+    }
+}
+
+/// The per-ray part of the pack test: the ray's origin per lane (a moving pack's lanes each see the
+/// ray moved back by their own displacement), its axis permutation and shear.
+#[derive(Clone, Copy, Debug)]
+pub struct PackRay {
+    /// Origin, per world axis and lane.
+    o: [f32x4; 3],
+    /// World axes that become x, y and z of ray space.
+    k: [usize; 3],
+    sx: f32x4,
+    sy: f32x4,
+    sz: f32x4,
+    /// The scalar form, for lanes that need the f64 fallback.
+    sheared: ShearedRay,
+    origin: Vec3,
+}
+
+impl PackRay {
+    /// Prepare the ray `o + t·d`.
+    #[inline]
+    pub fn new(o: Vec3, d: Vec3) -> Self {
+        let sheared = ShearedRay::new(d);
+        let kz = sheared.axis();
+        let k = [(kz + 1) % 3, (kz + 2) % 3, kz];
+        let (sx, sy, sz) = sheared.shear();
+        Self {
+            o: [f32x4::splat(o.x), f32x4::splat(o.y), f32x4::splat(o.z)],
+            k,
+            sx: f32x4::splat(sx),
+            sy: f32x4::splat(sy),
+            sz: f32x4::splat(sz),
+            sheared,
+            origin: o,
+        }
+    }
+
+    /// The origin, the same in every lane.
+    #[inline(always)]
+    pub fn origin_lanes(&self) -> &[f32x4; 3] {
+        &self.o
+    }
+
+    /// The same ray seen by a pack whose triangles have moved by `shift` (per axis and lane).
+    #[inline]
+    pub fn shifted(&self, shift: &[f32x4; 3]) -> ([f32x4; 3], [Vec3; LANES]) {
+        let o = [self.o[0] - shift[0], self.o[1] - shift[1], self.o[2] - shift[2]];
+        let lanes =
+            std::array::from_fn(|i| Vec3::new(o[0].as_array()[i], o[1].as_array()[i], o[2].as_array()[i]));
+        (o, lanes)
+    }
+}
+
+/// Which lanes hit, where, and with which barycentrics.
+#[derive(Clone, Copy, Debug)]
+pub struct PackHits {
+    /// Bit `i` set: lane `i` hits within the ray's range.
+    pub mask: u32,
+    /// Distances.
+    pub t: [f32; LANES],
+    /// Weights of vertex 1.
+    pub b1: [f32; LANES],
+    /// Weights of vertex 2.
+    pub b2: [f32; LANES],
+}
+
+impl PackHits {
+    /// No lane hits.
+    pub const NONE: PackHits = PackHits { mask: 0, t: [0.0; LANES], b1: [0.0; LANES], b2: [0.0; LANES] };
+
+    /// The lane of the nearest hit (the lowest lane among equals), if any.
+    #[inline]
+    pub fn nearest(&self) -> Option<usize> {
+        let mut mask = self.mask;
+        let mut best: Option<usize> = None;
+        while mask != 0 {
+            let i = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            if best.is_none_or(|b| self.t[i] < self.t[b]) {
+                best = Some(i);
+            }
+        }
+        best
+    }
+}
+
+/// Test the four triangles of `pack` against `ray` with origin `o` (per lane), accepting hits with
+/// `t < t_max`. `origins` gives the same origin per lane for the f64 fallback.
+#[inline(always)]
+pub fn intersect_pack(
+    pack: &TrianglePack,
+    ray: &PackRay,
+    o: &[f32x4; 3],
+    origins: Option<&[Vec3; LANES]>,
+    t_max: f32,
+) -> PackHits {
+    let [kx, ky, kz] = ray.k;
+    // Translate to the ray origin, permute so the ray runs along z, shear so it points along +z:
+    // the scalar test's `ShearedRay::transform`, lane-wise.
+    let vertex = |k: usize| {
+        let (px, py, pz) = (pack.v[k][kx] - o[kx], pack.v[k][ky] - o[ky], pack.v[k][kz] - o[kz]);
+        (px + ray.sx * pz, py + ray.sy * pz, pz * ray.sz)
+    };
+    let (p0x, p0y, p0z) = vertex(0);
+    let (p1x, p1y, p1z) = vertex(1);
+    let (p2x, p2y, p2z) = vertex(2);
+    let e0 = p1x * p2y - p1y * p2x;
+    let e1 = p2x * p0y - p2y * p0x;
+    let e2 = p0x * p1y - p0y * p1x;
+    let zero = f32x4::ZERO;
+    // Lanes with an edge function exactly zero are redone by the scalar test (its f64 path).
+    let fallback = (e0.simd_eq(zero) | e1.simd_eq(zero) | e2.simd_eq(zero)).to_bitmask();
+    let negative = e0.simd_lt(zero) | e1.simd_lt(zero) | e2.simd_lt(zero);
+    let positive = e0.simd_gt(zero) | e1.simd_gt(zero) | e2.simd_gt(zero);
+    let outside = negative & positive;
+    // Most packs a ray reaches it passes beside: nothing more to compute.
+    if outside.to_bitmask() == 0xf && fallback == 0 {
+        return PackHits::NONE;
+    }
+    let det = e0 + e1 + e2;
+    let t_scaled = e0 * p0z + e1 * p1z + e2 * p2z;
+    let t_max_det = f32x4::splat(t_max) * det;
+    let behind_or_beyond = (det.simd_lt(zero) & (t_scaled.simd_ge(zero) | t_scaled.simd_lt(t_max_det)))
+        | (det.simd_gt(zero) & (t_scaled.simd_le(zero) | t_scaled.simd_gt(t_max_det)));
+    let inv_det = f32x4::ONE / det;
+    let b1 = e1 * inv_det;
+    let b2 = e2 * inv_det;
+    let t = t_scaled * inv_det;
+    // Ensure t is conservatively greater than zero (pbrt-v4, eq. 6.33–6.38).
+    let max3 = |a: f32x4, b: f32x4, c: f32x4| a.abs().fast_max(b.abs().fast_max(c.abs()));
+    let max_zt = max3(p0z, p1z, p2z);
+    let delta_z = f32x4::splat(gamma(3)) * max_zt;
+    let max_xt = max3(p0x, p1x, p2x);
+    let max_yt = max3(p0y, p1y, p2y);
+    let delta_x = f32x4::splat(gamma(5)) * (max_xt + max_zt);
+    let delta_y = f32x4::splat(gamma(5)) * (max_yt + max_zt);
+    let delta_e =
+        f32x4::splat(2.0) * (f32x4::splat(gamma(2)) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+    let max_e = max3(e0, e1, e2);
+    let delta_t = f32x4::splat(3.0)
+        * (f32x4::splat(gamma(3)) * max_e * max_zt + delta_e * max_zt + delta_z * max_e)
+        * inv_det.abs();
+    let miss =
+        outside | det.simd_eq(zero) | behind_or_beyond | t.simd_le(delta_t) | !t.simd_lt(f32x4::splat(t_max));
+    let mut hits =
+        PackHits { mask: !miss.to_bitmask() & 0xf, t: t.to_array(), b1: b1.to_array(), b2: b2.to_array() };
+    if fallback != 0 {
+        redo_in_scalar(pack, ray, origins, t_max, fallback, &mut hits);
+    }
+    hits
+}
+
+/// The scalar test (with its f64 path) for the lanes in `lanes`.
+#[cold]
+#[inline(never)]
+fn redo_in_scalar(
+    pack: &TrianglePack,
+    ray: &PackRay,
+    origins: Option<&[Vec3; LANES]>,
+    t_max: f32,
+    mut lanes: u32,
+    hits: &mut PackHits,
+) {
+    while lanes != 0 {
+        let i = lanes.trailing_zeros() as usize;
+        lanes &= lanes - 1;
+        let o = origins.map_or(ray.origin, |o| o[i]);
+        let [p0, p1, p2] = pack.triangle(i);
+        hits.mask &= !(1 << i);
+        if let Some(h) =
+            intersect_triangle_sheared(o, &ray.sheared, t_max, p0, p1, p2).filter(|h| h.t < t_max)
+        {
+            hits.mask |= 1 << i;
+            (hits.t[i], hits.b1[i], hits.b2[i]) = (h.t, h.b1, h.b2);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::triangle::intersect_triangle;
+    use crate::sampling::Sampler;
+    use crate::sampling::warp::uniform_sphere;
+
+    /// Every lane reports exactly what the scalar test reports for its triangle: random triangles
+    /// and rays, including rays aimed at shared edges and vertices (where the f64 path runs).
+    #[test]
+    fn lanes_agree_with_the_scalar_test_bit_for_bit() {
+        let mut checked = 0;
+        for i in 0..20_000u32 {
+            let s = Sampler::new(5, i, 0);
+            let point = |d: u32| (Vec3::new(s.get1d(d), s.get1d(d + 1), s.get1d(d + 2)) - 0.5) * 4.0;
+            let tris: Vec<[Vec3; 3]> =
+                (0..4).map(|k| [point(10 * k), point(10 * k + 3), point(10 * k + 6)]).collect();
+            let o = point(50);
+            // Half the rays aim at a vertex or edge midpoint of the first triangle.
+            let d = match i % 4 {
+                0 => tris[0][1] - o,
+                1 => (tris[0][0] + tris[0][2]) * 0.5 - o,
+                _ => uniform_sphere(s.get2d(60)),
+            };
+            let t_max = if i % 3 == 0 { 1.5 } else { f32::INFINITY };
+            let pack = TrianglePack::new(&tris);
+            let ray = PackRay::new(o, d);
+            let hits = intersect_pack(&pack, &ray, &ray.o, None, t_max);
+            for (k, tri) in tris.iter().enumerate() {
+                let scalar = intersect_triangle(o, d, t_max, tri[0], tri[1], tri[2]).filter(|h| h.t < t_max);
+                let lane = (hits.mask >> k & 1 == 1).then(|| (hits.t[k], hits.b1[k], hits.b2[k]));
+                let scalar = scalar.map(|h| (h.t, h.b1, h.b2));
+                assert_eq!(
+                    lane.map(|(t, a, b)| (t.to_bits(), a.to_bits(), b.to_bits())),
+                    scalar.map(|(t, a, b)| (t.to_bits(), a.to_bits(), b.to_bits())),
+                    "ray {i}, triangle {k}"
+                );
+                checked += scalar.is_some() as u32;
+            }
+        }
+        assert!(checked > 1000, "only {checked} hits compared");
+    }
+
+    /// The shared-edge test of `triangle.rs`, through packs: rays within a few ulps of the diagonal
+    /// two triangles share hit at least one of them.
+    #[test]
+    fn rays_at_a_shared_edge_never_slip_between_the_two_lanes() {
+        let (a, b, c, d) = (Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y);
+        let pack = TrianglePack::new(&[[a, b, c], [a, c, d]]);
+        let dir = Vec3::new(0.0, 0.0, -1.0);
+        for i in 1..100 {
+            let s = i as f32 / 100.0;
+            for ulps in -4i32..=4 {
+                let x = f32::from_bits((s.to_bits() as i32 + ulps) as u32);
+                let ray = PackRay::new(Vec3::new(x, s, 1.0), dir);
+                let hits = intersect_pack(&pack, &ray, &ray.o, None, f32::INFINITY);
+                assert!(hits.mask & 0b11 != 0, "the ray at ({x}, {s}) slipped through the shared edge");
+            }
+        }
+    }
+}

@@ -1,0 +1,573 @@
+//! A four-wide BVH traversed one ray at a time, its four child boxes tested together in SIMD lanes.
+//!
+//! obvhs builds the binary tree (PLOC and reinsertion: [`build_bvh2`]); this module decides its leaves
+//! by the surface area heuristic with the cost of a leaf counted in the packs of items it needs (a
+//! pack of four triangles costs what one does), and flattens the rest into nodes of eight children,
+//! opening the largest child first (Wald et al. 2008's collapse, as Embree's BVH8). The boxes stay uncompressed: a node test is six loads and a dozen
+//! lane operations, where obvhs's compressed CWBVH spends most of its node test decoding bytes into
+//! floats (measured on the Cornell box: 116 ns a ray through raw obvhs for 1.9 nodes and 2.8
+//! triangles a ray). Leaves are ranges of up to [`MAX_LEAF_ITEMS`] items the caller defines and
+//! tests (triangle packs, spheres): the traversal hands the range over and takes back the new
+//! closest distance.
+
+use super::offset::gamma;
+use obvhs::BvhBuildParams;
+use obvhs::aabb::Aabb;
+use obvhs::bvh2::Bvh2;
+use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
+use obvhs::ploc::PlocBuilder;
+use wide::f32x8;
+
+/// A lane per child.
+type Lanes = f32x8;
+
+/// Children of a node.
+pub const WIDTH: usize = 8;
+/// Items a leaf may hold (three bits of a child code).
+pub const MAX_LEAF_ITEMS: u32 = 8;
+
+/// A child code's leaf bit; then three bits of item count − 1 and 28 of the first item.
+const LEAF: u32 = 1 << 31;
+const COUNT_SHIFT: u32 = 28;
+const FIRST_MASK: u32 = (1 << COUNT_SHIFT) - 1;
+/// Largest first item a leaf can name.
+pub const MAX_ITEMS: u32 = FIRST_MASK;
+/// Traversal stack entries held on the stack for shallow trees (the Cornell box's: 2 levels), and for
+/// deep ones (a 2 M-triangle mesh: 11); a deeper tree traverses with a heap stack. The array is
+/// zeroed for every ray, so it is no larger than the tree needs.
+const SHALLOW_STACK: usize = 64;
+const DEEP_STACK: usize = 256;
+/// pbrt-v4's slack on a box's exit distance, so that rounding never culls a box the ray enters.
+const EXIT_SLACK: f32 = 1.0 + 2.0 * gamma(3);
+
+/// Four child boxes, a lane each (`bounds[a]` the minimum on axis `a`, `bounds[3 + a]` the maximum),
+/// and their child codes. An unused child has an empty box, which no ray enters.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+struct Node {
+    bounds: [Lanes; 6],
+    children: [u32; WIDTH],
+}
+
+impl Node {
+    const EMPTY: Node = Node {
+        bounds: [
+            Lanes::splat(f32::INFINITY),
+            Lanes::splat(f32::INFINITY),
+            Lanes::splat(f32::INFINITY),
+            Lanes::splat(f32::NEG_INFINITY),
+            Lanes::splat(f32::NEG_INFINITY),
+            Lanes::splat(f32::NEG_INFINITY),
+        ],
+        children: [u32::MAX; WIDTH],
+    };
+
+    /// Which children the ray enters before `t_max` (a bit each), and where.
+    #[inline(always)]
+    fn intersect(&self, ray: &BoxRay, t_max: f32) -> (u32, Lanes) {
+        let slab = |a: usize, side: usize| (self.bounds[side] - ray.o[a]) * ray.inv[a];
+        // maxps/minps return their second operand when either is NaN (a ray parallel to a slab
+        // that starts on its plane): keeping the running bound second ignores that slab.
+        let near = slab(2, ray.near[2])
+            .fast_max(slab(1, ray.near[1]).fast_max(slab(0, ray.near[0]).fast_max(Lanes::ZERO)));
+        let far = slab(2, ray.far[2])
+            .fast_min(slab(1, ray.far[1]).fast_min(slab(0, ray.far[0]).fast_min(Lanes::splat(t_max))));
+        let mask = near.simd_le(far * Lanes::splat(EXIT_SLACK)).to_bitmask();
+        (mask, near)
+    }
+}
+
+/// The per-ray part of the box test.
+#[derive(Clone, Copy, Debug)]
+pub struct BoxRay {
+    o: [Lanes; 3],
+    inv: [Lanes; 3],
+    /// Which of `Node::bounds` the ray enters (and leaves) through, per axis.
+    near: [usize; 3],
+    far: [usize; 3],
+}
+
+impl BoxRay {
+    /// Prepare the ray `o + t·d`.
+    #[inline]
+    pub fn new(o: glam::Vec3, d: glam::Vec3) -> Self {
+        // -0.0 + 0.0 = +0.0: a zero component must take the same side as its infinite inverse.
+        let d = d + glam::Vec3::ZERO;
+        let side = |a: usize| if d[a] >= 0.0 { (a, 3 + a) } else { (3 + a, a) };
+        let (n0, f0) = side(0);
+        let (n1, f1) = side(1);
+        let (n2, f2) = side(2);
+        Self {
+            o: [Lanes::splat(o.x), Lanes::splat(o.y), Lanes::splat(o.z)],
+            inv: [Lanes::splat(1.0 / d.x), Lanes::splat(1.0 / d.y), Lanes::splat(1.0 / d.z)],
+            near: [n0, n1, n2],
+            far: [f0, f1, f2],
+        }
+    }
+}
+
+/// What one traversal did: inner nodes whose boxes it tested and leaves it handed over.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TraceCounts {
+    /// Inner nodes visited.
+    pub nodes: u32,
+    /// Leaves visited.
+    pub leaves: u32,
+}
+
+/// A four-wide BVH; its leaves are ranges of items the builder's caller made.
+#[derive(Clone, Debug, Default)]
+pub struct WideBvh {
+    nodes: Vec<Node>,
+    /// The traversal stack the tree's depth needs.
+    stack: StackSize,
+}
+
+/// Which traversal stack a tree needs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+enum StackSize {
+    #[default]
+    Shallow,
+    Deep,
+    Heap,
+}
+
+/// obvhs's binary tree over `aabbs`, each standing for primitive `indices[i]` (several boxes may
+/// stand for one primitive when large triangles were split): PLOC, then reinsertion. Every leaf holds
+/// one box, its `first_index` the primitive it stands for; [`WideBvh::from_bvh2`] chooses the leaves.
+pub fn build_bvh2(aabbs: &[Aabb], indices: Vec<u32>, params: &BvhBuildParams) -> Bvh2 {
+    let mut bvh2 = PlocBuilder::with_capacity(aabbs.len()).build(
+        params.ploc_search_distance,
+        aabbs,
+        indices,
+        params.sort_precision,
+        params.search_depth_threshold,
+    );
+    ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
+    bvh2
+}
+
+/// How leaves are chosen: a subtree of at most `max_items` packs of `pack` primitives becomes a leaf
+/// when testing its packs costs no more, by the surface area heuristic, than descending it, with a
+/// node's box test costing `node_cost` packs.
+#[derive(Clone, Copy, Debug)]
+pub struct LeafRule {
+    /// Primitives per item (4 for triangle packs, 1 for spheres).
+    pub pack: u32,
+    /// Most items in a leaf (at most [`MAX_LEAF_ITEMS`]).
+    pub max_items: u32,
+    /// What a node's box test costs, in item tests.
+    pub node_cost: f32,
+}
+
+/// Which binary nodes become leaves: bottom-up SAH costs, then the highest subtrees that chose to be
+/// leaves.
+fn choose_leaves(bvh2: &Bvh2, rule: LeafRule) -> Vec<bool> {
+    let n = bvh2.nodes.len();
+    let (mut prims, mut cost, mut leaf) = (vec![0u32; n], vec![0f32; n], vec![false; n]);
+    // Post-order without recursion: children before parents.
+    let mut order = Vec::with_capacity(n);
+    let mut stack = vec![0usize];
+    while let Some(i) = stack.pop() {
+        order.push(i);
+        if !bvh2.nodes[i].is_leaf() {
+            let first = bvh2.nodes[i].first_index as usize;
+            stack.extend([first, first + 1]);
+        }
+    }
+    for &i in order.iter().rev() {
+        let node = &bvh2.nodes[i];
+        let area = node.aabb().half_area();
+        if node.is_leaf() {
+            (prims[i], cost[i], leaf[i]) = (1, area, true);
+            continue;
+        }
+        let first = node.first_index as usize;
+        prims[i] = prims[first] + prims[first + 1];
+        let items = prims[i].div_ceil(rule.pack);
+        let descend = rule.node_cost * area + cost[first] + cost[first + 1];
+        let as_leaf = items as f32 * area;
+        leaf[i] = items <= rule.max_items && as_leaf <= descend;
+        cost[i] = if leaf[i] { as_leaf } else { descend };
+    }
+    leaf
+}
+
+/// The primitives of the binary subtree at `index`.
+fn subtree_primitives(bvh2: &Bvh2, index: usize, out: &mut Vec<u32>) {
+    out.clear();
+    let mut stack = vec![index];
+    while let Some(i) = stack.pop() {
+        let node = &bvh2.nodes[i];
+        if node.is_leaf() {
+            out.push(node.first_index);
+        } else {
+            stack.extend([node.first_index as usize, node.first_index as usize + 1]);
+        }
+    }
+    out.sort_unstable();
+    out.dedup();
+}
+
+impl WideBvh {
+    /// Flatten `bvh2` (made by [`build_bvh2`]), its leaves chosen by `rule`. `make_leaf` receives
+    /// the primitives of each leaf (duplicates from split boxes removed) and returns the range of
+    /// items it stored for them: its first item and how many (1 to [`MAX_LEAF_ITEMS`], the first at
+    /// most [`MAX_ITEMS`]).
+    pub fn from_bvh2(bvh2: &Bvh2, rule: LeafRule, mut make_leaf: impl FnMut(&[u32]) -> (u32, u32)) -> Self {
+        if bvh2.nodes.is_empty() {
+            return Self::default();
+        }
+        let is_leaf = choose_leaves(bvh2, rule);
+        let mut nodes = vec![Node::EMPTY];
+        let mut prims = Vec::new();
+        let mut leaf_code = |index: usize, prims: &mut Vec<u32>| {
+            subtree_primitives(bvh2, index, prims);
+            let (item, count) = make_leaf(prims);
+            assert!(
+                (1..=MAX_LEAF_ITEMS).contains(&count) && item <= MAX_ITEMS,
+                "a leaf of {count} items from {item}"
+            );
+            LEAF | (count - 1) << COUNT_SHIFT | item
+        };
+        // (binary node, depth, wide node and lane to fill); the root fills node 0.
+        let mut work = vec![(0usize, 1u32, 0usize, usize::MAX)];
+        let mut max_depth = 1;
+        while let Some((index, depth, parent, lane)) = work.pop() {
+            if lane != usize::MAX && is_leaf[index] {
+                nodes[parent].children[lane] = leaf_code(index, &mut prims);
+                continue;
+            }
+            // A root that is a leaf becomes node 0 with one child.
+            let kids = if is_leaf[index] { vec![index] } else { open_children(bvh2, &is_leaf, index) };
+            let slot = if lane == usize::MAX {
+                0
+            } else {
+                nodes.push(Node::EMPTY);
+                nodes[parent].children[lane] = (nodes.len() - 1) as u32;
+                nodes.len() - 1
+            };
+            max_depth = max_depth.max(depth);
+            for (j, &kid) in kids.iter().enumerate() {
+                let aabb = bvh2.nodes[kid].aabb();
+                let (min, max) = (aabb.min.to_array(), aabb.max.to_array());
+                for a in 0..3 {
+                    nodes[slot].bounds[a].as_mut_array()[j] = min[a];
+                    nodes[slot].bounds[3 + a].as_mut_array()[j] = max[a];
+                }
+                if kid == index {
+                    nodes[slot].children[j] = leaf_code(index, &mut prims);
+                } else {
+                    work.push((kid, depth + 1, slot, j));
+                }
+            }
+        }
+        // A node pushes at most WIDTH − 1 children, and the path down holds one node per level.
+        let needed = (max_depth as usize) * (WIDTH - 1) + 1;
+        let stack = if needed <= SHALLOW_STACK {
+            StackSize::Shallow
+        } else if needed <= DEEP_STACK {
+            StackSize::Deep
+        } else {
+            tracing::warn!(
+                "the BVH is {max_depth} levels deep (degenerate geometry?): tracing with a slower heap stack"
+            );
+            StackSize::Heap
+        };
+        Self { nodes, stack }
+    }
+
+    /// Inner nodes.
+    pub fn node_count(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// Bytes the nodes take.
+    pub fn bytes(&self) -> usize {
+        self.nodes.len() * size_of::<Node>()
+    }
+
+    /// The nearest hit before `t_max`: `leaf(first, count, t_max)` tests a leaf's items and returns
+    /// the new closest distance (`t_max` when nothing nearer was hit). Returns the closest distance.
+    #[inline(always)]
+    pub fn closest(
+        &self,
+        ray: &BoxRay,
+        t_max: f32,
+        counts: &mut TraceCounts,
+        leaf: impl FnMut(u32, u32, f32) -> f32,
+    ) -> f32 {
+        if self.nodes.is_empty() {
+            return t_max;
+        }
+        match self.stack {
+            StackSize::Shallow => {
+                closest_with(self, ray, t_max, counts, &mut ArrayStack::<SHALLOW_STACK>::new(), leaf)
+            }
+            StackSize::Deep => {
+                closest_with(self, ray, t_max, counts, &mut ArrayStack::<DEEP_STACK>::new(), leaf)
+            }
+            StackSize::Heap => closest_with(self, ray, t_max, counts, &mut HeapStack(Vec::new()), leaf),
+        }
+    }
+
+    /// Whether any leaf item blocks the ray before `t_max`: `leaf(first, count)` says whether one of
+    /// its items does.
+    #[inline(always)]
+    pub fn any(
+        &self,
+        ray: &BoxRay,
+        t_max: f32,
+        counts: &mut TraceCounts,
+        leaf: impl FnMut(u32, u32) -> bool,
+    ) -> bool {
+        if self.nodes.is_empty() {
+            return false;
+        }
+        match self.stack {
+            StackSize::Shallow => {
+                any_with(self, ray, t_max, counts, &mut ArrayStack::<SHALLOW_STACK>::new(), leaf)
+            }
+            StackSize::Deep => any_with(self, ray, t_max, counts, &mut ArrayStack::<DEEP_STACK>::new(), leaf),
+            StackSize::Heap => any_with(self, ray, t_max, counts, &mut HeapStack(Vec::new()), leaf),
+        }
+    }
+}
+
+/// The binary node's children, opened (a child replaced by its own two) largest surface first
+/// until there are [`WIDTH`] or only leaves remain.
+fn open_children(bvh2: &Bvh2, is_leaf: &[bool], index: usize) -> Vec<usize> {
+    let first = bvh2.nodes[index].first_index as usize;
+    let mut kids = vec![first, first + 1];
+    while kids.len() < WIDTH {
+        let widest = kids
+            .iter()
+            .enumerate()
+            .filter(|&(_, &k)| !is_leaf[k])
+            .max_by(|a, b| {
+                bvh2.nodes[*a.1].aabb().half_area().total_cmp(&bvh2.nodes[*b.1].aabb().half_area())
+            })
+            .map(|(i, _)| i);
+        let Some(i) = widest else { break };
+        let opened = bvh2.nodes[kids[i]].first_index as usize;
+        kids[i] = opened;
+        kids.push(opened + 1);
+    }
+    kids
+}
+
+/// A leaf code's first item and count.
+#[inline(always)]
+fn leaf_range(code: u32) -> (u32, u32) {
+    (code & FIRST_MASK, ((code >> COUNT_SHIFT) & 7) + 1)
+}
+
+/// Where traversal keeps the children it will visit later, with their entry distances.
+trait Stack {
+    fn push(&mut self, child: u32, t: f32);
+    fn pop(&mut self) -> Option<(u32, f32)>;
+}
+
+struct ArrayStack<const N: usize> {
+    entries: [(u32, f32); N],
+    len: usize,
+}
+
+impl<const N: usize> ArrayStack<N> {
+    #[inline(always)]
+    fn new() -> Self {
+        Self { entries: [(0, 0.0); N], len: 0 }
+    }
+}
+
+impl<const N: usize> Stack for ArrayStack<N> {
+    #[inline(always)]
+    fn push(&mut self, child: u32, t: f32) {
+        self.entries[self.len] = (child, t);
+        self.len += 1;
+    }
+
+    #[inline(always)]
+    fn pop(&mut self) -> Option<(u32, f32)> {
+        if self.len == 0 {
+            return None;
+        }
+        self.len -= 1;
+        Some(self.entries[self.len])
+    }
+}
+
+struct HeapStack(Vec<(u32, f32)>);
+
+impl Stack for HeapStack {
+    fn push(&mut self, child: u32, t: f32) {
+        self.0.push((child, t));
+    }
+
+    fn pop(&mut self) -> Option<(u32, f32)> {
+        self.0.pop()
+    }
+}
+
+#[inline(always)]
+fn closest_with(
+    bvh: &WideBvh,
+    ray: &BoxRay,
+    mut t_max: f32,
+    counts: &mut TraceCounts,
+    stack: &mut impl Stack,
+    mut leaf: impl FnMut(u32, u32, f32) -> f32,
+) -> f32 {
+    let mut child = 0u32;
+    loop {
+        if child & LEAF == 0 {
+            let node = &bvh.nodes[child as usize];
+            counts.nodes += 1;
+            let (mut mask, near) = node.intersect(ray, t_max);
+            if mask != 0 {
+                let near = near.to_array();
+                let first = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                if mask == 0 {
+                    child = node.children[first];
+                    continue;
+                }
+                // Visit the nearest next; the others wait on the stack, farthest deepest.
+                let mut order = [(0u32, 0f32); WIDTH];
+                order[0] = (node.children[first], near[first]);
+                let mut n = 1;
+                while mask != 0 {
+                    let i = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    let mut j = n;
+                    while j > 0 && order[j - 1].1 < near[i] {
+                        order[j] = order[j - 1];
+                        j -= 1;
+                    }
+                    order[j] = (node.children[i], near[i]);
+                    n += 1;
+                }
+                for &(c, t) in &order[..n - 1] {
+                    stack.push(c, t);
+                }
+                child = order[n - 1].0;
+                continue;
+            }
+        } else {
+            counts.leaves += 1;
+            let (first, count) = leaf_range(child);
+            t_max = leaf(first, count, t_max);
+        }
+        loop {
+            match stack.pop() {
+                None => return t_max,
+                Some((c, t)) if t <= t_max => {
+                    child = c;
+                    break;
+                }
+                Some(_) => {}
+            }
+        }
+    }
+}
+
+#[inline(always)]
+fn any_with(
+    bvh: &WideBvh,
+    ray: &BoxRay,
+    t_max: f32,
+    counts: &mut TraceCounts,
+    stack: &mut impl Stack,
+    mut leaf: impl FnMut(u32, u32) -> bool,
+) -> bool {
+    let mut child = 0u32;
+    loop {
+        if child & LEAF == 0 {
+            let node = &bvh.nodes[child as usize];
+            counts.nodes += 1;
+            let (mut mask, _) = node.intersect(ray, t_max);
+            if mask != 0 {
+                let first = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                while mask != 0 {
+                    let i = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    stack.push(node.children[i], 0.0);
+                }
+                child = node.children[first];
+                continue;
+            }
+        } else {
+            counts.leaves += 1;
+            let (first, count) = leaf_range(child);
+            if leaf(first, count) {
+                return true;
+            }
+        }
+        match stack.pop() {
+            None => return false,
+            Some((c, _)) => child = c,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::{Vec3, Vec3A};
+
+    /// Boxes on a grid; every ray's closest box by brute force equals the traversal's, and the
+    /// traversal visits far fewer leaves than there are boxes.
+    #[test]
+    fn closest_and_any_agree_with_brute_force() {
+        let mut boxes = Vec::new();
+        for x in 0..12 {
+            for y in 0..9 {
+                for z in 0..7 {
+                    let min = Vec3A::new(x as f32, y as f32 * 1.3, z as f32 * 0.7);
+                    boxes.push(Aabb::new(min, min + Vec3A::splat(0.4)));
+                }
+            }
+        }
+        let indices = (0..boxes.len() as u32).collect();
+        let bvh2 = build_bvh2(&boxes, indices, &BvhBuildParams::medium_build());
+        let mut leaves: Vec<u32> = Vec::new();
+        let rule = LeafRule { pack: 1, max_items: MAX_LEAF_ITEMS, node_cost: 1.0 };
+        let bvh = WideBvh::from_bvh2(&bvh2, rule, |prims| {
+            let first = leaves.len() as u32;
+            leaves.extend_from_slice(prims);
+            (first, prims.len() as u32)
+        });
+        let hit_box = |b: &Aabb, o: Vec3, d: Vec3| {
+            let (t0, t1) = ((Vec3::from(b.min) - o) / d, (Vec3::from(b.max) - o) / d);
+            let (near, far) = (t0.min(t1).max_element().max(0.0), t0.max(t1).min_element());
+            (near <= far).then_some(near)
+        };
+        let mut visited = 0;
+        for i in 0..2000 {
+            let s = crate::sampling::Sampler::new(3, i, 0);
+            let o = Vec3::new(s.get1d(0) * 14.0 - 1.0, s.get1d(1) * 13.0 - 1.0, s.get1d(2) * 6.0 - 1.0);
+            let d = crate::sampling::warp::uniform_sphere(s.get2d(3));
+            let expected = boxes.iter().filter_map(|b| hit_box(b, o, d)).fold(f32::INFINITY, f32::min);
+            let mut counts = TraceCounts::default();
+            let found = bvh.closest(&BoxRay::new(o, d), f32::INFINITY, &mut counts, |first, count, t_max| {
+                leaves[first as usize..(first + count) as usize]
+                    .iter()
+                    .filter_map(|&p| hit_box(&boxes[p as usize], o, d))
+                    .fold(t_max, f32::min)
+            });
+            assert!(
+                found == expected || (found - expected).abs() <= 1e-4 * expected,
+                "ray {i}: {found} vs {expected}"
+            );
+            visited += counts.leaves;
+            let any = bvh.any(&BoxRay::new(o, d), f32::INFINITY, &mut counts, |first, count| {
+                leaves[first as usize..(first + count) as usize]
+                    .iter()
+                    .any(|&p| hit_box(&boxes[p as usize], o, d).is_some())
+            });
+            assert_eq!(any, expected.is_finite(), "ray {i}");
+        }
+        assert!(visited < 2000 * boxes.len() as u32 / 10, "{visited} leaves visited");
+    }
+}
