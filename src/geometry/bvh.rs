@@ -12,14 +12,13 @@ use super::alpha::{Cutouts, NO_CUTOUT};
 use super::offset::gamma;
 use super::sphere::{intersect_sphere, sphere_hit_point};
 use super::triangle::triangle_point_error;
-use super::triangle_pack::{LANES, PackRay, TrianglePack, intersect_pack};
+use super::triangle_pack::{LANES, PackLanes, PackRay, TrianglePack, intersect_pack};
 use super::wide_bvh::{BoxRay, LeafRule, TraceCounts, WideBvh, build_bvh2};
 use crate::scene::{Mesh, Scene};
 use glam::{Vec2, Vec3, Vec3A, Vec4};
 use obvhs::BvhBuildParams;
 use obvhs::aabb::Aabb;
 use std::time::{Duration, Instant};
-use wide::f32x4;
 
 /// The shape of one primitive, in the order the BVH stores them.
 #[derive(Clone, Copy, Debug)]
@@ -68,7 +67,7 @@ pub struct PrimitiveSet {
     /// (read on a hit: one cache miss fewer on a big mesh than a separate array).
     packs: Vec<(TrianglePack, [u32; LANES])>,
     /// Each pack lane's displacement over the shutter, per axis (empty for the static set).
-    pack_motion: Vec<[f32x4; 3]>,
+    pack_motion: Vec<[PackLanes; 3]>,
     spheres: WideBvh,
     /// The primitive ids of the sphere tree's leaves.
     sphere_prims: Vec<u32>,
@@ -321,7 +320,7 @@ impl Geometry {
                 s.triangles.bytes()
                     + s.spheres.bytes()
                     + s.packs.len() * size_of::<(TrianglePack, [u32; LANES])>()
-                    + s.pack_motion.len() * size_of::<[f32x4; 3]>()
+                    + s.pack_motion.len() * size_of::<[PackLanes; 3]>()
                     + s.sphere_prims.len() * 4
             })
             .sum()
@@ -424,7 +423,7 @@ fn pack_hits(
     match set.pack_motion.get(p) {
         None => intersect_pack(&set.packs[p].0, &rays.packs, rays.packs.origin_lanes(), None, t_max),
         Some(m) => {
-            let time = f32x4::splat(ray.time);
+            let time = PackLanes::splat(ray.time);
             let (o, lanes) = rays.packs.shifted(&[m[0] * time, m[1] * time, m[2] * time]);
             intersect_pack(&set.packs[p].0, &rays.packs, &o, Some(&lanes), t_max)
         }
@@ -594,7 +593,8 @@ impl SetBuilder {
                 ));
                 if moving {
                     let m = |i: usize| self.motion[chunk[i.min(chunk.len() - 1)] as usize];
-                    pack_motion.push(std::array::from_fn(|a| f32x4::new(std::array::from_fn(|i| m(i)[a]))));
+                    pack_motion
+                        .push(std::array::from_fn(|a| PackLanes::new(std::array::from_fn(|i| m(i)[a]))));
                 }
             }
             (first, prims.len().div_ceil(LANES) as u32)
@@ -636,7 +636,7 @@ impl SetBuilder {
 /// (incoherent rays, one thread): on the Cornell box one pack a leaf and node costs of 0.5 or 2 are
 /// within 2% of this; on the 2 M-triangle ball one pack a leaf is 10% slower. obvhs's spatial
 /// pre-splits of large triangles gained nothing on either (0% and 2%, within the noise): not used.
-const TRIANGLE_LEAVES: LeafRule = LeafRule { pack: LANES as u32, max_items: 2, node_cost: 1.0 };
+const TRIANGLE_LEAVES: LeafRule = LeafRule { pack: LANES as u32, max_items: 1, node_cost: 1.0 };
 /// Spheres are tested one by one.
 const SPHERE_LEAVES: LeafRule = LeafRule { pack: 1, max_items: 4, node_cost: 1.0 };
 

@@ -1,4 +1,4 @@
-//! Four triangles tested against one ray at once: the watertight test of `triangle.rs` (Woop, Benthin
+//! Eight triangles tested against one ray at once: the watertight test of `triangle.rs` (Woop, Benthin
 //! & Wald 2013, pbrt-v4's `IntersectTriangle`) on SIMD lanes, one triangle a lane.
 //!
 //! A BVH leaf's triangles are stored as one or more packs, structure of arrays (each vertex
@@ -11,27 +11,33 @@
 use super::offset::gamma;
 use super::triangle::{ShearedRay, intersect_triangle_sheared};
 use glam::Vec3;
-use wide::f32x4;
+use wide::f32x8;
+
+/// A lane per triangle: eight, one AVX register (the machines we build for have it; without, `wide`
+/// runs it as two SSE halves).
+pub type PackLanes = f32x8;
 
 /// Triangles of a pack.
-pub const LANES: usize = 4;
+pub const LANES: usize = 8;
+/// Every lane's bit.
+const ALL_LANES: u32 = (1 << LANES) - 1;
 
-/// Four triangles, structure of arrays: `v[k][a]` holds coordinate `a` of vertex `k` of each.
+/// Eight triangles, structure of arrays: `v[k][a]` holds coordinate `a` of vertex `k` of each.
 /// A pack with fewer triangles repeats its first one in the unused lanes (a duplicate hit is the same
 /// triangle, so it changes nothing).
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(16))]
 pub struct TrianglePack {
-    v: [[f32x4; 3]; 3],
+    v: [[PackLanes; 3]; 3],
 }
 
 impl TrianglePack {
-    /// A pack of up to four triangles (at least one).
+    /// A pack of up to [`LANES`] triangles (at least one).
     pub fn new(triangles: &[[Vec3; 3]]) -> Self {
         debug_assert!((1..=LANES).contains(&triangles.len()));
         let lane = |i: usize| triangles[if i < triangles.len() { i } else { 0 }];
         let v = std::array::from_fn(|k| {
-            std::array::from_fn(|a| f32x4::new(std::array::from_fn(|i| lane(i)[k][a])))
+            std::array::from_fn(|a| PackLanes::new(std::array::from_fn(|i| lane(i)[k][a])))
         });
         Self { v }
     }
@@ -49,12 +55,12 @@ impl TrianglePack {
 #[derive(Clone, Copy, Debug)]
 pub struct PackRay {
     /// Origin, per world axis and lane.
-    o: [f32x4; 3],
+    o: [PackLanes; 3],
     /// World axes that become x, y and z of ray space.
     k: [usize; 3],
-    sx: f32x4,
-    sy: f32x4,
-    sz: f32x4,
+    sx: PackLanes,
+    sy: PackLanes,
+    sz: PackLanes,
     /// The scalar form, for lanes that need the f64 fallback.
     sheared: ShearedRay,
     origin: Vec3,
@@ -69,11 +75,11 @@ impl PackRay {
         let k = [(kz + 1) % 3, (kz + 2) % 3, kz];
         let (sx, sy, sz) = sheared.shear();
         Self {
-            o: [f32x4::splat(o.x), f32x4::splat(o.y), f32x4::splat(o.z)],
+            o: [PackLanes::splat(o.x), PackLanes::splat(o.y), PackLanes::splat(o.z)],
             k,
-            sx: f32x4::splat(sx),
-            sy: f32x4::splat(sy),
-            sz: f32x4::splat(sz),
+            sx: PackLanes::splat(sx),
+            sy: PackLanes::splat(sy),
+            sz: PackLanes::splat(sz),
             sheared,
             origin: o,
         }
@@ -81,13 +87,13 @@ impl PackRay {
 
     /// The origin, the same in every lane.
     #[inline(always)]
-    pub fn origin_lanes(&self) -> &[f32x4; 3] {
+    pub fn origin_lanes(&self) -> &[PackLanes; 3] {
         &self.o
     }
 
     /// The same ray seen by a pack whose triangles have moved by `shift` (per axis and lane).
     #[inline]
-    pub fn shifted(&self, shift: &[f32x4; 3]) -> ([f32x4; 3], [Vec3; LANES]) {
+    pub fn shifted(&self, shift: &[PackLanes; 3]) -> ([PackLanes; 3], [Vec3; LANES]) {
         let o = [self.o[0] - shift[0], self.o[1] - shift[1], self.o[2] - shift[2]];
         let lanes =
             std::array::from_fn(|i| Vec3::new(o[0].as_array()[i], o[1].as_array()[i], o[2].as_array()[i]));
@@ -128,13 +134,13 @@ impl PackHits {
     }
 }
 
-/// Test the four triangles of `pack` against `ray` with origin `o` (per lane), accepting hits with
+/// Test the triangles of `pack` against `ray` with origin `o` (per lane), accepting hits with
 /// `t < t_max`. `origins` gives the same origin per lane for the f64 fallback.
 #[inline(always)]
 pub fn intersect_pack(
     pack: &TrianglePack,
     ray: &PackRay,
-    o: &[f32x4; 3],
+    o: &[PackLanes; 3],
     origins: Option<&[Vec3; LANES]>,
     t_max: f32,
 ) -> PackHits {
@@ -151,43 +157,50 @@ pub fn intersect_pack(
     let e0 = p1x * p2y - p1y * p2x;
     let e1 = p2x * p0y - p2y * p0x;
     let e2 = p0x * p1y - p0y * p1x;
-    let zero = f32x4::ZERO;
+    let zero = PackLanes::ZERO;
     // Lanes with an edge function exactly zero are redone by the scalar test (its f64 path).
     let fallback = (e0.simd_eq(zero) | e1.simd_eq(zero) | e2.simd_eq(zero)).to_bitmask();
     let negative = e0.simd_lt(zero) | e1.simd_lt(zero) | e2.simd_lt(zero);
     let positive = e0.simd_gt(zero) | e1.simd_gt(zero) | e2.simd_gt(zero);
     let outside = negative & positive;
     // Most packs a ray reaches it passes beside: nothing more to compute.
-    if outside.to_bitmask() == 0xf && fallback == 0 {
+    if outside.to_bitmask() == ALL_LANES && fallback == 0 {
         return PackHits::NONE;
     }
     let det = e0 + e1 + e2;
     let t_scaled = e0 * p0z + e1 * p1z + e2 * p2z;
-    let t_max_det = f32x4::splat(t_max) * det;
+    let t_max_det = PackLanes::splat(t_max) * det;
     let behind_or_beyond = (det.simd_lt(zero) & (t_scaled.simd_ge(zero) | t_scaled.simd_lt(t_max_det)))
         | (det.simd_gt(zero) & (t_scaled.simd_le(zero) | t_scaled.simd_gt(t_max_det)));
-    let inv_det = f32x4::ONE / det;
+    let inv_det = PackLanes::ONE / det;
     let b1 = e1 * inv_det;
     let b2 = e2 * inv_det;
     let t = t_scaled * inv_det;
     // Ensure t is conservatively greater than zero (pbrt-v4, eq. 6.33–6.38).
-    let max3 = |a: f32x4, b: f32x4, c: f32x4| a.abs().fast_max(b.abs().fast_max(c.abs()));
+    let max3 = |a: PackLanes, b: PackLanes, c: PackLanes| a.abs().fast_max(b.abs().fast_max(c.abs()));
     let max_zt = max3(p0z, p1z, p2z);
-    let delta_z = f32x4::splat(gamma(3)) * max_zt;
+    let delta_z = PackLanes::splat(gamma(3)) * max_zt;
     let max_xt = max3(p0x, p1x, p2x);
     let max_yt = max3(p0y, p1y, p2y);
-    let delta_x = f32x4::splat(gamma(5)) * (max_xt + max_zt);
-    let delta_y = f32x4::splat(gamma(5)) * (max_yt + max_zt);
-    let delta_e =
-        f32x4::splat(2.0) * (f32x4::splat(gamma(2)) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+    let delta_x = PackLanes::splat(gamma(5)) * (max_xt + max_zt);
+    let delta_y = PackLanes::splat(gamma(5)) * (max_yt + max_zt);
+    let delta_e = PackLanes::splat(2.0)
+        * (PackLanes::splat(gamma(2)) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
     let max_e = max3(e0, e1, e2);
-    let delta_t = f32x4::splat(3.0)
-        * (f32x4::splat(gamma(3)) * max_e * max_zt + delta_e * max_zt + delta_z * max_e)
+    let delta_t = PackLanes::splat(3.0)
+        * (PackLanes::splat(gamma(3)) * max_e * max_zt + delta_e * max_zt + delta_z * max_e)
         * inv_det.abs();
-    let miss =
-        outside | det.simd_eq(zero) | behind_or_beyond | t.simd_le(delta_t) | !t.simd_lt(f32x4::splat(t_max));
-    let mut hits =
-        PackHits { mask: !miss.to_bitmask() & 0xf, t: t.to_array(), b1: b1.to_array(), b2: b2.to_array() };
+    let miss = outside
+        | det.simd_eq(zero)
+        | behind_or_beyond
+        | t.simd_le(delta_t)
+        | !t.simd_lt(PackLanes::splat(t_max));
+    let mut hits = PackHits {
+        mask: !miss.to_bitmask() & ALL_LANES,
+        t: t.to_array(),
+        b1: b1.to_array(),
+        b2: b2.to_array(),
+    };
     if fallback != 0 {
         redo_in_scalar(pack, ray, origins, t_max, fallback, &mut hits);
     }
@@ -236,13 +249,13 @@ mod tests {
             let s = Sampler::new(5, i, 0);
             let point = |d: u32| (Vec3::new(s.get1d(d), s.get1d(d + 1), s.get1d(d + 2)) - 0.5) * 4.0;
             let tris: Vec<[Vec3; 3]> =
-                (0..4).map(|k| [point(10 * k), point(10 * k + 3), point(10 * k + 6)]).collect();
-            let o = point(50);
+                (0..LANES as u32).map(|k| [point(10 * k), point(10 * k + 3), point(10 * k + 6)]).collect();
+            let o = point(100);
             // Half the rays aim at a vertex or edge midpoint of the first triangle.
             let d = match i % 4 {
                 0 => tris[0][1] - o,
                 1 => (tris[0][0] + tris[0][2]) * 0.5 - o,
-                _ => uniform_sphere(s.get2d(60)),
+                _ => uniform_sphere(s.get2d(110)),
             };
             let t_max = if i % 3 == 0 { 1.5 } else { f32::INFINITY };
             let pack = TrianglePack::new(&tris);
