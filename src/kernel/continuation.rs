@@ -40,7 +40,7 @@ pub fn continue_path(
     if path.depth >= limits.max_depth {
         return None;
     }
-    let bs = v.bsdf.sample(v.wo, u.bsdf_lobe(), u.bsdf_direction(), TransportMode::Radiance)?;
+    let bs = v.bsdf.sample_with(v.wo, || u.bsdf_lobe(), u.bsdf_direction(), TransportMode::Radiance)?;
     if bs.pdf <= 0.0 || bs.f.max_element() <= 0.0 {
         return None;
     }

@@ -2,10 +2,12 @@
 //! for photons. Every integrator draws through these, so two integrators that make the same decision
 //! at the same vertex use the same number.
 
+use crate::sampling::rng::{GROUP, GroupLayout};
 use crate::sampling::{Sampler, SamplerKind};
 use glam::Vec2;
 
-/// The camera's 5-D sample: pixel filter (2), lens (2), shutter time (1).
+/// The camera's 5-D sample: pixel filter (2), lens (2), shutter time (1), the sampler's first group
+/// of dimensions.
 pub mod camera {
     /// Position within the pixel filter (2-D).
     pub const FILTER: u32 = 0;
@@ -13,11 +15,15 @@ pub mod camera {
     pub const LENS: u32 = 2;
     /// Shutter time.
     pub const TIME: u32 = 4;
-    /// Dimensions the camera uses; the first bounce starts after them.
+    /// Dimensions the camera uses; the first bounce starts at the next group.
     pub const DIMENSIONS: u32 = 5;
+    /// The camera's pairs, as the sampler draws its group at once.
+    pub const LAYOUT: crate::sampling::rng::GroupLayout =
+        crate::sampling::rng::GroupLayout::new(1 << FILTER | 1 << LENS);
 }
 
-/// Dimensions of one camera-path vertex, from [`bounce_dimension`] on.
+/// Dimensions of one camera-path vertex, from [`bounce_dimension`] on: one group of the sampler's,
+/// drawn at once when the vertex starts.
 pub mod bounce {
     /// Which light next-event estimation picks.
     pub const LIGHT_SELECT: u32 = 0;
@@ -29,58 +35,65 @@ pub mod bounce {
     pub const BSDF_DIRECTION: u32 = 4;
     /// Russian roulette.
     pub const ROULETTE: u32 = 6;
-    /// Dimensions per vertex (one spare).
-    pub const DIMENSIONS: u32 = 8;
+    /// Dimensions per vertex (one spare): a group of the sampler's.
+    pub const DIMENSIONS: u32 = super::GROUP;
+    /// The vertex's pairs.
+    pub const LAYOUT: super::GroupLayout = super::GroupLayout::new(1 << LIGHT_POINT | 1 << BSDF_DIRECTION);
 }
 
-/// The first dimension of the vertex at `depth` bounces (the camera's come first).
+/// The first dimension of the vertex at `depth` bounces (the camera's group comes first).
 #[inline]
 pub fn bounce_dimension(depth: u32) -> u32 {
-    camera::DIMENSIONS + depth * bounce::DIMENSIONS
+    (depth + 1) * GROUP
 }
 
-/// The random numbers of one camera-path vertex, drawn as they are needed.
+/// The random numbers of one camera-path vertex, its group drawn at once (in SIMD lanes: cheaper
+/// than drawing the five it may need one by one).
 #[derive(Clone, Copy, Debug)]
 pub struct VertexSampler {
-    sampler: Sampler,
-    base: u32,
+    u: [f32; 8],
 }
 
 impl VertexSampler {
     /// The numbers of the vertex at `depth` of the path that `sampler` (its pixel and sample) drives.
     #[inline]
     pub fn new(sampler: Sampler, depth: u32) -> Self {
-        Self { sampler, base: bounce_dimension(depth) }
+        Self { u: sampler.group(bounce_dimension(depth) / GROUP, &bounce::LAYOUT) }
+    }
+
+    #[inline(always)]
+    fn pair(&self, dim: u32) -> Vec2 {
+        Vec2::new(self.u[dim as usize], self.u[dim as usize + 1])
     }
 
     /// Light selection.
     #[inline]
     pub fn light_select(&self) -> f32 {
-        self.sampler.get1d(self.base + bounce::LIGHT_SELECT)
+        self.u[bounce::LIGHT_SELECT as usize]
     }
 
     /// The point on the selected light.
     #[inline]
     pub fn light_point(&self) -> Vec2 {
-        self.sampler.get2d(self.base + bounce::LIGHT_POINT)
+        self.pair(bounce::LIGHT_POINT)
     }
 
     /// The BSDF lobe.
     #[inline]
     pub fn bsdf_lobe(&self) -> f32 {
-        self.sampler.get1d(self.base + bounce::BSDF_LOBE)
+        self.u[bounce::BSDF_LOBE as usize]
     }
 
     /// The direction within the lobe.
     #[inline]
     pub fn bsdf_direction(&self) -> Vec2 {
-        self.sampler.get2d(self.base + bounce::BSDF_DIRECTION)
+        self.pair(bounce::BSDF_DIRECTION)
     }
 
     /// Russian roulette.
     #[inline]
     pub fn roulette(&self) -> f32 {
-        self.sampler.get1d(self.base + bounce::ROULETTE)
+        self.u[bounce::ROULETTE as usize]
     }
 }
 
@@ -124,7 +137,7 @@ mod tests {
 
     #[test]
     fn vertices_use_disjoint_dimensions_after_the_camera() {
-        assert_eq!(bounce_dimension(0), camera::DIMENSIONS);
+        assert!(bounce_dimension(0) >= camera::DIMENSIONS && bounce_dimension(0) % GROUP == 0);
         let used =
             [bounce::LIGHT_SELECT, bounce::LIGHT_POINT + 1, bounce::BSDF_DIRECTION + 1, bounce::ROULETTE];
         assert!(
@@ -132,9 +145,14 @@ mod tests {
             "a vertex stays within its {} dimensions",
             bounce::DIMENSIONS
         );
-        let v = VertexSampler::new(Sampler::new(3, 7, 2), 1);
-        let s = Sampler::new(3, 7, 2);
-        assert_eq!(v.roulette(), s.get1d(camera::DIMENSIONS + bounce::DIMENSIONS + bounce::ROULETTE));
-        assert_eq!(v.light_point(), s.get2d(camera::DIMENSIONS + bounce::DIMENSIONS + bounce::LIGHT_POINT));
+        for kind in [SamplerKind::Independent, SamplerKind::Sobol] {
+            let v = VertexSampler::new(Sampler::of(kind, 3, 7, 2), 1);
+            let s = Sampler::of(kind, 3, 7, 2);
+            assert_eq!(v.roulette(), s.get1d(bounce_dimension(1) + bounce::ROULETTE));
+            assert_eq!(v.light_select(), s.get1d(bounce_dimension(1) + bounce::LIGHT_SELECT));
+            assert_eq!(v.bsdf_lobe(), s.get1d(bounce_dimension(1) + bounce::BSDF_LOBE));
+            assert_eq!(v.light_point(), s.get2d(bounce_dimension(1) + bounce::LIGHT_POINT));
+            assert_eq!(v.bsdf_direction(), s.get2d(bounce_dimension(1) + bounce::BSDF_DIRECTION));
+        }
     }
 }

@@ -7,10 +7,11 @@
 //! A counter-based generator needs no per-path state beyond the counters the path already carries, so a
 //! path can be suspended, moved between threads or regenerated without changing its numbers.
 
-use super::sobol::{owen_sobol_1d, owen_sobol_2d};
+use super::sobol::{owen_sobol_1d, owen_sobol_2d, owen_sobol_lanes};
 use crate::choice::Choice;
 use glam::Vec2;
 use serde::Deserialize;
+use wide::u32x8;
 
 /// How the numbers of a pixel's samples are drawn.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
@@ -36,8 +37,47 @@ impl Choice for SamplerKind {
 /// Golden-ratio increment that spreads dimension numbers over the hash's input.
 const DIMENSION_STEP: u64 = 0x9E37_79B9_7F4A_7C15;
 
+/// Dimensions come in groups of eight (a camera path's vertex draws one group): one 64-bit hash of
+/// the sample's key and the group, then each lane's seeds by a cheap 32-bit hash of it, so that a
+/// whole group is drawn in SIMD lanes at once ([`Sampler::group`]).
+pub const GROUP: u32 = 8;
+
+/// Lane keys of the shuffle and scramble seeds (hexadecimal digits of π: arbitrary, distinct).
+const SHUFFLE_KEYS: [u32; 8] =
+    [0x243f_6a88, 0x85a3_08d3, 0x1319_8a2e, 0x0370_7344, 0xa409_3822, 0x299f_31d0, 0x082e_fa98, 0xec4e_6c89];
+const SCRAMBLE_KEYS: [u32; 8] =
+    [0x4528_21e6, 0x38d0_1377, 0xbe54_66cf, 0x34e9_0c6c, 0xc0ac_29b7, 0xc97c_50dd, 0x3f84_d5b5, 0xb547_0917];
+
+/// Which lanes of a group are the y of a 2-D pair whose x is the lane before: those lanes share
+/// their pair's shuffle (a pair is one 2-D point of the sequence).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GroupLayout {
+    /// Shuffle key of each lane (its pair's x lane's for a y lane).
+    shuffle_keys: [u32; 8],
+    /// All ones in the y lanes.
+    second: [u32; 8],
+}
+
+impl GroupLayout {
+    /// The layout whose 2-D pairs start at the lanes in `pairs` (bit `l`: lanes `l`, `l + 1`).
+    pub const fn new(pairs: u8) -> Self {
+        let mut shuffle_keys = SHUFFLE_KEYS;
+        let mut second = [0; 8];
+        let mut l = 0;
+        while l < 7 {
+            if pairs & (1 << l) != 0 {
+                shuffle_keys[l + 1] = SHUFFLE_KEYS[l];
+                second[l + 1] = u32::MAX;
+            }
+            l += 1;
+        }
+        Self { shuffle_keys, second }
+    }
+}
+
 /// The numbers of one sample of one pixel (or one photon of one stream): `get1d(dim)` and
-/// `get2d(dim)` return them by dimension. Nothing is stored between calls.
+/// `get2d(dim)` return them by dimension, [`Sampler::group`] eight at once. Nothing is stored
+/// between calls.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Sampler {
     key: u64,
@@ -63,20 +103,30 @@ impl Sampler {
         Self { key, index: sample, kind }
     }
 
-    /// The hash of this sampler's key and dimension `dim`.
+    /// The hash of this sampler's key and dimension `dim` (the independent sampler's number).
     #[inline]
     fn dimension_hash(&self, dim: u32) -> u64 {
         mix64(self.key.wrapping_add((dim as u64).wrapping_mul(DIMENSION_STEP)))
     }
 
+    /// The shuffle and scramble seeds of dimension `dim` (Sobol).
+    #[inline]
+    fn seeds(&self, dim: u32) -> (u32, u32) {
+        let group = self.dimension_hash(dim / GROUP);
+        let lane = (dim % GROUP) as usize;
+        (hash32(group as u32 ^ SHUFFLE_KEYS[lane]), hash32((group >> 32) as u32 ^ SCRAMBLE_KEYS[lane]))
+    }
+
     /// A uniform number in [0, 1) for dimension `dim`.
     #[inline]
     pub fn get1d(&self, dim: u32) -> f32 {
-        let bits = self.dimension_hash(dim);
         match self.kind {
             // 24 high bits give every float in [0, 1) a spacing of 2^-24, so 1.0 is never returned.
-            SamplerKind::Independent => (bits >> 40) as f32 * (1.0 / (1u64 << 24) as f32),
-            SamplerKind::Sobol => owen_sobol_1d(self.index, [bits as u32, (bits >> 32) as u32]),
+            SamplerKind::Independent => (self.dimension_hash(dim) >> 40) as f32 * (1.0 / (1u64 << 24) as f32),
+            SamplerKind::Sobol => {
+                let (shuffle, scramble) = self.seeds(dim);
+                owen_sobol_1d(self.index, [shuffle, scramble])
+            }
         }
     }
 
@@ -86,12 +136,48 @@ impl Sampler {
         match self.kind {
             SamplerKind::Independent => Vec2::new(self.get1d(dim), self.get1d(dim + 1)),
             SamplerKind::Sobol => {
-                let bits = self.dimension_hash(dim);
-                let more = mix64(bits);
-                owen_sobol_2d(self.index, [bits as u32, (bits >> 32) as u32, more as u32])
+                let (shuffle, scramble_x) = self.seeds(dim);
+                let (_, scramble_y) = self.seeds(dim + 1);
+                owen_sobol_2d(self.index, [shuffle, scramble_x, scramble_y])
             }
         }
     }
+
+    /// The eight numbers of dimensions `GROUP · group ..`, the lanes `layout` pairs drawn as
+    /// [`Sampler::get2d`] draws them and the others as [`Sampler::get1d`] does (the same bits),
+    /// in SIMD lanes.
+    #[inline]
+    pub fn group(&self, group: u32, layout: &GroupLayout) -> [f32; 8] {
+        match self.kind {
+            SamplerKind::Independent => std::array::from_fn(|l| self.get1d(GROUP * group + l as u32)),
+            SamplerKind::Sobol => {
+                let hash = self.dimension_hash(group);
+                let shuffle = hash32_lanes(u32x8::splat(hash as u32) ^ u32x8::new(layout.shuffle_keys));
+                let scramble = hash32_lanes(u32x8::splat((hash >> 32) as u32) ^ u32x8::new(SCRAMBLE_KEYS));
+                owen_sobol_lanes(self.index, shuffle, scramble, u32x8::new(layout.second))
+            }
+        }
+    }
+}
+
+/// A 32-bit finaliser with low bias (Wellons' `lowbias32`), for the lanes' seeds.
+#[inline]
+fn hash32(mut x: u32) -> u32 {
+    x ^= x >> 16;
+    x = x.wrapping_mul(0x7feb_352d);
+    x ^= x >> 15;
+    x = x.wrapping_mul(0x846c_a68b);
+    x ^ (x >> 16)
+}
+
+/// [`hash32`] in eight lanes.
+#[inline]
+fn hash32_lanes(mut x: u32x8) -> u32x8 {
+    x ^= x >> 16;
+    x *= u32x8::splat(0x7feb_352d);
+    x ^= x >> 15;
+    x *= u32x8::splat(0x846c_a68b);
+    x ^ (x >> 16)
 }
 
 /// A 64-bit finaliser with full avalanche (Stafford's Mix13, as in SplitMix64).
@@ -154,6 +240,26 @@ mod tests {
             }
         }
         assert_eq!(Sampler::new(1, 5, 0).get1d(4), Sampler::new(1, 5, 0).get1d(4), "a pure function");
+    }
+
+    /// A group's lanes are the numbers `get1d` and `get2d` give for the same dimensions.
+    #[test]
+    fn a_group_is_its_dimensions_drawn_one_by_one() {
+        let layout = GroupLayout::new(0b0001_0010);
+        for kind in [SamplerKind::Independent, SamplerKind::Sobol] {
+            for (pixel, sample, group) in [(0, 0, 0), (5, 3, 1), (77, 1000, 9), (123_456, 7, 40)] {
+                let s = Sampler::of(kind, 42, pixel, sample);
+                let lanes = s.group(group, &layout);
+                let d = |l: u32| GROUP * group + l;
+                for l in [0, 3, 6, 7] {
+                    assert_eq!(lanes[l as usize], s.get1d(d(l)), "{kind:?} lane {l}");
+                }
+                for l in [1, 4] {
+                    let p = s.get2d(d(l));
+                    assert_eq!((lanes[l as usize], lanes[l as usize + 1]), (p.x, p.y), "{kind:?} pair {l}");
+                }
+            }
+        }
     }
 
     /// Every dimension the kernel draws, as it draws it (`kernel::dimensions`): the first 2^k samples

@@ -6,6 +6,7 @@
 //! `PaddedSobolSampler` does with its `FastOwen` randomization.
 
 use glam::Vec2;
+use wide::{f32x8, i32x8, u32x8};
 
 /// Sobol's second dimension of `index`: the XOR of the direction numbers of its set bits, whose
 /// generator matrix is Pascal's triangle mod 2 (v₀ = 2³¹, vᵢ = vᵢ₋₁ ⊕ vᵢ₋₁ ≫ 1). The first is the
@@ -67,6 +68,63 @@ pub fn owen_sobol_2d(index: u32, seeds: [u32; 3]) -> Vec2 {
     )
 }
 
+/// Eight lanes of Owen-scrambled Sobol points of one sample, at once: lane `l` is
+/// `owen_sobol_1d(index, [shuffle[l], scramble[l]])`, or, where `second` has bit `l`, the y of
+/// `owen_sobol_2d(index, [shuffle[l], scramble[l - 1], scramble[l]])` (a pair's y shares the pair's
+/// shuffle, so the caller gives lane `l` lane `l − 1`'s shuffle seed). The same bits as those scalar
+/// functions; a vertex's whole layout costs about what one scalar 2-D point did.
+#[inline]
+pub fn owen_sobol_lanes(index: u32, shuffle: u32x8, scramble: u32x8, second: u32x8) -> [f32; 8] {
+    // nested_uniform_scramble(x, s) = rev(lk(rev(x), s)): the shuffle of the index, then the
+    // radical inverse (a reversal that cancels the scramble's) or Sobol's second dimension (whose
+    // own final reversal cancels likewise), then the coordinate's scramble.
+    let shuffled = reverse_lanes(laine_karras_lanes(u32x8::splat(index.reverse_bits()), shuffle));
+    let w = second.bitselect(second_dimension_unreversed(shuffled), shuffled);
+    let bits = reverse_lanes(laine_karras_lanes(w, scramble));
+    let top: i32x8 = bytemuck_cast(bits >> 8);
+    (f32x8::from_i32x8(top) * f32x8::splat(1.0 / (1u32 << 24) as f32)).to_array()
+}
+
+/// The bits of a u32 lane as an i32 lane (the top 24 bits shifted down fit either way).
+#[inline(always)]
+fn bytemuck_cast(x: u32x8) -> i32x8 {
+    i32x8::new(x.to_array().map(|v| v as i32))
+}
+
+#[inline(always)]
+fn laine_karras_lanes(mut x: u32x8, seed: u32x8) -> u32x8 {
+    x ^= x * u32x8::splat(0x3d20_adea);
+    x += seed;
+    x *= (seed >> 16) | u32x8::splat(1);
+    x ^= x * u32x8::splat(0x0552_6c56);
+    x ^= x * u32x8::splat(0x53a2_2864);
+    x
+}
+
+#[inline(always)]
+fn reverse_lanes(x: u32x8) -> u32x8 {
+    let swap = |x: u32x8, shift: u32, mask: u32| {
+        let m = u32x8::splat(mask);
+        ((x >> shift) & m) | ((x & m) << shift)
+    };
+    let x = swap(x, 1, 0x5555_5555);
+    let x = swap(x, 2, 0x3333_3333);
+    let x = swap(x, 4, 0x0f0f_0f0f);
+    let x = swap(x, 8, 0x00ff_00ff);
+    (x >> 16) | (x << 16)
+}
+
+/// [`sobol_second_dimension`] without its final reversal.
+#[inline(always)]
+fn second_dimension_unreversed(mut x: u32x8) -> u32x8 {
+    x ^= (x >> 1) & u32x8::splat(0x5555_5555);
+    x ^= (x >> 2) & u32x8::splat(0x3333_3333);
+    x ^= (x >> 4) & u32x8::splat(0x0f0f_0f0f);
+    x ^= (x >> 8) & u32x8::splat(0x00ff_00ff);
+    x ^= (x >> 16) & u32x8::splat(0x0000_ffff);
+    x
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -98,6 +156,29 @@ mod tests {
                     strata[(owen_sobol_1d(i, [seeds[0], seeds[1]]) * n as f32) as usize] += 1;
                 }
                 assert!(strata.iter().all(|&c| c == 1), "1-D, seeds {seeds:?}, 2^{k}");
+            }
+        }
+    }
+
+    #[test]
+    fn lanes_are_the_scalar_points() {
+        for index in [0u32, 1, 2, 7, 63, 64, 1000, 0xdead_beef] {
+            for k in 0..20u32 {
+                let h = |x: u32| x.wrapping_mul(0x9e37_79b9).rotate_left(13) ^ k.wrapping_mul(0x85eb_ca77);
+                let shuffle: [u32; 8] = std::array::from_fn(|l| h(l as u32 + 1));
+                let scramble: [u32; 8] = std::array::from_fn(|l| h(l as u32 + 100));
+                // Pairs in lanes (1, 2) and (4, 5): the y lane takes its pair's shuffle.
+                let mut lane_shuffle = shuffle;
+                (lane_shuffle[2], lane_shuffle[5]) = (shuffle[1], shuffle[4]);
+                let second = u32x8::new([0, 0, u32::MAX, 0, 0, u32::MAX, 0, 0]);
+                let lanes = owen_sobol_lanes(index, u32x8::new(lane_shuffle), u32x8::new(scramble), second);
+                for l in [0usize, 3, 6, 7] {
+                    assert_eq!(lanes[l], owen_sobol_1d(index, [shuffle[l], scramble[l]]), "lane {l}");
+                }
+                for l in [1usize, 4] {
+                    let p = owen_sobol_2d(index, [shuffle[l], scramble[l], scramble[l + 1]]);
+                    assert_eq!((lanes[l], lanes[l + 1]), (p.x, p.y), "pair {l}");
+                }
             }
         }
     }
