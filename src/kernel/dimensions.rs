@@ -137,7 +137,7 @@ mod tests {
 
     #[test]
     fn vertices_use_disjoint_dimensions_after_the_camera() {
-        assert!(bounce_dimension(0) >= camera::DIMENSIONS && bounce_dimension(0) % GROUP == 0);
+        assert!(bounce_dimension(0) >= camera::DIMENSIONS && bounce_dimension(0).is_multiple_of(GROUP));
         let used =
             [bounce::LIGHT_SELECT, bounce::LIGHT_POINT + 1, bounce::BSDF_DIRECTION + 1, bounce::ROULETTE];
         assert!(
