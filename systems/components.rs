@@ -10,6 +10,7 @@ use caustica_core::photon::estimate::GatherPoint;
 use caustica_core::photon::progressive::AdaptiveStatistics;
 use caustica_core::photon::record::{decode_octahedral, encode_octahedral};
 use caustica_core::render_scene::RenderScene;
+use caustica_core::sampling::Sampler;
 use caustica_core::sampling::warp::Frame;
 use glam::Vec3;
 
@@ -80,6 +81,9 @@ pub struct PathState {
     pub pixel: u32,
     /// Sample index within the pixel.
     pub sample: u32,
+    /// The sample's random numbers (a function of the seed, the pixel and the sample, set when the
+    /// camera ray is made: every vertex draws from it without hashing the pixel again).
+    pub sampler: Sampler,
     /// Throughput, radiance so far, and what MIS and Russian roulette remember.
     pub path: CameraPath,
     /// Photon mapping: the path is a final-gather ray that ends at the next diffuse hit.
@@ -100,6 +104,7 @@ impl PathState {
         Self {
             pixel,
             sample,
+            sampler: Sampler::new(0, pixel, sample),
             path: CameraPath::START,
             gathering: false,
             status: PathStatus::NeedsCamera,

@@ -50,6 +50,7 @@ pub fn emit_camera_paths<const LENS: bool, const MOTION: bool>(
             if let Some(mut aov) = aov {
                 aov.0 = FirstSurface::start(ray.0.d, view_axis);
             }
+            state.sampler = sampler;
             state.path = CameraPath::START;
             state.gathering = false;
             state.status = PathStatus::Active;

@@ -32,7 +32,6 @@ use caustica_core::kernel::{EmissionWeight, Quantity, Vertex, VertexSampler, con
 use caustica_core::photon::estimate::radiance_estimate;
 use caustica_core::photon::{Neighbors, PhotonMap};
 use caustica_core::render_scene::RenderScene;
-use caustica_core::sampling::Sampler;
 
 /// Scatter every active path. `NEE` selects `pt` (light sampling + MIS) over `pt-naive`.
 pub fn scatter_paths<const NEE: bool>(
@@ -75,6 +74,9 @@ fn path_vertex<const NEE: bool>(
         }
         return false;
     }
+    // Drawn first: the numbers are a long chain of multiplies that the out-of-order core can run
+    // beside the surface's and the material's work, which does not need them.
+    let u = VertexSampler::new(state.sampler, path.depth);
     let si = scene.geometry.surface_hit(ray, hit);
     add_surface_emission(scene, rule, path, &si, -ray.d, ray.time);
     // pbrt-v4 counts emission at the last vertex, then stops before sampling anything there.
@@ -85,8 +87,6 @@ fn path_vertex<const NEE: bool>(
     if let Some(aov) = aov {
         aov.reached(&v, hit.t, path.beta);
     }
-    let u =
-        VertexSampler::new(Sampler::of(config.sampler, config.seed, state.pixel, state.sample), path.depth);
     if NEE
         && !v.bsdf.is_delta()
         && let Some(sample) = sample_light(scene, &v, path, ray.time, &u, true)
@@ -168,6 +168,8 @@ fn photon_mapped_vertex(
         }
         return false;
     }
+    // Drawn first, as in `path_vertex`.
+    let u = VertexSampler::new(state.sampler, state.path.depth);
     let si = scene.geometry.surface_hit(ray, hit);
     if counts_emission {
         add_surface_emission(scene, rule, &mut state.path, &si, -ray.d, ray.time);
@@ -199,10 +201,6 @@ fn photon_mapped_vertex(
             }
             return false;
         }
-        let u = VertexSampler::new(
-            Sampler::of(config.sampler, config.seed, state.pixel, state.sample),
-            state.path.depth,
-        );
         if let Some(sample) = sample_light(scene, &v, &state.path, ray.time, &u, false) {
             shadow.queue(sample);
         }
@@ -220,10 +218,6 @@ fn photon_mapped_vertex(
             (None, false) => return false,
         }
     }
-    let u = VertexSampler::new(
-        Sampler::of(config.sampler, config.seed, state.pixel, state.sample),
-        state.path.depth,
-    );
     continue_from(ray, continue_path(&mut state.path, &v, ray.time, &u, config.limits))
 }
 
@@ -295,16 +289,14 @@ fn visible_point_vertex<const NEE: bool>(
         }
         return false;
     }
+    // Drawn first, as in `path_vertex`.
+    let u = VertexSampler::new(state.sampler, state.path.depth);
     let si = scene.geometry.surface_hit(ray, hit);
     add_surface_emission(scene, rule, &mut state.path, &si, -ray.d, ray.time);
     let v = Vertex::new(scene, ray, si);
     if let Some(aov) = aov {
         aov.reached(&v, hit.t, state.path.beta);
     }
-    let u = VertexSampler::new(
-        Sampler::of(config.sampler, config.seed, state.pixel, state.sample),
-        state.path.depth,
-    );
     if v.bsdf.is_delta() {
         return continue_from(ray, continue_path(&mut state.path, &v, ray.time, &u, config.limits));
     }

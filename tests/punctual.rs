@@ -10,7 +10,7 @@ use caustica::film::Image;
 use caustica::scene::punctual::{PunctualKind, PunctualLightDesc};
 use caustica::scene::{CameraDesc, IntegratorKind, LightSelection, RunFile, Scene};
 use caustica::test_scenes::{diffuse, quad};
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use std::f32::consts::PI;
 
 const ALBEDO: f32 = 0.5;
@@ -74,31 +74,55 @@ fn irradiance(light: &PunctualLightDesc, x: Vec3) -> Vec3 {
 }
 
 /// The exact image: ρ/π · E averaged over each pixel's footprint on the plane (midpoint rule on a
-/// fine sub-grid), and each pixel's range of values over that footprint.
+/// fine sub-grid), and each pixel's range of values over that footprint: the extremes on a grid
+/// that reaches the footprint's edges, widened by how far the radiance can move between grid
+/// points (the largest difference of neighbouring grid values on the footprint and one step around
+/// it: a sliver of a spot's cone that crosses a pixel between grid points holds no more than that).
 fn analytic(light: &PunctualLightDesc) -> (Vec<Vec3>, Vec<f32>) {
     let tan_half = (0.5 * YFOV_DEGREES.to_radians()).tan();
+    let radiance = |sx: f32, sy: f32| {
+        let (u, v) = (sx / SIZE as f32, sy / SIZE as f32);
+        // The camera looks along −Y with right +X and up −Z.
+        let (cx, cy) = ((2.0 * u - 1.0) * tan_half, (1.0 - 2.0 * v) * tan_half);
+        irradiance(light, Vec3::new(HEIGHT * cx, 0.0, -HEIGHT * cy)) * (ALBEDO / PI)
+    };
+    // Values at every half sub-pixel step over the whole image, edges included.
+    let steps = 2 * SUBPIXELS * SIZE + 1;
+    let step = 1.0 / (2 * SUBPIXELS) as f32;
+    let grid: Vec<f32> = (0..steps * steps)
+        .map(|k| radiance((k % steps) as f32 * step, (k / steps) as f32 * step).max_element())
+        .collect();
+    let at = |i: u32, j: u32| grid[(j * steps + i) as usize];
     let mut means = Vec::new();
     let mut ranges = Vec::new();
+    let per_pixel = 2 * SUBPIXELS;
     for y in 0..SIZE {
         for x in 0..SIZE {
-            let (mut sum, mut lo, mut hi) = (Vec3::ZERO, f32::INFINITY, 0.0f32);
+            let mut sum = Vec3::ZERO;
             for j in 0..SUBPIXELS {
                 for i in 0..SUBPIXELS {
-                    let s = Vec2::new(
-                        (x as f32 + (i as f32 + 0.5) / SUBPIXELS as f32) / SIZE as f32,
-                        (y as f32 + (j as f32 + 0.5) / SUBPIXELS as f32) / SIZE as f32,
-                    );
-                    // The camera looks along −Y with right +X and up −Z.
-                    let (cx, cy) = ((2.0 * s.x - 1.0) * tan_half, (1.0 - 2.0 * s.y) * tan_half);
-                    let hit = Vec3::new(HEIGHT * cx, 0.0, -HEIGHT * cy);
-                    let l = irradiance(light, hit) * (ALBEDO / PI);
-                    sum += l;
-                    lo = lo.min(l.max_element());
-                    hi = hi.max(l.max_element());
+                    let sub = |k: u32| (k as f32 + 0.5) / SUBPIXELS as f32;
+                    sum += radiance(x as f32 + sub(i), y as f32 + sub(j));
                 }
             }
             means.push(sum / (SUBPIXELS * SUBPIXELS) as f32);
-            ranges.push(hi - lo);
+            let (x0, y0) = (x * per_pixel, y * per_pixel);
+            let (mut lo, mut hi, mut slack) = (f32::INFINITY, 0.0f32, 0.0f32);
+            for j in y0.saturating_sub(1)..=(y0 + per_pixel + 1).min(steps - 1) {
+                for i in x0.saturating_sub(1)..=(x0 + per_pixel + 1).min(steps - 1) {
+                    let v = at(i, j);
+                    if (x0..=x0 + per_pixel).contains(&i) && (y0..=y0 + per_pixel).contains(&j) {
+                        (lo, hi) = (lo.min(v), hi.max(v));
+                    }
+                    if i + 1 < steps {
+                        slack = slack.max((at(i + 1, j) - v).abs());
+                    }
+                    if j + 1 < steps {
+                        slack = slack.max((at(i, j + 1) - v).abs());
+                    }
+                }
+            }
+            ranges.push(hi - lo + 2.0 * slack);
         }
     }
     (means, ranges)
