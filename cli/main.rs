@@ -38,10 +38,7 @@ fn run() -> Result<()> {
         logging::install_subscriber(profile.as_ref(), render_args.trace_chrome.as_deref(), cli.verbose)?;
     match cli.command {
         None | Some(Command::Render(_)) => {
-            let finished = render::render(&render_args)?;
-            if let Some(profile) = profile {
-                println!("\nper-system profile (tracing spans)\n{}", profile.table());
-            }
+            let finished = render::render(&render_args, profile.as_ref())?;
             // Flush the trace before judging it.
             drop(_chrome_guard);
             if !finished {

@@ -6,6 +6,7 @@
 //! enter and exit by name. The library never installs a subscriber; the binary adds this layer for
 //! `--profile`, and [`span_label`] names spans in a Chrome trace.
 
+use caustica::trace::TraversalTotals;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::sync::{Arc, Mutex};
@@ -83,6 +84,30 @@ impl SystemProfile {
             );
         }
         let _ = writeln!(out, "{:<44} {:>8} {:>11.2}", "all systems", "", all * 1e3);
+        out
+    }
+}
+
+impl SystemProfile {
+    /// A table of the trace stages that ran: rays, millions of rays a second of the stage's wall time
+    /// (all threads together; counting itself costs a few percent), and BVH nodes and leaves a ray visited.
+    pub fn trace_table(&self, totals: &[(&str, TraversalTotals)]) -> String {
+        let timings = self.timings();
+        let mut out = format!(
+            "{:<44} {:>12} {:>12} {:>10} {:>10}\n",
+            "stage", "rays", "M rays/s", "nodes/ray", "leaves/ray"
+        );
+        for (stage, totals) in totals.iter().filter(|(_, t)| t.rays > 0) {
+            let seconds: f64 = timings
+                .iter()
+                .filter(|(name, _)| short_name(name) == *stage)
+                .map(|(_, t)| t.total.as_secs_f64())
+                .sum();
+            let (nodes, leaves) = totals.per_ray();
+            let rate =
+                if seconds > 0.0 { format!("{:.2}", totals.rays as f64 / seconds / 1e6) } else { "-".into() };
+            let _ = writeln!(out, "{stage:<44} {:>12} {rate:>12} {nodes:>10.2} {leaves:>10.2}", totals.rays);
+        }
         out
     }
 }

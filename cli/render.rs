@@ -2,6 +2,7 @@
 
 use crate::args::RenderArgs;
 use crate::display::DisplayServer;
+use crate::profile::SystemProfile;
 use crate::report::print_report;
 use anyhow::{Context, Result};
 use caustica::Renderer;
@@ -11,6 +12,7 @@ use caustica::film::accumulator::{self, PartInfo};
 use caustica::film::aov::Aov;
 use caustica::film::output;
 use caustica::scene::{self, RunFile};
+use caustica::trace::TraceStatistics;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -28,7 +30,7 @@ pub const INTERRUPTED_EXIT: i32 = 130;
 
 /// Render the scene `args` name (or the default one) and write its outputs. Returns whether the render
 /// ran to its end (false: a signal stopped it, and the image so far was written).
-pub fn render(args: &RenderArgs) -> Result<bool> {
+pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>) -> Result<bool> {
     let start = Instant::now();
     init_thread_pools(args.threads.map(usize::from));
     let scene_path = args.scene.clone().unwrap_or_else(default_scene);
@@ -100,6 +102,9 @@ pub fn render(args: &RenderArgs) -> Result<bool> {
             .with_context(|| format!("--part {}/{}", info.part, info.parts))?;
         info.per_unit = renderer.camera_samples_per_unit();
     }
+    if profile.is_some() {
+        renderer.world.insert_resource(TraceStatistics::default());
+    }
     watch_for_signals(&renderer);
     let mut display = args.display_server.as_deref().and_then(|address| {
         let report = renderer.report();
@@ -169,6 +174,13 @@ pub fn render(args: &RenderArgs) -> Result<bool> {
         None
     };
     print_report(&scene_path, &report, start.elapsed().as_secs_f64());
+    if let Some(profile) = profile {
+        println!("\nper-system profile (tracing spans)\n{}", profile.table());
+        if let Some(mut statistics) = renderer.world.get_resource_mut::<TraceStatistics>() {
+            println!("trace counters (BVH8: nodes = inner nodes, leaves = packs of 8 triangles or a sphere)");
+            println!("{}", profile.trace_table(&statistics.totals()));
+        }
+    }
     if let Some(reference) = &reference {
         let e = caustica::film::compare::compare(&image, reference).expect("sizes checked before rendering");
         println!("error       RMSE {:.5}  relMSE {:.5}  MAE {:.5}", e.rmse, e.relmse, e.mae);

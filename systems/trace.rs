@@ -3,26 +3,45 @@
 //! `trace_paths` reads `SceneResource`, `PathRay`, `PathState::status`; writes `PathHit`.
 //! `trace_shadow_rays` reads `ShadowRay`; writes `PathState` (adds the contribution when the
 //! segment is free). `trace_photons` reads `PhotonRay`; writes `PhotonHit`.
+//! With a [`TraceStatistics`] resource in the world (`--profile` inserts it) each stage also counts
+//! its rays and the BVH nodes and leaves they visited; without it the counting compiles away.
 
 use super::components::{
     PathHit, PathRay, PathState, PathStatus, PhotonHit, PhotonRay, PhotonState, ShadowRay,
 };
 use super::resources::{SceneResource, wavefront_batching};
 use bevy_ecs::prelude::*;
+use bevy_utils::Parallel;
+use caustica_core::geometry::wide_bvh::TraceCounts;
 use caustica_core::kernel::Quantity;
 
 /// Find the closest hit of every active path's ray.
-pub fn trace_paths(scene: Res<SceneResource>, mut paths: Query<(&PathRay, &mut PathHit, &PathState)>) {
+pub fn trace_paths(
+    scene: Res<SceneResource>,
+    statistics: Option<Res<TraceStatistics>>,
+    mut paths: Query<(&PathRay, &mut PathHit, &PathState)>,
+) {
+    let statistics = statistics.as_deref();
     paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each(|(ray, mut hit, state)| {
         if state.status != PathStatus::Active {
             return;
         }
-        hit.0 = scene.geometry.intersect(&ray.0);
+        hit.0 = match statistics {
+            None => scene.geometry.intersect(&ray.0),
+            Some(statistics) => {
+                statistics.count(&statistics.paths, |counts| scene.geometry.intersect_counted(&ray.0, counts))
+            }
+        };
     });
 }
 
 /// Test every pending shadow ray and add its contribution when nothing blocks it.
-pub fn trace_shadow_rays(scene: Res<SceneResource>, mut paths: Query<(&mut ShadowRay, &mut PathState)>) {
+pub fn trace_shadow_rays(
+    scene: Res<SceneResource>,
+    statistics: Option<Res<TraceStatistics>>,
+    mut paths: Query<(&mut ShadowRay, &mut PathState)>,
+) {
+    let statistics = statistics.as_deref();
     paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each(|(mut shadow, mut state)| {
         if !shadow.pending {
             return;
@@ -30,7 +49,12 @@ pub fn trace_shadow_rays(scene: Res<SceneResource>, mut paths: Query<(&mut Shado
         shadow.pending = false;
         shadow.fresh = true;
         state.shadow_rays += 1;
-        shadow.visible = !scene.geometry.occluded(&shadow.ray);
+        let occluded = match statistics {
+            None => scene.geometry.occluded(&shadow.ray),
+            Some(statistics) => statistics
+                .count(&statistics.shadow, |counts| scene.geometry.occluded_counted(&shadow.ray, counts)),
+        };
+        shadow.visible = !occluded;
         if shadow.visible {
             state.path.add(shadow.contribution, Quantity::LightSample);
         }
@@ -40,11 +64,77 @@ pub fn trace_shadow_rays(scene: Res<SceneResource>, mut paths: Query<(&mut Shado
 /// Closest hit of every flying photon.
 pub fn trace_photons(
     scene: Res<SceneResource>,
+    statistics: Option<Res<TraceStatistics>>,
     mut photons: Query<(&PhotonRay, &mut PhotonHit, &PhotonState)>,
 ) {
+    let statistics = statistics.as_deref();
     photons.par_iter_mut().batching_strategy(wavefront_batching()).for_each(|(ray, mut hit, state)| {
-        if state.status == PathStatus::Active {
-            hit.0 = scene.geometry.intersect(&ray.0);
+        if state.status != PathStatus::Active {
+            return;
         }
+        hit.0 = match statistics {
+            None => scene.geometry.intersect(&ray.0),
+            Some(statistics) => statistics
+                .count(&statistics.photons, |counts| scene.geometry.intersect_counted(&ray.0, counts)),
+        };
     });
+}
+
+/// Rays of one trace stage and the BVH work they took, summed over a render.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TraversalTotals {
+    /// Rays traced.
+    pub rays: u64,
+    /// Inner nodes whose child boxes were tested.
+    pub nodes: u64,
+    /// Leaves (packs of eight triangles, or a sphere) whose primitives were tested.
+    pub leaves: u64,
+}
+
+impl TraversalTotals {
+    fn add(&mut self, counts: TraceCounts) {
+        self.rays += 1;
+        self.nodes += u64::from(counts.nodes);
+        self.leaves += u64::from(counts.leaves);
+    }
+
+    /// Nodes per ray and leaves per ray (zero without rays).
+    pub fn per_ray(&self) -> (f64, f64) {
+        let rays = self.rays.max(1) as f64;
+        (self.nodes as f64 / rays, self.leaves as f64 / rays)
+    }
+}
+
+/// The trace stages' counters: present only when asked for (the profile), since counting costs a
+/// thread-local lookup a ray. Each thread adds to its own totals; [`TraceStatistics::totals`] sums them.
+#[derive(Resource, Default)]
+pub struct TraceStatistics {
+    paths: Parallel<TraversalTotals>,
+    shadow: Parallel<TraversalTotals>,
+    photons: Parallel<TraversalTotals>,
+}
+
+impl TraceStatistics {
+    fn count<R>(&self, stage: &Parallel<TraversalTotals>, query: impl FnOnce(&mut TraceCounts) -> R) -> R {
+        let mut counts = TraceCounts::default();
+        let result = query(&mut counts);
+        stage.scope(|totals| totals.add(counts));
+        result
+    }
+
+    /// The totals of each stage so far, named after its system: camera-path rays, shadow rays, photons.
+    pub fn totals(&mut self) -> [(&'static str, TraversalTotals); 3] {
+        let sum = |stage: &mut Parallel<TraversalTotals>| {
+            stage.iter_mut().fold(TraversalTotals::default(), |a, b| TraversalTotals {
+                rays: a.rays + b.rays,
+                nodes: a.nodes + b.nodes,
+                leaves: a.leaves + b.leaves,
+            })
+        };
+        [
+            ("trace_paths", sum(&mut self.paths)),
+            ("trace_shadow_rays", sum(&mut self.shadow)),
+            ("trace_photons", sum(&mut self.photons)),
+        ]
+    }
 }

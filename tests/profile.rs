@@ -74,3 +74,32 @@ fn progressive_profile_lists_the_camera_photon_and_statistics_systems() {
     assert_eq!(begin_events(&dir.join("trace.json"), "system: update_hit_point_radii"), 3);
     std::fs::remove_dir_all(dir).ok();
 }
+
+/// The number in the row of `stage` in the trace counters' table, column `column` (0: rays).
+fn counter(stdout: &str, stage: &str, column: usize) -> f64 {
+    let table = stdout.split("trace counters").nth(1).expect("a trace counters table");
+    let row =
+        table.lines().find(|l| l.starts_with(stage)).unwrap_or_else(|| panic!("no counters for {stage}"));
+    row[stage.len()..].split_whitespace().nth(column).unwrap().parse().unwrap()
+}
+
+#[test]
+fn trace_counters_count_every_ray_the_report_counts_and_the_tree_work_it_took() {
+    let dir = std::env::temp_dir().join(format!("caustica-profile-counters-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let stdout = render(&dir, &[]);
+    // "rays/s      6.899 M (3975700 rays, 2353296 shadow rays)"
+    let summary = stdout.lines().find(|l| l.starts_with("rays/s")).expect("the summary reports rays");
+    let numbers: Vec<f64> = summary.split(['(', ',', ' ']).filter_map(|w| w.parse().ok()).collect();
+    let (rays, shadow_rays) = (numbers[1], numbers[2]);
+    assert!(rays > 0.0 && shadow_rays > 0.0, "{summary}");
+    assert_eq!(counter(&stdout, "trace_paths", 0), rays);
+    assert_eq!(counter(&stdout, "trace_shadow_rays", 0), shadow_rays);
+    // Every ray of the closed box starts inside the root's box: at least the root is visited, and a
+    // closest hit inside a closed box needs at least one leaf.
+    for stage in ["trace_paths", "trace_shadow_rays"] {
+        assert!(counter(&stdout, stage, 2) >= 1.0, "{stage} nodes/ray");
+    }
+    assert!(counter(&stdout, "trace_paths", 3) >= 1.0, "trace_paths leaves/ray");
+    std::fs::remove_dir_all(dir).ok();
+}
