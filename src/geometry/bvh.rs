@@ -18,6 +18,8 @@ use crate::scene::{Mesh, Scene};
 use glam::{Vec2, Vec3, Vec3A, Vec4};
 use obvhs::BvhBuildParams;
 use obvhs::aabb::Aabb;
+use obvhs::bvh2::Bvh2;
+use rayon::prelude::*;
 use std::time::{Duration, Instant};
 
 /// The shape of one primitive, in the order the BVH stores them.
@@ -154,6 +156,8 @@ impl Geometry {
     /// Build the BVHs over a validated scene. Light indices are assigned later by [`Geometry::set_light`].
     pub fn build(scene: &Scene) -> Self {
         let _span = tracing::info_span!("build_bvh").entered();
+        let start = Instant::now();
+        let (trees, bounds) = binary_trees(scene);
         let mut builders = [SetBuilder::default(), SetBuilder::default()];
         let (mut cutouts, cutout_materials) = Cutouts::new(scene);
         for (mesh_index, mesh) in scene.meshes.iter().enumerate() {
@@ -196,18 +200,17 @@ impl Geometry {
                 NO_CUTOUT,
             );
         }
-        let mut build_time = Duration::ZERO;
         let [static_builder, moving_builder] = builders;
-        let bounds_static = static_builder.bounds();
-        let bounds_moving = moving_builder.bounds();
-        let static_set = static_builder.build(&mut build_time);
-        let moving_set = (!moving_builder.shapes.is_empty()).then(|| moving_builder.build(&mut build_time));
+        let [static_trees, moving_trees] = trees;
+        let static_set = static_builder.build(static_trees);
+        let moving_set = (!moving_builder.shapes.is_empty()).then(|| moving_builder.build(moving_trees));
+        let build_time = start.elapsed();
         Self {
             static_set,
             moving_set,
             meshes: scene.meshes.iter().map(MeshShading::from).collect(),
             cutouts,
-            bounds: bounds_static.union(&bounds_moving),
+            bounds,
             build_time,
         }
     }
@@ -545,41 +548,42 @@ struct SetBuilder {
     shapes: Vec<PrimitiveShape>,
     info: Vec<PrimitiveInfo>,
     motion: Vec<Vec3>,
-    aabbs: Vec<Aabb>,
 }
 
 impl SetBuilder {
     fn push(&mut self, shape: PrimitiveShape, info: PrimitiveInfo, motion: Option<Vec3>, cutout: u32) {
         self.cutout.push(cutout);
-        let mut aabb = shape_aabb(&shape);
         if let Some(m) = motion {
-            // Linear motion sweeps the box from its start to its end position: their union bounds it.
-            let end = Aabb::new(aabb.min + Vec3A::from(m), aabb.max + Vec3A::from(m));
-            aabb = aabb.union(&end);
             self.motion.push(m);
         }
         self.shapes.push(shape);
         self.info.push(info);
-        self.aabbs.push(aabb);
     }
 
-    fn bounds(&self) -> Aabb {
-        self.aabbs.iter().fold(Aabb::empty(), |acc, a| acc.union(a))
-    }
-
-    fn build(self, build_time: &mut Duration) -> PrimitiveSet {
+    /// The set, its trees flattened from `trees` (over its triangles, then its spheres).
+    fn build(self, trees: [Option<Bvh2>; 2]) -> PrimitiveSet {
         if self.shapes.is_empty() {
             return PrimitiveSet::default();
         }
-        let start = Instant::now();
-        let (triangle_ids, sphere_ids): (Vec<u32>, Vec<u32>) = (0..self.shapes.len() as u32)
-            .partition(|&i| matches!(self.shapes[i as usize], PrimitiveShape::Triangle(_)));
-        let mut packs = Vec::new();
-        let mut pack_motion = Vec::new();
-        let moving = !self.motion.is_empty();
-        let triangles = self.tree(&triangle_ids, TRIANGLE_LEAVES, |prims| {
-            let first = packs.len() as u32;
+        let [triangle_tree, sphere_tree] = trees;
+        // The leaves' triangles in leaf order, each pack's share of them, and the packs made after
+        // the binary tree is freed, all at once into exactly sized tables (a growing table of packs
+        // would hold its old and new storage at once) and in parallel.
+        let mut leaf_triangles = Vec::with_capacity(self.shapes.len());
+        let mut pack_ranges: Vec<(u32, u32)> = Vec::new();
+        let triangles = flatten(triangle_tree, TRIANGLE_LEAVES, |prims| {
+            let first = pack_ranges.len() as u32;
             for chunk in prims.chunks(LANES) {
+                pack_ranges.push((leaf_triangles.len() as u32, chunk.len() as u32));
+                leaf_triangles.extend_from_slice(chunk);
+            }
+            (first, prims.len().div_ceil(LANES) as u32)
+        });
+        let pack_of = |&(start, len): &(u32, u32)| &leaf_triangles[start as usize..(start + len) as usize];
+        let packs: Vec<(TrianglePack, [u32; LANES])> = pack_ranges
+            .par_iter()
+            .map(|range| {
+                let chunk = pack_of(range);
                 let vertices: Vec<[Vec3; 3]> = chunk
                     .iter()
                     .map(|&p| match self.shapes[p as usize] {
@@ -587,25 +591,27 @@ impl SetBuilder {
                         PrimitiveShape::Sphere(..) => unreachable!("the triangle tree holds triangles"),
                     })
                     .collect();
-                packs.push((
-                    TrianglePack::new(&vertices),
-                    std::array::from_fn(|i| chunk[i.min(chunk.len() - 1)]),
-                ));
-                if moving {
+                (TrianglePack::new(&vertices), std::array::from_fn(|i| chunk[i.min(chunk.len() - 1)]))
+            })
+            .collect();
+        let pack_motion: Vec<[PackLanes; 3]> = if self.motion.is_empty() {
+            Vec::new()
+        } else {
+            pack_ranges
+                .par_iter()
+                .map(|range| {
+                    let chunk = pack_of(range);
                     let m = |i: usize| self.motion[chunk[i.min(chunk.len() - 1)] as usize];
-                    pack_motion
-                        .push(std::array::from_fn(|a| PackLanes::new(std::array::from_fn(|i| m(i)[a]))));
-                }
-            }
-            (first, prims.len().div_ceil(LANES) as u32)
-        });
+                    std::array::from_fn(|a| PackLanes::new(std::array::from_fn(|i| m(i)[a])))
+                })
+                .collect()
+        };
         let mut sphere_prims = Vec::new();
-        let spheres = self.tree(&sphere_ids, SPHERE_LEAVES, |prims| {
+        let spheres = flatten(sphere_tree, SPHERE_LEAVES, |prims| {
             let first = sphere_prims.len() as u32;
             sphere_prims.extend_from_slice(prims);
             (first, prims.len() as u32)
         });
-        *build_time += start.elapsed();
         let cutout = if self.cutout.iter().all(|&c| c == NO_CUTOUT) { Vec::new() } else { self.cutout };
         PrimitiveSet {
             triangles,
@@ -619,22 +625,52 @@ impl SetBuilder {
             cutout,
         }
     }
-
-    /// A tree over the primitives `ids` (all of one kind), its leaves chosen by `rule` and made by
-    /// `make_leaf`.
-    fn tree(&self, ids: &[u32], rule: LeafRule, make_leaf: impl FnMut(&[u32]) -> (u32, u32)) -> WideBvh {
-        if ids.is_empty() {
-            return WideBvh::default();
-        }
-        let aabbs: Vec<Aabb> = ids.iter().map(|&i| self.aabbs[i as usize]).collect();
-        let bvh2 = build_bvh2(&aabbs, ids.to_vec(), &BvhBuildParams::medium_build());
-        WideBvh::from_bvh2(&bvh2, rule, make_leaf)
-    }
 }
 
-/// Triangle leaves: up to two packs, a node test costing about what a pack test does. Measured
-/// (incoherent rays, one thread): on the Cornell box one pack a leaf and node costs of 0.5 or 2 are
-/// within 2% of this; on the 2 M-triangle ball one pack a leaf is 10% slower. obvhs's spatial
+/// The binary trees of the static and the moving set (`[set][kind]`, triangles then spheres) and the
+/// bounds of everything. They are built from boxes alone, before any shape is copied out of the scene:
+/// a big mesh's peak memory is in the tree's build, and the shapes need not be alive for it.
+fn binary_trees(scene: &Scene) -> ([[Option<Bvh2>; 2]; 2], Aabb) {
+    let mut boxes: [[Vec<Aabb>; 2]; 2] = Default::default();
+    for mesh in &scene.meshes {
+        let moving = mesh.motion.filter(|m| *m != Vec3::ZERO);
+        boxes[moving.is_some() as usize][0].extend(mesh.indices.iter().map(|tri| {
+            swept(shape_aabb(&PrimitiveShape::Triangle(tri.map(|v| mesh.positions[v as usize]))), moving)
+        }));
+    }
+    for s in &scene.spheres {
+        let moving = s.motion.filter(|m| *m != Vec3::ZERO);
+        boxes[moving.is_some() as usize][1]
+            .push(swept(shape_aabb(&PrimitiveShape::Sphere(s.center, s.radius)), moving));
+    }
+    let bounds = boxes.iter().flatten().flatten().fold(Aabb::empty(), |acc, a| acc.union(a));
+    let trees = boxes.map(|[triangles, spheres]| {
+        // A set holds its triangles first: its spheres' ids follow them.
+        let first_sphere = triangles.len() as u32;
+        [binary_tree(triangles, 0), binary_tree(spheres, first_sphere)]
+    });
+    (trees, bounds)
+}
+
+/// Linear motion sweeps a box from its start to its end position: their union bounds it.
+fn swept(aabb: Aabb, motion: Option<Vec3>) -> Aabb {
+    motion.map_or(aabb, |m| aabb.union(&Aabb::new(aabb.min + Vec3A::from(m), aabb.max + Vec3A::from(m))))
+}
+
+/// The binary tree over the primitives whose boxes are `aabbs`, their ids from `first` on; `None`
+/// without primitives. The boxes are freed as soon as the tree is built.
+fn binary_tree(aabbs: Vec<Aabb>, first: u32) -> Option<Bvh2> {
+    let ids = (first..first + aabbs.len() as u32).collect();
+    (!aabbs.is_empty()).then(|| build_bvh2(&aabbs, ids, &BvhBuildParams::medium_build()))
+}
+
+/// The wide tree of `bvh2`, its leaves chosen by `rule` and made by `make_leaf`.
+fn flatten(bvh2: Option<Bvh2>, rule: LeafRule, make_leaf: impl FnMut(&[u32]) -> (u32, u32)) -> WideBvh {
+    bvh2.map_or_else(WideBvh::default, |bvh2| WideBvh::from_bvh2(&bvh2, rule, make_leaf))
+}
+
+/// Triangle leaves: one pack of eight, a node test costing about what a pack test does. Measured
+/// (incoherent rays, one thread): node costs of 0.5 or 2 are within 2% of this on the Cornell box. obvhs's spatial
 /// pre-splits of large triangles gained nothing on either (0% and 2%, within the noise): not used.
 const TRIANGLE_LEAVES: LeafRule = LeafRule { pack: LANES as u32, max_items: 1, node_cost: 1.0 };
 /// Spheres are tested one by one.

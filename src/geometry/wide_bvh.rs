@@ -136,7 +136,8 @@ enum StackSize {
 /// stand for one primitive when large triangles were split): PLOC, then reinsertion. Every leaf holds
 /// one box, its `first_index` the primitive it stands for; [`WideBvh::from_bvh2`] chooses the leaves.
 pub fn build_bvh2(aabbs: &[Aabb], indices: Vec<u32>, params: &BvhBuildParams) -> Bvh2 {
-    let mut bvh2 = PlocBuilder::with_capacity(aabbs.len()).build(
+    // Not `with_capacity`: that sizes the Morton buffer for 128-bit codes, twice what U64 needs.
+    let mut bvh2 = PlocBuilder::new().build(
         params.ploc_search_distance,
         aabbs,
         indices,
