@@ -1,5 +1,5 @@
 //! Trace throughput: closest-hit and any-hit queries on incoherent rays in the Cornell box, through
-//! our `Geometry` (eight-wide BVH, watertight test on packs of four triangles), through the ECS
+//! our `Geometry` (eight-wide BVH, watertight test on packs of eight triangles), through the ECS
 //! `trace_paths` system, and through raw obvhs CwBvh traversal with its own (Möller–Trumbore, not
 //! watertight) triangle test: the reference the trace stage is held to. Before measuring it prints
 //! the nodes and leaves our traversal visits per ray.
