@@ -33,11 +33,11 @@ fn vertex_along(scene: &RenderScene, o: Vec3, d: Vec3) -> (Ray, Vertex) {
     (ray, Vertex::new(scene, &ray, scene.geometry.surface_hit(&ray, &hit)))
 }
 
-/// The lamp's solid-angle density at `p_ref` for its point `p`, uniform in area over its 1 m²:
-/// d² / cos θ at the lamp.
-fn lamp_pdf(p_ref: Vec3, p: Vec3) -> f32 {
-    let d = p - p_ref;
-    d.length_squared() / (d.normalize().y.abs())
+/// The lamp's solid-angle density (selection included) at `p_ref` (normal `n_ref`) for its point `p`
+/// on triangle `light`: the light's own pdf, tested on its own in `lights::area` (χ², and equal to
+/// what its samples report). Here the 1 m² lamp 1 m away is sampled by solid angle.
+fn lamp_pdf(scene: &RenderScene, light: u32, p_ref: Vec3, n_ref: Vec3, p: Vec3) -> f32 {
+    scene.lights.pdf(light, p_ref, n_ref, p, Vec3::NEG_Y, 0.0)
 }
 
 fn path_after_a_diffuse_bounce(prev_pdf: f32) -> CameraPath {
@@ -55,7 +55,7 @@ fn path_after_a_diffuse_bounce(prev_pdf: f32) -> CameraPath {
 fn emission_found_by_bsdf_sampling_is_weighted_by_the_rule() {
     let scene = floor_and_lamp();
     let (ray, v) = vertex_along(&scene, Vec3::ZERO, Vec3::new(0.1, 1.0, 0.2));
-    let (bsdf_pdf, light_pdf) = (0.3, lamp_pdf(Vec3::ZERO, v.si.p));
+    let (bsdf_pdf, light_pdf) = (0.3, lamp_pdf(&scene, v.si.light, Vec3::ZERO, Vec3::Y, v.si.p));
     let mis = bsdf_pdf * bsdf_pdf / (bsdf_pdf * bsdf_pdf + light_pdf * light_pdf);
     let full = 0.5 * LE;
     for (rule, specular, expected) in [
@@ -100,7 +100,7 @@ fn a_light_sample_carries_the_lambertian_integrand_over_its_pdf() {
             .expect("the lamp is above");
         let p = plain.ray.o + plain.ray.d; // the shadow ray spans the segment to the lamp
         let wi = (p - v.si.p).normalize();
-        let (light_pdf, bsdf_pdf) = (lamp_pdf(v.si.p, p), wi.y / PI);
+        let (light_pdf, bsdf_pdf) = (lamp_pdf(&scene, plain.light, v.si.p, v.n_side(), p), wi.y / PI);
         let integrand = beta * (ALBEDO / PI) * wi.y * LE;
         let w = light_pdf * light_pdf / (light_pdf * light_pdf + bsdf_pdf * bsdf_pdf);
         assert!((plain.contribution - integrand / light_pdf).abs().max_element() < 1e-3 * integrand.x);

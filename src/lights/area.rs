@@ -1,8 +1,12 @@
-//! One emitter: a one-sided emissive triangle (uniform area sampling), an emissive sphere (uniform
+//! One emitter: a one-sided emissive triangle (sampled uniformly by the solid angle it subtends, or
+//! by area where that is tiny or nearly a hemisphere: `sampling/spherical.rs`), an emissive sphere (uniform
 //! sampling of the cone it subtends, pbrt-v4 `Sphere::Sample`), or a punctual light (point, spot,
 //! sun; `punctual.rs`).
 
 use super::punctual::{self, SpotCone};
+use crate::sampling::spherical::{
+    SPHERICAL_FROM_SOLID_ANGLE, SphericalTriangle, bilinear_pdf, sample_bilinear,
+};
 use crate::sampling::warp::{Frame, cosine_hemisphere, uniform_sphere, uniform_triangle};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
@@ -147,12 +151,30 @@ impl Light {
         scale * luminance(self.le * self.mean_texel)
     }
 
-    /// Sample a point as seen from `p_ref` at normalized time `time`.
+    /// Sample a point as seen from `p_ref` (surface normal `n_ref`, zero in a medium) at normalized
+    /// time `time`. A triangle seen from a surface is sampled with the receiver's cosine warped in.
     #[inline]
-    pub fn sample(&self, p_ref: Vec3, time: f32, u: Vec2) -> Option<LightSample> {
+    pub fn sample(&self, p_ref: Vec3, n_ref: Vec3, time: f32, u: Vec2) -> Option<LightSample> {
         let shift = self.motion * time;
         match self.shape {
             LightShape::Triangle { p, n, area } => {
+                let v = p.map(|q| q + shift);
+                if let Some(triangle) = Self::spherical(&v, n, area, p_ref) {
+                    let (u, warp_pdf) = if n_ref == Vec3::ZERO {
+                        (u, 1.0)
+                    } else {
+                        let corners = triangle.cosine_corners(n_ref);
+                        let u = sample_bilinear(u, corners);
+                        (u, bilinear_pdf(u, corners))
+                    };
+                    let b = triangle.sample(u)?;
+                    let point = v[0] + b.x * (v[1] - v[0]) + b.y * (v[2] - v[0]);
+                    if point == p_ref || warp_pdf <= 0.0 {
+                        return None;
+                    }
+                    let pdf = warp_pdf / triangle.solid_angle;
+                    return Some(LightSample { p: point, n, le: self.le, pdf, delta: false });
+                }
                 let b = uniform_triangle(u);
                 let point = (1.0 - b.x - b.y) * p[0] + b.x * p[1] + b.y * p[2] + shift;
                 let to_ref = p_ref - point;
@@ -213,6 +235,25 @@ impl Light {
         }
     }
 
+    /// Triangle `v` (front normal `n`, area `area`) as seen from `p_ref` when it is sampled by solid
+    /// angle there: seen from its front, subtending at least [`SPHERICAL_FROM_SOLID_ANGLE`] by the
+    /// cheap estimate area · cos / r² from its centroid (the exact solid angle costs normalizations
+    /// and an arctangent: computed only when it will be used), and not so much that the construction
+    /// degenerates. Elsewhere it is sampled by area (and from behind it lights nothing).
+    #[inline]
+    fn spherical(v: &[Vec3; 3], n: Vec3, area: f32, p_ref: Vec3) -> Option<SphericalTriangle> {
+        let to_ref = p_ref - (v[0] + v[1] + v[2]) / 3.0;
+        let cos_r = n.dot(to_ref);
+        if n.dot(p_ref - v[0]) <= 0.0 || cos_r <= 0.0 {
+            return None;
+        }
+        let r2 = to_ref.length_squared();
+        if area * cos_r < SPHERICAL_FROM_SOLID_ANGLE * r2 * r2.sqrt() {
+            return None;
+        }
+        Some(SphericalTriangle::new(v, p_ref)).filter(SphericalTriangle::worth_sampling)
+    }
+
     /// A uniformly chosen point and a cosine-weighted direction about the front normal: a Lambertian
     /// emitter's exitant distribution, so every photon from this light carries the same power.
     #[inline]
@@ -242,11 +283,22 @@ impl Light {
         Some(EmissionSample { p, n, d, weight: self.le * (PI * area) })
     }
 
-    /// Density of [`Light::sample`] returning `p` (normal `n`) from `p_ref`, per unit solid angle.
+    /// Density of [`Light::sample`] returning `p` (normal `n`) from `p_ref` (normal `n_ref`), per unit
+    /// solid angle.
     #[inline]
-    pub fn pdf(&self, p_ref: Vec3, p: Vec3, n: Vec3, time: f32) -> f32 {
+    pub fn pdf(&self, p_ref: Vec3, n_ref: Vec3, p: Vec3, n: Vec3, time: f32) -> f32 {
         match self.shape {
-            LightShape::Triangle { area, .. } => {
+            LightShape::Triangle { p: v, n: front, area } => {
+                let v = v.map(|q| q + self.motion * time);
+                if let Some(triangle) = Self::spherical(&v, front, area, p_ref) {
+                    if n_ref == Vec3::ZERO {
+                        return 1.0 / triangle.solid_angle;
+                    }
+                    let corners = triangle.cosine_corners(n_ref);
+                    return triangle
+                        .invert((p - p_ref).normalize())
+                        .map_or(0.0, |u| bilinear_pdf(u, corners) / triangle.solid_angle);
+                }
                 let to_ref = p_ref - p;
                 let dist2 = to_ref.length_squared();
                 let cos_l = n.dot(to_ref) / dist2.sqrt();
@@ -278,19 +330,19 @@ mod tests {
     use crate::sampling::chi2::{Chi2Config, chi2_test};
 
     const SAMPLES: u32 = 200_000;
-    /// Four light-sampling chi-square tests share the 1% family-wise level.
+    /// Five light-sampling chi-square tests share the 1% family-wise level.
     const CONFIG: Chi2Config =
-        Chi2Config { cos_theta_bins: 48, phi_bins: 96, min_expected: 5.0, significance: 0.01, test_count: 4 };
+        Chi2Config { cos_theta_bins: 48, phi_bins: 96, min_expected: 5.0, significance: 0.01, test_count: 5 };
 
     fn light(shape: LightShape) -> Light {
         Light::new(shape, Vec3::ONE, Vec3::ZERO, 0)
     }
 
     /// Directions from `p_ref` follow `Light::pdf` evaluated where each direction meets the light.
-    fn check(light: &Light, p_ref: Vec3, hit: impl Fn(Vec3) -> Option<(Vec3, Vec3)>) {
+    fn check(light: &Light, p_ref: Vec3, n_ref: Vec3, hit: impl Fn(Vec3) -> Option<(Vec3, Vec3)>) {
         let p = chi2_test(
-            |i| light.sample(p_ref, 0.0, Sampler::new(5, i, 0).get2d(0)).map(|s| s.p - p_ref),
-            |d| hit(d).map_or(0.0, |(p, n)| light.pdf(p_ref, p, n, 0.0)),
+            |i| light.sample(p_ref, n_ref, 0.0, Sampler::new(5, i, 0).get2d(0)).map(|s| s.p - p_ref),
+            |d| hit(d).map_or(0.0, |(p, n)| light.pdf(p_ref, n_ref, p, n, 0.0)),
             SAMPLES,
             &CONFIG,
         );
@@ -304,9 +356,14 @@ mod tests {
         let LightShape::Triangle { n, .. } = light.shape else { unreachable!() };
         // Seen from its front side and obliquely, so the pdf varies strongly across the triangle.
         let p_ref = Vec3::new(0.7, 1.0 + 0.6 * n.y.signum(), 0.2);
-        check(&light, p_ref, |d| {
-            intersect_triangle(p_ref, d, f32::INFINITY, tri[0], tri[1], tri[2]).map(|h| (p_ref + h.t * d, n))
-        });
+        // From a medium (no normal: uniform over the solid angle) and from a tilted surface (the
+        // receiver's cosine warped in).
+        for n_ref in [Vec3::ZERO, Vec3::new(0.5, 0.3, -0.8).normalize()] {
+            check(&light, p_ref, n_ref, |d| {
+                intersect_triangle(p_ref, d, f32::INFINITY, tri[0], tri[1], tri[2])
+                    .map(|h| (p_ref + h.t * d, n))
+            });
+        }
     }
 
     #[test]
@@ -316,7 +373,7 @@ mod tests {
         // 1.5 radii away: a wide cone; 60 radii away: the small-angle branch (sin²θmax < 6.9e-4).
         for distance in [1.5f32, 60.0] {
             let p_ref = center + Vec3::new(0.6, 0.0, 0.8) * radius * distance;
-            check(&light, p_ref, |d| {
+            check(&light, p_ref, Vec3::ZERO, |d| {
                 intersect_sphere(p_ref, d, f32::INFINITY, center, radius).map(|t| {
                     let p = p_ref + t * d;
                     (p, (p - center).normalize())
@@ -330,14 +387,139 @@ mod tests {
     #[test]
     fn a_vanishingly_small_sphere_light_is_not_sampled() {
         let light = light(LightShape::Sphere { center: Vec3::new(1e-30, -1.0, 0.0), radius: 1e-30 });
-        assert!(light.sample(Vec3::new(0.8, 0.9, 0.9), 0.0, Vec2::splat(0.3)).is_none());
+        assert!(light.sample(Vec3::new(0.8, 0.9, 0.9), Vec3::ZERO, 0.0, Vec2::splat(0.3)).is_none());
     }
 
     #[test]
     fn a_sphere_light_is_invisible_from_inside() {
         let light = light(LightShape::Sphere { center: Vec3::ZERO, radius: 1.0 });
         let p_ref = Vec3::new(0.2, 0.1, -0.3);
-        assert!(light.sample(p_ref, 0.0, Vec2::splat(0.3)).is_none());
-        assert_eq!(light.pdf(p_ref, Vec3::X, Vec3::X, 0.0), 0.0);
+        assert!(light.sample(p_ref, Vec3::Y, 0.0, Vec2::splat(0.3)).is_none());
+        assert_eq!(light.pdf(p_ref, Vec3::Y, Vec3::X, Vec3::X, 0.0), 0.0);
+    }
+
+    /// A square lamp of side `side` at height `h`, facing down, with a corner straight over the origin,
+    /// as two triangles: its corners are seen at very different angles from the origin.
+    fn square_lamp(side: f32, h: f32) -> [Light; 2] {
+        let c = [
+            Vec3::new(0.0, h, 0.0),
+            Vec3::new(side, h, 0.0),
+            Vec3::new(side, h, side),
+            Vec3::new(0.0, h, side),
+        ];
+        // Counter-clockwise seen from below: the front faces down.
+        [light(LightShape::triangle([c[0], c[1], c[2]])), light(LightShape::triangle([c[0], c[2], c[3]]))]
+    }
+
+    /// The irradiance at the origin (normal +y) from that unit-radiance lamp: π times the view factor
+    /// to a rectangle with a corner overhead (X = Y = side/h).
+    fn square_irradiance(side: f32, h: f32) -> f64 {
+        let x = (side / h) as f64;
+        let k = (1.0 + x * x).sqrt();
+        2.0 * (x / k * (x / k).atan()) / 2.0
+    }
+
+    /// Mean and variance of one-sample estimates of the irradiance at the origin from `lamp`, each
+    /// triangle sampled once a sample; `sample` returns (point, solid-angle pdf).
+    fn irradiance_estimates(
+        lamp: &[Light; 2],
+        samples: u32,
+        sample: impl Fn(&Light, Vec2) -> Option<(Vec3, f32)>,
+    ) -> (f64, f64) {
+        let (mut sum, mut sum2) = (0.0f64, 0.0f64);
+        for i in 0..samples {
+            let s = Sampler::new(9, i, 0);
+            let e: f64 = lamp
+                .iter()
+                .enumerate()
+                .filter_map(|(k, l)| sample(l, s.get2d(2 * k as u32)))
+                .map(|(p, pdf)| (p.normalize().y / pdf) as f64)
+                .sum();
+            sum += e;
+            sum2 += e * e;
+        }
+        let mean = sum / samples as f64;
+        (mean, (sum2 / samples as f64 - mean * mean) * samples as f64 / (samples - 1) as f64)
+    }
+
+    /// Area sampling written out: a uniform point, its density converted to solid angle.
+    fn by_area(l: &Light, u: Vec2) -> Option<(Vec3, f32)> {
+        let LightShape::Triangle { p, n, area } = l.shape else { unreachable!() };
+        let b = uniform_triangle(u);
+        let point = (1.0 - b.x - b.y) * p[0] + b.x * p[1] + b.y * p[2];
+        let cos_l = n.dot(-point.normalize());
+        (cos_l > 0.0).then(|| (point, point.length_squared() / (cos_l * area)))
+    }
+
+    /// A large lamp close over a point: the estimate of its irradiance is unbiased (within 4 standard
+    /// errors of the closed form) for area sampling, uniform solid-angle sampling and solid-angle
+    /// sampling with the receiver's cosine warped in, and its variance falls in that order (area
+    /// sampling's 1/r² pdf varies a hundredfold across the lamp). Measured with these seeds, side 2 at
+    /// h = 0.25: variance 8.5 by area, 0.064 by solid angle (134× less), 0.014 warped (4.5× less
+    /// again); side 1 at h = 1: 0.024, 0.0014 (18×), 0.00024 (5.7×). The bounds leave room for the
+    /// area estimate's heavy tail.
+    #[test]
+    fn a_large_lamp_close_over_a_point_gives_its_closed_form_irradiance_with_less_variance() {
+        const N: u32 = 20_000;
+        for (side, h) in [(2.0f32, 0.25f32), (1.0, 1.0)] {
+            let lamp = square_lamp(side, h);
+            let exact = square_irradiance(side, h);
+            let by_solid_angle = |n_ref: Vec3| {
+                move |l: &Light, u: Vec2| l.sample(Vec3::ZERO, n_ref, 0.0, u).map(|s| (s.p, s.pdf))
+            };
+            let estimates = [
+                irradiance_estimates(&lamp, N, by_area),
+                irradiance_estimates(&lamp, N, by_solid_angle(Vec3::ZERO)),
+                irradiance_estimates(&lamp, N, by_solid_angle(Vec3::Y)),
+            ];
+            for (k, (mean, var)) in estimates.iter().enumerate() {
+                let se = (var / N as f64).sqrt();
+                assert!(
+                    (mean - exact).abs() <= 4.0 * se,
+                    "side {side}, h {h}, strategy {k}: {mean} vs {exact} ± {se}"
+                );
+            }
+            let [(_, area), (_, uniform), (_, warped)] = estimates;
+            let wanted = if h < 0.5 { 20.0 } else { 5.0 };
+            assert!(
+                area / uniform >= wanted,
+                "side {side}, h {h}: variance {uniform} against area sampling's {area}"
+            );
+            assert!(2.0 * warped < uniform, "side {side}, h {h}: warped {warped} against uniform {uniform}");
+        }
+    }
+
+    /// Where the choice between solid-angle and area sampling flips (tiny, huge and ordinary solid
+    /// angles), from a medium and from a tilted surface, the pdf a sample reports is the one
+    /// `Light::pdf` gives for the point it reached: what MIS needs of a BSDF sample that hits the light.
+    #[test]
+    fn the_sampled_pdf_is_the_evaluated_pdf_on_both_sides_of_the_switch() {
+        let lamp = square_lamp(1.0, 1.0);
+        let mut spherical_seen = [false; 2];
+        // Heights from 1 cm under the lamp to far enough that it is sampled by area. Closer still (1 mm under
+        // this 1 m lamp) inverting the warped map in f32 drifts by up to 18%, as pbrt-v4's does; the
+        // sample keeps the warp's own pdf there, which is the density it was drawn from.
+        for h in [0.99f32, 0.9, 0.5, -1.0, -20.0, -40.0, -60.0, -100.0] {
+            let p_ref = Vec3::new(0.1, h, 0.05);
+            for n_ref in [Vec3::ZERO, Vec3::new(0.3, 0.9, -0.2).normalize()] {
+                for l in &lamp {
+                    let LightShape::Triangle { p, n, area } = l.shape else { unreachable!() };
+                    let spherical = Light::spherical(&p, n, area, p_ref).is_some();
+                    spherical_seen[spherical as usize] = true;
+                    for i in 0..64 {
+                        let Some(s) = l.sample(p_ref, n_ref, 0.0, Sampler::new(3, i, 0).get2d(0)) else {
+                            continue;
+                        };
+                        let pdf = l.pdf(p_ref, n_ref, s.p, s.n, 0.0);
+                        assert!(
+                            (s.pdf - pdf).abs() <= 1e-3 * pdf,
+                            "from {p_ref} (normal {n_ref}, spherical {spherical}): sampled {} but evaluated {pdf}",
+                            s.pdf
+                        );
+                    }
+                }
+            }
+        }
+        assert_eq!(spherical_seen, [true, true], "both strategies were exercised");
     }
 }

@@ -200,7 +200,7 @@ impl Lights {
     ) -> Option<(u32, LightSample)> {
         let (index, pmf) = self.select(p_ref, n_ref, u_select)?;
         let mut s = match self.lights.get(index as usize) {
-            Some(light) => light.sample(p_ref, time, u)?,
+            Some(light) => light.sample(p_ref, n_ref, time, u)?,
             None => self.environment.as_ref()?.sample(p_ref, n_ref, u)?,
         };
         s.pdf *= pmf;
@@ -213,7 +213,7 @@ impl Lights {
     #[inline]
     pub fn pdf(&self, index: u32, p_ref: Vec3, n_ref: Vec3, p: Vec3, n: Vec3, time: f32) -> f32 {
         debug_assert!(index < self.environment_index(), "the environment's pdf is Lights::escaped's");
-        self.pmf(index, p_ref, n_ref) * self.lights[index as usize].pdf(p_ref, p, n, time)
+        self.pmf(index, p_ref, n_ref) * self.lights[index as usize].pdf(p_ref, n_ref, p, n, time)
     }
 
     /// Start a photon: pick a light in proportion to its power, a point on it and a cosine-weighted

@@ -8,6 +8,7 @@ pub mod distribution;
 pub mod net;
 pub mod rng;
 pub mod sobol;
+pub mod spherical;
 pub mod warp;
 
 pub use rng::{Sampler, SamplerKind};
