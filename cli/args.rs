@@ -266,6 +266,15 @@ pub struct RenderArgs {
     /// renders until then, however many samples or passes that is; overrides the run file.
     #[arg(long)]
     pub time_limit: Option<f64>,
+    /// Adaptive sampling (pt, pt-naive): a pixel stops taking samples once its estimated relative
+    /// error is under this (0.01 = 1%), and --spp is the most a pixel takes; 0 turns it off;
+    /// overrides the run file. With --time-limit: until the limit or every pixel under it.
+    #[arg(long, value_name = "ERROR")]
+    pub noise_threshold: Option<f64>,
+    /// Adaptive sampling: samples every pixel takes before it may stop (default 16); overrides the
+    /// run file.
+    #[arg(long)]
+    pub min_spp: Option<u32>,
     /// Progressive photon mapping: also write the outputs every K passes; overrides the run file.
     #[arg(long)]
     pub write_every: Option<u32>,
@@ -326,6 +335,8 @@ impl RenderArgs {
         r.max_depth = self.max_depth.or(r.max_depth);
         r.rr_depth = self.rr_depth.unwrap_or(r.rr_depth);
         r.time_limit = self.time_limit.or(r.time_limit);
+        r.noise_threshold = self.noise_threshold.unwrap_or(r.noise_threshold);
+        r.min_spp = self.min_spp.unwrap_or(r.min_spp);
         // A time limit alone on the command line is the budget: render until it, without end.
         let until_the_limit = self.time_limit.is_some() && self.spp.is_none() && self.passes.is_none();
         if until_the_limit {

@@ -30,6 +30,23 @@ pub fn print_report(scene: &Path, report: &Report, total_seconds: f64) {
         }
         None => {}
     }
+    if let Some(a) = &report.adaptive {
+        let e = &a.estimate;
+        println!(
+            "adaptive    threshold {}: {} samples, {} of {} pixels converged ({:.1}%), {}-{} spp per pixel",
+            a.threshold,
+            report.paths.samples,
+            e.converged,
+            e.pixels,
+            100.0 * e.converged as f64 / e.pixels.max(1) as f64,
+            a.fewest,
+            a.most
+        );
+        println!(
+            "estimated   relMSE {:.3e} (mean squared relative error of the pixels, from their samples), largest pixel error {:.3}",
+            e.relmse, e.max_error
+        );
+    }
     println!("phases      {}", phases(report));
     let paths = &report.paths;
     println!("samples/s   {:.3} M", report.samples_per_second() / 1e6);

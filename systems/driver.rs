@@ -6,8 +6,8 @@
 
 use crate::integrators;
 use crate::plan::{Plan, Repeat};
-use crate::report::{PhaseTime, Report, Unit};
-use crate::resources::{FilmResource, PassRange, PhotonStats, RenderStats, SceneFeatures};
+use crate::report::{AdaptiveSummary, PhaseTime, Report, Unit};
+use crate::resources::{AdaptiveSampling, FilmResource, PassRange, PhotonStats, RenderStats, SceneFeatures};
 use bevy_ecs::prelude::*;
 use caustica_core::error::Result;
 use caustica_core::film::Image;
@@ -66,6 +66,8 @@ pub struct Renderer {
     at_pass_boundary: bool,
     /// Asked to end the running sample pass at the next whole unit (a checkpoint is due).
     pass_end_requested: AtomicBool,
+    /// The run asks for the `spp` feature image.
+    spp_image: bool,
 }
 
 /// Why a render ended before its target.
@@ -110,6 +112,7 @@ impl Renderer {
             whole_passes: false,
             at_pass_boundary: true,
             pass_end_requested: AtomicBool::new(false),
+            spp_image: run.film.aovs.contains(&caustica_core::film::aov::Aov::Spp),
         })
     }
 
@@ -148,6 +151,12 @@ impl Renderer {
         if self.has_aovs() {
             return refuse("a part's accumulator holds colour only: render feature images (--aov) unsplit");
         }
+        if self.is_adaptive() {
+            return refuse(
+                "adaptive sampling decides which pixels take more samples from all of a pixel's samples \
+                 so far, which one share does not have; split with render.noise_threshold = 0",
+            );
+        }
         if self.passes > 0 {
             return refuse("the render has started");
         }
@@ -172,11 +181,28 @@ impl Renderer {
         if self.has_aovs() {
             return Some("a checkpoint holds colour only: render feature images (--aov) without one".into());
         }
+        if self.is_adaptive() {
+            return Some(
+                "adaptive sampling decides from the samples' squares, which a checkpoint does not hold; \
+                 checkpoint with render.noise_threshold = 0"
+                    .into(),
+            );
+        }
         self.features.learns_visibility.then(|| {
             "visibility-aware light selection learns from the first samples, which a checkpoint does not \
              hold; use uniform, power or tree"
                 .to_string()
         })
+    }
+
+    /// Whether adaptive sampling chooses the pixels that take samples (`render.noise_threshold`).
+    pub fn is_adaptive(&self) -> bool {
+        self.world.contains_resource::<AdaptiveSampling>()
+    }
+
+    /// Whether adaptive sampling has stopped every pixel.
+    pub fn converged(&self) -> bool {
+        self.world.get_resource::<AdaptiveSampling>().is_some_and(|a| a.converged())
     }
 
     /// Whether the render makes feature images (`film.aovs`).
@@ -186,7 +212,15 @@ impl Renderer {
 
     /// The feature images so far, when the render makes them.
     pub fn aov_images(&self) -> Option<caustica_core::film::aov::AovImages> {
-        self.world.get_resource::<crate::resources::AovFilmResource>().map(|film| film.images())
+        let surface =
+            self.world.get_resource::<crate::resources::AovFilmResource>().map(|film| film.images());
+        if !self.spp_image {
+            return surface;
+        }
+        let mut images = surface.unwrap_or_default();
+        let film = self.film();
+        images.spp = (0..film.width * film.height).map(|p| film.samples(p) as f32).collect();
+        Some(images)
     }
 
     /// The hit points' state, for a checkpoint (`None` without hit points).
@@ -355,7 +389,7 @@ impl Renderer {
         let start = Instant::now();
         let deadline = time_limit.map(|limit| (start, limit));
         self.stopped_by = None;
-        while self.done < self.target && !self.stopped {
+        while self.done < self.target && !self.stopped && !self.converged() {
             self.run_pass(deadline, &mut on_step);
         }
         self.report()
@@ -453,6 +487,10 @@ impl Renderer {
             self.world.insert_resource(crate::resources::AovFilmResource(film));
         }
         self.world.insert_resource(RenderStats::default());
+        if let Some(mut adaptive) = self.world.get_resource_mut::<AdaptiveSampling>() {
+            let (threshold, min_spp) = (adaptive.threshold, adaptive.min_spp);
+            *adaptive = AdaptiveSampling::new(threshold, min_spp, width as usize * height as usize);
+        }
         if self.world.contains_resource::<PhotonStats>() {
             self.world.insert_resource(PhotonStats::default());
         }
@@ -488,9 +526,30 @@ impl Renderer {
             photons: None,
             hit_points: None,
             stopped_by: self.stopped_by,
+            adaptive: self.adaptive_summary(),
         };
         (self.plan.report)(&self.world, &mut report);
         report
+    }
+}
+
+impl Renderer {
+    /// Where adaptive sampling sent the samples and the error it estimates, when it is on.
+    fn adaptive_summary(&self) -> Option<AdaptiveSummary> {
+        let adaptive = self.world.get_resource::<AdaptiveSampling>()?;
+        let film = self.film();
+        let pixels = film.width * film.height;
+        let (fewest, most) =
+            (0..pixels).map(|p| film.samples(p)).fold((u32::MAX, 0), |(lo, hi), n| (lo.min(n), hi.max(n)));
+        // Those not chosen for the next pass; none before the first pass has ended.
+        let converged = adaptive.next.as_ref().map_or(0, |next| (pixels - next.len()) as u64);
+        Some(AdaptiveSummary {
+            threshold: adaptive.threshold,
+            min_spp: adaptive.min_spp,
+            fewest: fewest.min(most),
+            most,
+            estimate: caustica_core::film::adaptive::ErrorEstimate::of(film, &adaptive.squares, converged),
+        })
     }
 }
 

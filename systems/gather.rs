@@ -19,8 +19,8 @@ use super::components::{
     AdaptiveStats, Chi2Cells, HitPoint, PathAov, PathState, PathStatus, PhotonState, ShadowRay,
 };
 use super::resources::{
-    AovFilmResource, BadSample, FilmResource, PassPhotons, PassRange, PhotonBuffer, PhotonStats, PhotonWork,
-    ProgressiveConfig, RenderStats, SceneResource, Workload, wavefront_batching,
+    AdaptiveSampling, AovFilmResource, BadSample, FilmResource, PassPhotons, PassRange, PhotonBuffer,
+    PhotonStats, PhotonWork, ProgressiveConfig, RenderStats, SceneResource, Workload, wavefront_batching,
 };
 use bevy_ecs::prelude::*;
 use caustica_core::lights::area::luminance;
@@ -40,11 +40,13 @@ pub fn splat_paths_to_film(
     workload: Res<Workload>,
     film: Res<FilmResource>,
     aov_film: Option<Res<AovFilmResource>>,
+    adaptive: Option<Res<AdaptiveSampling>>,
     mut stats: ResMut<RenderStats>,
     mut paths: Query<(&mut PathState, Option<&PathAov>)>,
 ) {
     let totals = SplatTotals::default();
     let aov_film = aov_film.as_deref();
+    let squares = adaptive.as_deref().map(|a| &a.squares);
     paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each_init(
         || SplatTally::new(&totals),
         |tally, (mut state, aov)| {
@@ -65,6 +67,9 @@ pub fn splat_paths_to_film(
                 Vec3::ZERO
             };
             film.add(state.pixel, l);
+            if let Some(squares) = squares {
+                squares.add(state.pixel, l);
+            }
             // Feature images count every sample, as colour does; one that never found a
             // non-specular surface adds zeros.
             if let (Some(aov_film), Some(aov)) = (aov_film, aov) {

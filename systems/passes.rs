@@ -4,7 +4,8 @@
 //!
 //! | system | runs | reads | writes |
 //! |---|---|---|---|
-//! | `hand_out_samples` | each sample pass | `PassRange` | `Workload`, idle `PathState`s |
+//! | `hand_out_samples` | each sample pass | `PassRange`, `FilmResource`, `AdaptiveSampling` | `Workload`, idle `PathState`s |
+//! | `select_unconverged_pixels` | after each sample pass, with adaptive sampling | `PassRange`, `FilmResource` | `AdaptiveSampling::next` |
 //! | `finish_light_learning` | after the first pass (`pt`, visibility selection) | | `SceneResource` lights |
 //! | `begin_progressive_pass` | each progressive pass | `PassRange` | `RenderConfig::pass_time`, `PhotonWork`, `ProgressiveConfig::pass` |
 //! | `begin_camera_pass` | each camera pass | `PassRange`, `ProgressiveConfig` | `PathState` (sample, status) |
@@ -14,25 +15,37 @@
 
 use crate::components::{HitPoint, PathState, PathStatus, PhotonState};
 use crate::resources::{
-    CameraResource, PassRange, PhotonBuffer, PhotonMapSummary, PhotonMaps, PhotonStats, PhotonWork,
-    ProgressiveConfig, RenderConfig, SceneResource, Workload,
+    AdaptiveSampling, CameraResource, FilmResource, PassRange, PhotonBuffer, PhotonMapSummary, PhotonMaps,
+    PhotonStats, PhotonWork, ProgressiveConfig, RenderConfig, SceneResource, Workload,
 };
 use bevy_ecs::prelude::*;
 use caustica_core::photon::{PhotonMap, PhotonMapKind};
 use caustica_core::sampling::Sampler;
 
 /// A system that hands the pass's samples (`PassRange` begin..end, each standing for
-/// `camera_samples_per_unit` camera samples) to the idle paths in entity order, each from its lane;
-/// the rest go to paths as they finish (`splat_paths_to_film`).
+/// `camera_samples_per_unit` camera samples) of every pixel, or with adaptive sampling of the pixels
+/// it chose, to the idle paths in entity order, each from its lane; the rest go to paths as they
+/// finish (`splat_paths_to_film`).
+#[allow(clippy::type_complexity)]
 pub fn hand_out_samples(
     camera_samples_per_unit: u32,
-) -> impl FnMut(Res<PassRange>, ResMut<Workload>, Query<&mut PathState>) {
-    move |range, mut workload, mut paths| {
+) -> impl FnMut(
+    Res<PassRange>,
+    Res<FilmResource>,
+    Option<Res<AdaptiveSampling>>,
+    ResMut<Workload>,
+    Query<&mut PathState>,
+) {
+    move |range, film, adaptive, mut workload, mut paths| {
         let (begin, end) = (
             range.begin.saturating_mul(camera_samples_per_unit),
             range.end.saturating_mul(camera_samples_per_unit),
         );
-        *workload = Workload::new(workload.pixels, begin, end, workload.wavefront);
+        let wavefront = workload.wavefront;
+        *workload = match adaptive.and_then(|a| a.next.clone()) {
+            Some(order) => Workload::over(order, begin, end, wavefront),
+            None => Workload::new(film.width * film.height, begin, end, wavefront),
+        };
         if range.stop {
             return;
         }
@@ -46,6 +59,27 @@ pub fn hand_out_samples(
             (state.pixel, state.sample, state.status) = (pixel, sample, PathStatus::NeedsCamera);
         }
     }
+}
+
+/// After a pass that ran to its end, choose the pixels the next one samples: those that took every
+/// sample so far and whose estimated relative error is still at the threshold or above. The choice
+/// is a function of the film's fixed-point sums, so it is the same for any thread count.
+pub fn select_unconverged_pixels(
+    range: Res<PassRange>,
+    film: Res<FilmResource>,
+    mut adaptive: ResMut<AdaptiveSampling>,
+) {
+    if range.stop {
+        return;
+    }
+    let pixels = caustica_core::film::adaptive::unconverged_pixels(
+        &film,
+        &adaptive.squares,
+        range.end,
+        adaptive.threshold,
+    );
+    adaptive.next =
+        Some(std::sync::Arc::new(crate::resources::PixelOrder::new(pixels, film.width * film.height)));
 }
 
 /// Visibility-aware light selection learns from the first pass only: freeze what it learned.

@@ -99,6 +99,23 @@ pub struct Report {
     pub hit_points: Option<HitPointSummary>,
     /// Why the render stopped before its target, if it did.
     pub stopped_by: Option<crate::driver::StopReason>,
+    /// Adaptive sampling's outcome, when it was on.
+    pub adaptive: Option<AdaptiveSummary>,
+}
+
+/// Where adaptive sampling sent the samples, and the error it estimates.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AdaptiveSummary {
+    /// The noise threshold.
+    pub threshold: f64,
+    /// Samples every pixel took first.
+    pub min_spp: u32,
+    /// Fewest samples a pixel took.
+    pub fewest: u32,
+    /// Most samples a pixel took.
+    pub most: u32,
+    /// Pixels under the threshold, and the image's estimated relMSE.
+    pub estimate: caustica_core::film::adaptive::ErrorEstimate,
 }
 
 impl Report {

@@ -17,6 +17,7 @@
 //! whose lane has run out takes from the next open lane, so the tail is one counter's.
 
 use bevy_ecs::prelude::*;
+use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Entities per lane: enough that a lane's counter stays with one thread for a batch.
@@ -31,11 +32,42 @@ const ITEM_BLOCK: u64 = 64;
 #[repr(align(64))]
 struct LaneCounter(AtomicU64);
 
+/// The pixels a pass of adaptive sampling renders, in image order, and where each is in that list.
+#[derive(Debug)]
+pub struct PixelOrder {
+    pixels: Vec<u32>,
+    /// `slot[p]`: the place of pixel `p` in `pixels` (meaningless for a pixel not there).
+    slot: Vec<u32>,
+}
+
+impl PixelOrder {
+    /// `pixels` (increasing) of an image of `image_pixels`.
+    pub fn new(pixels: Vec<u32>, image_pixels: u32) -> Self {
+        let mut slot = vec![0; image_pixels as usize];
+        for (i, &p) in pixels.iter().enumerate() {
+            slot[p as usize] = i as u32;
+        }
+        Self { pixels, slot }
+    }
+
+    /// Pixels in the list.
+    pub fn len(&self) -> u32 {
+        self.pixels.len() as u32
+    }
+
+    /// Whether no pixel is.
+    pub fn is_empty(&self) -> bool {
+        self.pixels.is_empty()
+    }
+}
+
 /// The samples of one pass of a sample integrator.
 #[derive(Resource, Debug)]
 pub struct Workload {
-    /// Number of pixels.
+    /// Pixels the pass renders (the image's, or adaptive sampling's list of them).
     pub pixels: u32,
+    /// Which pixels, when not the whole image: item `k` is pixel `order[k % pixels]`.
+    order: Option<Arc<PixelOrder>>,
     /// First sample index.
     pub spp_begin: u32,
     /// One past the last sample index.
@@ -57,7 +89,17 @@ impl Clone for Workload {
         let lanes = self.lanes.iter().map(|c| LaneCounter(c.0.load(Ordering::Relaxed).into())).collect();
         let (open, limit) =
             (self.open.load(Ordering::Relaxed).into(), self.limit.load(Ordering::Relaxed).into());
-        Self { lanes, open, limit, ..*self }
+        Self {
+            pixels: self.pixels,
+            order: self.order.clone(),
+            spp_begin: self.spp_begin,
+            spp_end: self.spp_end,
+            wavefront: self.wavefront,
+            entity_block: self.entity_block,
+            lanes,
+            open,
+            limit,
+        }
     }
 }
 
@@ -71,7 +113,18 @@ impl Workload {
         let lanes = (0..count).map(|_| LaneCounter::default()).collect();
         let open = (u64::MAX >> (64 - count)).into();
         let limit = (pixels as u64 * spp_end.saturating_sub(spp_begin) as u64).into();
-        Self { pixels, spp_begin, spp_end, wavefront, entity_block, lanes, open, limit }
+        Self { pixels, order: None, spp_begin, spp_end, wavefront, entity_block, lanes, open, limit }
+    }
+
+    /// Work for the pixels of `order` only (adaptive sampling), samples `spp_begin..spp_end` of each.
+    pub fn over(order: Arc<PixelOrder>, spp_begin: u32, spp_end: u32, wavefront: u32) -> Self {
+        Self { order: Some(order.clone()), ..Self::new(order.len(), spp_begin, spp_end, wavefront) }
+    }
+
+    /// The pixel of item `k`'s place in a sample's list of pixels.
+    #[inline]
+    fn pixel_at(&self, place: u32) -> u32 {
+        self.order.as_ref().map_or(place, |order| order.pixels[place as usize])
     }
 
     /// Work with nothing left to hand out (the progressive integrators' camera passes assign their
@@ -92,7 +145,8 @@ impl Workload {
 
     /// The lane a path that has just rendered (pixel, sample) takes its next item from.
     pub fn lane_of_item(&self, pixel: u32, sample: u32) -> usize {
-        let k = sample.saturating_sub(self.spp_begin) as u64 * self.pixels as u64 + pixel as u64;
+        let place = self.order.as_ref().map_or(pixel, |order| order.slot[pixel as usize]);
+        let k = sample.saturating_sub(self.spp_begin) as u64 * self.pixels as u64 + place as u64;
         ((k / ITEM_BLOCK) % self.lanes.len() as u64) as usize
     }
 
@@ -150,7 +204,10 @@ impl Workload {
             self.open.fetch_and(!(1 << lane), Ordering::Relaxed);
             return None;
         }
-        Some(((k % self.pixels as u64) as u32, self.spp_begin + (k / self.pixels as u64) as u32))
+        Some((
+            self.pixel_at((k % self.pixels as u64) as u32),
+            self.spp_begin + (k / self.pixels as u64) as u32,
+        ))
     }
 }
 
@@ -206,6 +263,29 @@ mod tests {
         let whole = (3 * unit * pixels) as usize;
         assert!(seen[..whole].iter().all(|&n| n == 1), "every item below the cut, once");
         assert!(seen[whole..].iter().all(|&n| n == 0), "nothing past it");
+    }
+
+    /// Over a list of pixels, every sample of every listed pixel is handed out once and no other.
+    #[test]
+    fn a_list_of_pixels_gets_its_samples_and_no_other_pixel_does() {
+        let listed: Vec<u32> = (0..5000).filter(|p| p % 3 != 1).collect();
+        let order = Arc::new(PixelOrder::new(listed.clone(), 5000));
+        let workload = Workload::over(order, 20, 23, 2048);
+        let mut seen = vec![0u8; 5000 * 3];
+        let mut lane = 0;
+        while let Some((pixel, sample)) = workload.take(lane) {
+            seen[((sample - 20) * 5000 + pixel) as usize] += 1;
+            lane = workload.lane_of_item(pixel, sample);
+        }
+        for (i, &n) in seen.iter().enumerate() {
+            assert_eq!(
+                n,
+                listed.contains(&(i as u32 % 5000)) as u8,
+                "pixel {}, sample {}",
+                i % 5000,
+                i / 5000
+            );
+        }
     }
 
     /// The first hand-out gives the entities the first `wavefront` items, as one counter would.

@@ -105,7 +105,7 @@ pub fn scene_world(scene: Scene, run: &RunFile) -> Result<(World, SceneFeatures)
         strata: 1,
     });
     world.insert_resource(FilmResource(Film::new(width, height)));
-    if !run.film.aovs.is_empty() {
+    if run.film.aovs.iter().any(|aov| aov.needs_surface()) {
         world.insert_resource(AovFilmResource(AovFilm::new(width, height)));
     }
     world.insert_resource(CameraResource(camera));

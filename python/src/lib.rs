@@ -76,6 +76,10 @@ fn stats<'py>(py: Python<'py>, report: &caustica::Report) -> PyResult<Bound<'py,
     d.set_item("shadow_rays", report.paths.shadow_rays)?;
     d.set_item("nan_samples", report.paths.nan_samples)?;
     d.set_item("stopped_by", report.stopped_by.map(|s| format!("{s:?}").to_lowercase()))?;
+    if let Some(adaptive) = &report.adaptive {
+        d.set_item("pixels_converged", adaptive.estimate.converged)?;
+        d.set_item("estimated_relmse", adaptive.estimate.relmse)?;
+    }
     Ok(d)
 }
 
@@ -206,7 +210,13 @@ impl Scene {
         let (image, features) = py.detach(|| (renderer.image(), renderer.aov_images()));
         Ok(RenderResult {
             color: color_array(py, &image)?.unbind(),
-            aovs: aov_dict(py, features.as_ref(), &run.film.aovs)?.unbind(),
+            aovs: aov_dict(
+                py,
+                features.as_ref(),
+                &run.film.aovs,
+                [image.height as usize, image.width as usize],
+            )?
+            .unbind(),
             stats: stats(py, &report)?.unbind(),
         })
     }
@@ -294,6 +304,7 @@ fn aov_dict<'py>(
     py: Python<'py>,
     features: Option<&AovImages>,
     which: &[Aov],
+    size: [usize; 2],
 ) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     let Some(features) = features else { return Ok(d) };
@@ -301,9 +312,8 @@ fn aov_dict<'py>(
         let array = match aov {
             Aov::Albedo => color_array(py, &features.albedo)?,
             Aov::Normal => color_array(py, &features.normal)?,
-            Aov::Depth => PyArray1::from_slice(py, &features.depth)
-                .reshape([features.albedo.height as usize, features.albedo.width as usize])?
-                .into_any(),
+            Aov::Depth => PyArray1::from_slice(py, &features.depth).reshape(size)?.into_any(),
+            Aov::Spp => PyArray1::from_slice(py, &features.spp).reshape(size)?.into_any(),
         };
         d.set_item(aov.name(), array)?;
     }
@@ -338,7 +348,12 @@ impl RenderResult {
             })?;
             image_of(&array.extract::<numpy::PyReadonlyArray3<'_, f32>>()?)
         };
-        let features = AovImages { albedo: guide("albedo")?, normal: guide("normal")?, depth: Vec::new() };
+        let features = AovImages {
+            albedo: guide("albedo")?,
+            normal: guide("normal")?,
+            depth: Vec::new(),
+            spp: Vec::new(),
+        };
         let color = image_of(&self.color.bind(py).extract::<numpy::PyReadonlyArray3<'_, f32>>()?)?;
         let clean = py.detach(|| caustica::film::denoise::denoise(&color, &features)).map_err(refused)?;
         color_array(py, &clean)
@@ -451,7 +466,8 @@ impl Session {
     /// The feature images so far, by name (empty when the session makes none).
     fn aovs<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let features = py.detach(|| self.renderer.aov_images());
-        aov_dict(py, features.as_ref(), &self.aovs)
+        let film = self.renderer.film();
+        aov_dict(py, features.as_ref(), &self.aovs, [film.height as usize, film.width as usize])
     }
 
     /// Units done: samples per pixel, or passes.

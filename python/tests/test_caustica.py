@@ -242,12 +242,21 @@ def test_compare_gives_the_metrics_of_caustica_compare():
         caustica.compare(noisy, np.ascontiguousarray(noisy.transpose(1, 0, 2)))
 
 
+def test_adaptive_sampling_sends_samples_where_the_noise_is():
+    result = caustica.load(SPHERES, spp=64, seed=3, noise_threshold=0.05, min_spp=8, **SMALL).render(aovs=("spp",))
+    spp = result.aovs["spp"]
+    assert spp.shape == (24, 32) and spp.min() == 8 and spp.max() == 64
+    assert result.stats["samples"] == int(spp.sum())
+    assert 0 < result.stats["pixels_converged"] < 24 * 32 and result.stats["estimated_relmse"] > 0
+
+
 def test_feature_images_are_float32_arrays_of_the_image_size():
     result = caustica.load(BOX, spp=2, **SMALL).render()
     aovs = result.aovs
-    assert sorted(aovs) == ["albedo", "depth", "normal"]
+    assert sorted(aovs) == ["albedo", "depth", "normal", "spp"]
     assert aovs["albedo"].shape == aovs["normal"].shape == (24, 32, 3)
-    assert aovs["depth"].shape == (24, 32)
+    assert aovs["depth"].shape == aovs["spp"].shape == (24, 32)
+    assert (aovs["spp"] == 2).all(), "without a noise threshold every pixel takes every sample"
     assert all(a.dtype == np.float32 for a in aovs.values())
     assert ((aovs["albedo"] >= 0) & (aovs["albedo"] <= 1)).all()
     assert (np.linalg.norm(aovs["normal"], axis=2) <= 1 + 1e-5).all()

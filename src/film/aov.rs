@@ -21,6 +21,17 @@ pub enum Aov {
     /// perfect mirrors and glass the length of the unfolded path; 0 where the sample leaves the scene
     /// (as Mitsuba's depth AOV): `Z`.
     Depth,
+    /// The samples the pixel took: where adaptive sampling sent them (`render.noise_threshold`),
+    /// and fewer where a time limit cut the last pass: `spp`.
+    Spp,
+}
+
+impl Aov {
+    /// Whether it is recorded at the first surface each camera sample finds (it needs the
+    /// feature-image film); `spp` is the colour film's own sample count.
+    pub fn needs_surface(self) -> bool {
+        !matches!(self, Aov::Spp)
+    }
 }
 
 impl crate::Choice for Aov {
@@ -28,6 +39,7 @@ impl crate::Choice for Aov {
         (Aov::Albedo, "albedo", "reflectance at the first non-specular surface (EXR albedo.R, .G, .B)"),
         (Aov::Normal, "normal", "world-space shading normal there, facing the camera (N.X, .Y, .Z)"),
         (Aov::Depth, "depth", "distance from the image plane along the view axis (Z)"),
+        (Aov::Spp, "spp", "samples the pixel took, where adaptive sampling sent them (spp)"),
     ];
 }
 
@@ -108,7 +120,7 @@ impl AovFilm {
             normal.pixels.push(vec(3));
             depth.push(mean(6) as f32);
         }
-        AovImages { albedo, normal, depth }
+        AovImages { albedo, normal, depth, spp: Vec::new() }
     }
 }
 
@@ -121,6 +133,8 @@ pub struct AovImages {
     pub normal: Image,
     /// Depth per pixel, row-major from the top-left.
     pub depth: Vec<f32>,
+    /// Samples per pixel, row-major from the top-left (empty unless asked for).
+    pub spp: Vec<f32>,
 }
 
 #[cfg(test)]

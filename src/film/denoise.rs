@@ -87,6 +87,7 @@ mod tests {
             albedo: Image { width: w, height: h, pixels: vec![Vec3::splat(0.8); n] },
             normal: Image { width: w, height: h, pixels: vec![Vec3::Z; n] },
             depth: vec![1.0; n],
+            spp: Vec::new(),
         };
         let out = denoise(&color, &features).unwrap();
         let mse =

@@ -1,5 +1,6 @@
 //! The film: per-pixel sums, image output, and image comparison metrics.
 pub mod accumulator;
+pub mod adaptive;
 pub mod aov;
 pub mod compare;
 pub mod denoise;

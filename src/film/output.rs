@@ -122,6 +122,7 @@ fn exr_channels(image: &Image, features: &AovImages, which: &[Aov]) -> Vec<(Stri
                     .map(|(c, n)| (n.to_string(), component(&features.normal, c))),
             ),
             Aov::Depth => channels.push(("Z".into(), features.depth.clone())),
+            Aov::Spp => channels.push(("spp".into(), features.spp.clone())),
         }
     }
     channels
@@ -247,7 +248,7 @@ mod tests {
         let image = Image { width: 2, height: 1, pixels: vec![Vec3::new(1.0, 2.0, 3.0), Vec3::splat(0.5)] };
         let albedo = Image { width: 2, height: 1, pixels: vec![Vec3::new(0.1, 0.2, 0.3), Vec3::ONE] };
         let normal = Image { width: 2, height: 1, pixels: vec![Vec3::Z, -Vec3::X] };
-        let features = AovImages { albedo, normal, depth: vec![4.0, 0.0] };
+        let features = AovImages { albedo, normal, depth: vec![4.0, 0.0], spp: Vec::new() };
         let dir = std::env::temp_dir().join(format!("caustica-exr-layers-{}", std::process::id()));
         let path = dir.join("layers.exr");
         write_image_with_aovs(&image, Some((&features, &[Aov::Depth, Aov::Albedo])), &path, 0.0).unwrap();

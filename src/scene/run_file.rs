@@ -129,6 +129,12 @@ pub struct RenderSettings {
     pub sampler: crate::sampling::SamplerKind,
     /// Wall-clock budget in seconds: rendering stops at the first of this and the sample/pass count.
     pub time_limit: Option<f64>,
+    /// Adaptive sampling (`pt`, `pt-naive`): a pixel whose estimated relative error
+    /// (`film::adaptive`) is under this stops taking samples, and `spp` becomes the most a pixel
+    /// takes; 0 samples every pixel `spp` times.
+    pub noise_threshold: f64,
+    /// Samples every pixel takes before adaptive sampling may stop it.
+    pub min_spp: u32,
     /// Memory the film, the paths, photons and hit points may take, in MiB; `None` is half the
     /// machine's memory. Checked before anything is allocated.
     pub memory_budget_mib: Option<u64>,
@@ -146,6 +152,8 @@ impl Default for RenderSettings {
             light_selection: LightSelection::Power,
             sampler: crate::sampling::SamplerKind::Sobol,
             time_limit: None,
+            noise_threshold: 0.0,
+            min_spp: DEFAULT_MIN_SPP,
             memory_budget_mib: None,
         }
     }
@@ -587,6 +595,7 @@ impl RunFile {
         {
             return Err(format!("render.time_limit is {t}, must be finite and > 0"));
         }
+        self.check_adaptive_sampling()?;
         if let Some(mib) = self.render.memory_budget_mib
             && mib > MAX_MEMORY_BUDGET_MIB
         {
@@ -610,6 +619,43 @@ impl PhotonSettings {
             && !(r.is_finite() && r > 0.0)
         {
             return Err(format!("max_radius is {r}, must be finite and > 0"));
+        }
+        Ok(())
+    }
+}
+
+/// Samples a pixel takes before adaptive sampling may stop it: enough for a variance estimate that is
+/// not fooled by a pixel whose rare bright paths have not turned up yet.
+pub const DEFAULT_MIN_SPP: u32 = 16;
+
+impl RunFile {
+    /// Whether adaptive sampling is on.
+    pub fn is_adaptive(&self) -> bool {
+        self.render.noise_threshold > 0.0
+    }
+
+    /// What is wrong with the adaptive-sampling settings, if anything.
+    fn check_adaptive_sampling(&self) -> Result<(), String> {
+        let render = &self.render;
+        let t = render.noise_threshold;
+        if !(t.is_finite() && t >= 0.0) {
+            return Err(format!("render.noise_threshold is {t}, must be finite and >= 0 (0 turns it off)"));
+        }
+        if !self.is_adaptive() {
+            return Ok(());
+        }
+        if !matches!(render.integrator, IntegratorKind::Pt | IntegratorKind::PtNaive) {
+            return Err(format!(
+                "render.noise_threshold is {t}, but adaptive sampling is for pt and pt-naive, not {}: \
+                 the photon mappers' pixels share their photons, so a pixel cannot stop alone",
+                render.integrator.name()
+            ));
+        }
+        if render.min_spp < 2 {
+            return Err(format!(
+                "render.min_spp is {}, must be at least 2 (a variance needs two samples)",
+                render.min_spp
+            ));
         }
         Ok(())
     }

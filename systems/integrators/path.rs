@@ -8,11 +8,16 @@
 //! | `rr_depth` | u32 | 5 | first bounce at which Russian roulette may end a path |
 //! | `light_selection` | `uniform` \| `power` \| `tree` \| `visibility` | `power` | how NEE picks a light |
 //! | `seed` | u64 | 0 | sampler seed |
+//! | `noise_threshold` | f64 | 0 | adaptive sampling: a pixel stops once its estimated relative error is under it; 0 = off |
+//! | `min_spp` | u32 | 16 | adaptive sampling: samples every pixel takes first |
 //!
 //! One pass hands out all the samples; the bounce schedule (Emit → Trace → Scatter → Shadow →
 //! Gather) runs until every path is idle. With visibility-aware selection the first pass renders a
 //! sixteenth of the samples while the light selection learns, and the second the rest with what it
-//! learned. The schedule is built from the scene: the camera system draws lens and time samples only
+//! learned. With adaptive sampling the first pass renders `min_spp` samples of every pixel and each
+//! later pass a quarter more of the pixels still above the threshold (`AdaptiveSampling::pass_end`),
+//! chosen after each pass from the film's own statistics; visibility-aware selection then learns
+//! from the first pass. The schedule is built from the scene: the camera system draws lens and time samples only
 //! when the camera has an aperture or something moves, and `pt` drops light sampling when there is
 //! no light.
 
@@ -20,9 +25,9 @@ use super::{configure_stages, film_image, paths_busy, stage_order};
 use crate::PassSystems;
 use crate::emit::emit_camera_paths_for;
 use crate::gather::{learn_light_visibility, splat_paths_to_film};
-use crate::passes::{finish_light_learning, hand_out_samples};
+use crate::passes::{finish_light_learning, hand_out_samples, select_unconverged_pixels};
 use crate::plan::{Phase, Plan, Repeat, Unit, When};
-use crate::resources::SceneFeatures;
+use crate::resources::{AdaptiveSampling, SceneFeatures};
 use crate::scatter::scatter_paths;
 use crate::trace::{trace_paths, trace_shadow_rays};
 use bevy_ecs::prelude::*;
@@ -51,8 +56,18 @@ pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result
     let mut bounce =
         Phase::new("bounce", When::EveryPass, Repeat::WhileBusy(paths_busy)).with_begin(hand_out_samples(1));
     add_bounce_systems(&mut bounce.schedule, features, stage_order(run), nee);
+    if run.is_adaptive() {
+        let film = world.resource::<crate::resources::FilmResource>();
+        let pixels = film.width as usize * film.height as usize;
+        let (threshold, min_spp) = (run.render.noise_threshold, run.render.min_spp);
+        world.insert_resource(AdaptiveSampling::new(threshold, min_spp, pixels));
+        bounce = bounce.with_end(select_unconverged_pixels);
+    }
     phases.push(bounce);
-    let pass_end: crate::plan::PassEnd = if features.learns_visibility {
+    let pass_end: crate::plan::PassEnd = if run.is_adaptive() {
+        let min_spp = run.render.min_spp;
+        Box::new(move |done, target| AdaptiveSampling::pass_end(min_spp, done, target))
+    } else if features.learns_visibility {
         // Learn from the shadow rays of the first sixteenth of the samples (at least one per pixel).
         Box::new(|done, target| if done == 0 { (target / 16).clamp(1, target) } else { target })
     } else {
