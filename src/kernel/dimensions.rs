@@ -119,6 +119,12 @@ pub mod photon {
     pub const ROULETTE: u32 = 3;
 }
 
+/// The first dimension of a photon's bounce after `depth` earlier bounces (emission's come first).
+#[inline]
+pub fn photon_bounce_dimension(depth: u32) -> u32 {
+    photon::FIRST_BOUNCE + depth * photon::PER_BOUNCE
+}
+
 /// The sampler of photon `index` of progressive pass `pass` in a map of kind number `map`: the map
 /// keeps a caustic and a global pass independent of each other, the pass number successive passes.
 /// With a Sobol sampler a pass's photons are the points of one sequence, stratified over the lights'
@@ -153,6 +159,218 @@ mod tests {
             assert_eq!(v.bsdf_lobe(), s.get1d(bounce_dimension(1) + bounce::BSDF_LOBE));
             assert_eq!(v.light_point(), s.get2d(bounce_dimension(1) + bounce::LIGHT_POINT));
             assert_eq!(v.bsdf_direction(), s.get2d(bounce_dimension(1) + bounce::BSDF_DIRECTION));
+        }
+    }
+
+    /// Vertices checked: far past any path the tests render, and past Russian roulette's start.
+    const DEPTHS: u32 = 64;
+
+    /// The decisions of a camera-path vertex: name, first dimension within the vertex, width.
+    const VERTEX_DECISIONS: [(&str, u32, u32); 5] = [
+        ("light select", bounce::LIGHT_SELECT, 1),
+        ("light point", bounce::LIGHT_POINT, 2),
+        ("BSDF lobe", bounce::BSDF_LOBE, 1),
+        ("BSDF direction", bounce::BSDF_DIRECTION, 2),
+        ("roulette", bounce::ROULETTE, 1),
+    ];
+
+    /// Record that `what` reads dimension `dim`, failing if another decision already does.
+    fn claim(owners: &mut std::collections::HashMap<u32, String>, dim: u32, what: String) {
+        if let Some(other) = owners.insert(dim, what.clone()) {
+            panic!("dimension {dim} is read by both {other} and {what}");
+        }
+    }
+
+    /// The layout as numbers: every decision a camera path makes, camera first, then the vertices at
+    /// depths 0..64, reads dimensions no other decision reads, and a vertex's stay inside its own
+    /// group (the one `VertexSampler::new` draws). Giving the BSDF the light sample's dimensions,
+    /// or every vertex the first one's, makes two decisions claim one dimension.
+    #[test]
+    fn no_two_decisions_of_a_camera_path_share_a_dimension() {
+        let mut owners = std::collections::HashMap::new();
+        for (name, first, width) in
+            [("filter", camera::FILTER, 2), ("lens", camera::LENS, 2), ("time", camera::TIME, 1)]
+        {
+            for k in 0..width {
+                assert!(
+                    first + k < camera::DIMENSIONS,
+                    "camera {name} reads {} ≥ {}",
+                    first + k,
+                    camera::DIMENSIONS
+                );
+                claim(&mut owners, first + k, format!("the camera's {name}"));
+            }
+        }
+        assert!(camera::DIMENSIONS <= bounce_dimension(0), "the camera's group runs into the first vertex's");
+        for depth in 0..DEPTHS {
+            let base = bounce_dimension(depth);
+            assert!(base.is_multiple_of(GROUP), "depth {depth} starts at {base}, not at a group");
+            for (name, first, width) in VERTEX_DECISIONS {
+                for k in 0..width {
+                    let dim = base + first + k;
+                    // `VertexSampler::new` draws the group's GROUP lanes, and nothing else.
+                    assert!(
+                        (base..base + GROUP).contains(&dim),
+                        "depth {depth}: {name} reads {dim}, outside its vertex's group {base}..{}",
+                        base + GROUP
+                    );
+                    claim(&mut owners, dim, format!("depth {depth}'s {name}"));
+                }
+            }
+        }
+    }
+
+    /// The same for a photon: emission's six dimensions, then four per bounce.
+    #[test]
+    fn no_two_decisions_of_a_photon_share_a_dimension() {
+        let mut owners = std::collections::HashMap::new();
+        let emission = [
+            ("time", photon::TIME, 1),
+            ("light", photon::LIGHT, 1),
+            ("position", photon::POSITION, 2),
+            ("direction", photon::DIRECTION, 2),
+        ];
+        for (name, first, width) in emission {
+            for k in 0..width {
+                assert!(
+                    first + k < photon::FIRST_BOUNCE,
+                    "emission's {name} reads {} ≥ {}",
+                    first + k,
+                    photon::FIRST_BOUNCE
+                );
+                claim(&mut owners, first + k, format!("emission's {name}"));
+            }
+        }
+        let bounce = [
+            ("lobe", photon::LOBE, 1),
+            ("BSDF direction", photon::BSDF, 2),
+            ("roulette", photon::ROULETTE, 1),
+        ];
+        for depth in 0..DEPTHS {
+            let base = photon_bounce_dimension(depth);
+            for (name, first, width) in bounce {
+                for k in 0..width {
+                    let dim = base + first + k;
+                    assert!(
+                        (base..base + photon::PER_BOUNCE).contains(&dim),
+                        "photon bounce {depth}: {name} reads {dim}, outside {base}..{}",
+                        base + photon::PER_BOUNCE
+                    );
+                    claim(&mut owners, dim, format!("photon bounce {depth}'s {name}"));
+                }
+            }
+        }
+    }
+
+    /// Columns of numbers, one a path: fails if any two correlate. Pearson's r of n independent
+    /// uniform pairs has standard deviation 1/√n; 5/√n is a two-sided p of 6e-7 a pair, so about
+    /// 1e-3 over the one to three thousand pairs a test compares (Bonferroni). A shared dimension
+    /// gives r = 1.
+    fn assert_uncorrelated(what: &str, columns: &[(String, Vec<f64>)]) {
+        let n = columns[0].1.len() as f64;
+        let bound = 5.0 / n.sqrt();
+        let standardised: Vec<Vec<f64>> = columns
+            .iter()
+            .map(|(_, c)| {
+                let mean = c.iter().sum::<f64>() / n;
+                let sd = (c.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n).sqrt();
+                c.iter().map(|v| (v - mean) / sd).collect()
+            })
+            .collect();
+        for a in 0..columns.len() {
+            for b in a + 1..columns.len() {
+                let r = standardised[a].iter().zip(&standardised[b]).map(|(x, y)| x * y).sum::<f64>() / n;
+                assert!(
+                    r.abs() < bound,
+                    "{what}: {} and {} correlate, r = {r:.3} (bound {bound:.3})",
+                    columns[a].0,
+                    columns[b].0
+                );
+            }
+        }
+    }
+
+    /// The numbers the kernel actually gets: the camera's (drawn as `emit_camera_paths` draws them)
+    /// and those `VertexSampler`'s accessors return at depths 0 to 4, over 4096 (pixel, sample)
+    /// paths, are pairwise uncorrelated, and no two decisions ever get the same number. This catches
+    /// a collision anywhere between the layout and the kernel: an accessor reading another's lanes,
+    /// `VertexSampler::new` ignoring the depth, a wrong `bounce_dimension`.
+    #[test]
+    fn every_decision_of_a_camera_path_gets_its_own_numbers() {
+        let n = 4096u32;
+        for kind in [SamplerKind::Independent, SamplerKind::Sobol] {
+            let mut columns: Vec<(String, Vec<f64>)> = Vec::new();
+            let mut column = |name: String, f: &dyn Fn(Sampler) -> f32| {
+                let c = (0..n).map(|i| f(Sampler::of(kind, 17, 3 * i + 1, i % 13)) as f64).collect();
+                columns.push((name, c));
+            };
+            column("camera filter x".into(), &|s| s.get2d(camera::FILTER).x);
+            column("camera filter y".into(), &|s| s.get2d(camera::FILTER).y);
+            column("camera lens x".into(), &|s| s.get2d(camera::LENS).x);
+            column("camera lens y".into(), &|s| s.get2d(camera::LENS).y);
+            column("camera time".into(), &|s| s.get1d(camera::TIME));
+            for depth in 0..5 {
+                let vertex = move |s: Sampler| VertexSampler::new(s, depth);
+                column(format!("depth {depth} light select"), &|s| vertex(s).light_select());
+                column(format!("depth {depth} light point x"), &|s| vertex(s).light_point().x);
+                column(format!("depth {depth} light point y"), &|s| vertex(s).light_point().y);
+                column(format!("depth {depth} BSDF lobe"), &|s| vertex(s).bsdf_lobe());
+                column(format!("depth {depth} BSDF direction x"), &|s| vertex(s).bsdf_direction().x);
+                column(format!("depth {depth} BSDF direction y"), &|s| vertex(s).bsdf_direction().y);
+                column(format!("depth {depth} roulette"), &|s| vertex(s).roulette());
+            }
+            // Equal numbers for two decisions of one path: a 24-bit draw repeats by chance with
+            // probability 2^-24 a pair, so about 0.2 times in these 4096 × 780 pairs; allow 4.
+            let (mut repeats, mut worst) = (0, (0, "", ""));
+            for a in 0..columns.len() {
+                for b in a + 1..columns.len() {
+                    let equal = columns[a].1.iter().zip(&columns[b].1).filter(|(x, y)| x == y).count();
+                    repeats += equal;
+                    if equal > worst.0 {
+                        worst = (equal, &columns[a].0, &columns[b].0);
+                    }
+                }
+            }
+            assert!(
+                repeats <= 4,
+                "{kind:?}: two decisions of one path got the same number {repeats} times, {} and {} \
+                 in {} of {n} paths",
+                worst.1,
+                worst.2,
+                worst.0
+            );
+            assert_uncorrelated(&format!("{kind:?}"), &columns);
+        }
+    }
+
+    /// A photon's numbers: emission's and its first three bounces', as `emit_photon` and
+    /// `scatter_photon` draw them from `photon_sampler`, in two passes of one map and in two maps of
+    /// one pass (which must not share numbers either).
+    #[test]
+    fn every_decision_of_a_photon_gets_its_own_numbers() {
+        let n = 4096u32;
+        for kind in [SamplerKind::Independent, SamplerKind::Sobol] {
+            let mut columns: Vec<(String, Vec<f64>)> = Vec::new();
+            for (pass, map) in [(0, 0), (1, 0), (0, 1)] {
+                let mut column = |name: String, f: &dyn Fn(Sampler) -> f32| {
+                    let c = (0..n).map(|i| f(photon_sampler(kind, 23, pass, map, i)) as f64).collect();
+                    columns.push((format!("pass {pass} map {map} {name}"), c));
+                };
+                column("time".into(), &|s| s.get1d(photon::TIME));
+                column("light".into(), &|s| s.get1d(photon::LIGHT));
+                column("position x".into(), &|s| s.get2d(photon::POSITION).x);
+                column("position y".into(), &|s| s.get2d(photon::POSITION).y);
+                column("direction x".into(), &|s| s.get2d(photon::DIRECTION).x);
+                column("direction y".into(), &|s| s.get2d(photon::DIRECTION).y);
+                for depth in 0..3 {
+                    let base = photon_bounce_dimension(depth);
+                    column(format!("bounce {depth} lobe"), &|s| s.get1d(base + photon::LOBE));
+                    column(format!("bounce {depth} BSDF x"), &|s| s.get2d(base + photon::BSDF).x);
+                    column(format!("bounce {depth} BSDF y"), &|s| s.get2d(base + photon::BSDF).y);
+                    column(format!("bounce {depth} roulette"), &|s| s.get1d(base + photon::ROULETTE));
+                }
+            }
+            assert_uncorrelated(&format!("{kind:?} photons"), &columns);
         }
     }
 }

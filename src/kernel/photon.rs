@@ -138,7 +138,7 @@ pub fn scatter_photon(
     if path.depth + 1 >= settings.max_depth {
         return bounce;
     }
-    let base = dim::FIRST_BOUNCE + path.depth * dim::PER_BOUNCE;
+    let base = super::dimensions::photon_bounce_dimension(path.depth);
     let Some(bs) = bsdf.sample(
         v.wo,
         sampler.get1d(base + dim::LOBE),
