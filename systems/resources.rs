@@ -100,7 +100,7 @@ impl AdaptiveSampling {
     /// steps of a quarter of the samples so far (at least 4), so a pixel takes at most a quarter more
     /// than it needed while a render of n samples makes about 4·ln(n / min) passes, each with a tail.
     pub fn pass_end(min_spp: u32, done: u32, target: u32) -> u32 {
-        let end = if done == 0 { min_spp } else { done.saturating_add((done / 4).max(4)) };
+        let end = if done == 0 { min_spp } else { done.saturating_add((done / 2).max(4)) };
         end.min(target)
     }
 }
