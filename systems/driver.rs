@@ -6,6 +6,7 @@
 
 use crate::integrators;
 use crate::plan::{Plan, Repeat};
+pub use crate::report::StopReason;
 use crate::report::{AdaptiveSummary, PhaseTime, Report, Unit};
 use crate::resources::{AdaptiveSampling, FilmResource, PassRange, PhotonStats, RenderStats, SceneFeatures};
 use bevy_ecs::prelude::*;
@@ -68,15 +69,6 @@ pub struct Renderer {
     pass_end_requested: AtomicBool,
     /// The run asks for the `spp` feature image.
     spp_image: bool,
-}
-
-/// Why a render ended before its target.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum StopReason {
-    /// The time limit passed.
-    TimeLimit,
-    /// The interrupt flag was raised (Ctrl-C, SIGTERM, a host).
-    Interrupted,
 }
 
 impl Renderer {

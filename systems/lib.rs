@@ -78,6 +78,9 @@
 //! | `Gather` | `gather.rs` | `build_pass_photon_map` | | `PhotonBuffer` | `PassPhotons` |
 //! | `Gather` | `gather.rs` | `gather_photons_into_hit_points` (`_into_chi2_cells`, `_with_laplacian`) | hit points | `PassPhotons` | `HitPoint` (`Chi2Cells`, `AdaptiveStats`) |
 //! | `Update` | `update.rs` | `update_hit_point_radii`, `update_radii_by_chi2`, `update_radii_adaptive` | hit points | `ProgressiveConfig` | `HitPoint` |
+//! | `Gather` | `integrators/pppm.rs` | `set_global_radius` (`pppm`, before the gather) | hit points | `ProgressiveConfig` | `HitPoint::r2` |
+//! | `Update` | `integrators/pppm.rs` | `add_pass_estimates_to_film` (`pppm`) | hit points | `PathState` | `FilmResource`, `HitPoint` |
+//! | pass edges | `passes.rs` | `select_unconverged_pixels` (adaptive sampling, after each pass) | | `PassRange`, `FilmResource` | `AdaptiveSampling` |
 //! | pass edges | `passes.rs` | `hand_out_samples`, `finish_light_learning`, `begin_progressive_pass`, `begin_camera_pass`, `cap_initial_radius`, `begin_photon_pass`, `begin_photon_map`, `finish_photon_map` | | `PassRange` | see the file |
 //!
 //! Entities are spawned once and reused: a camera path that ends takes the next work item (pixel,

@@ -23,6 +23,16 @@ impl Unit {
     }
 }
 
+/// Why a render ended before its target (here rather than in the driver, which reports it, so that
+/// the report names nothing of the driver's: no import circle).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StopReason {
+    /// The time limit passed.
+    TimeLimit,
+    /// The interrupt flag was raised (Ctrl-C, SIGTERM, a host).
+    Interrupted,
+}
+
 /// Time spent in one phase.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PhaseTime {
@@ -98,7 +108,7 @@ pub struct Report {
     /// Hit points, for the progressive integrators.
     pub hit_points: Option<HitPointSummary>,
     /// Why the render stopped before its target, if it did.
-    pub stopped_by: Option<crate::driver::StopReason>,
+    pub stopped_by: Option<StopReason>,
     /// Adaptive sampling's outcome, when it was on.
     pub adaptive: Option<AdaptiveSummary>,
 }

@@ -4,6 +4,7 @@
 pub mod area;
 pub mod environment;
 pub mod punctual;
+pub mod sample;
 pub mod select;
 pub mod tree;
 pub mod visibility;

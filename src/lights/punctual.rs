@@ -2,7 +2,7 @@
 //! direction (sun): no ray can hit them, so next-event estimation is the only way a camera path
 //! sees them (weight 1, no MIS), and photons start from them.
 
-use super::area::{EmissionSample, LightSample};
+use super::sample::{EmissionSample, LightSample};
 use crate::sampling::warp::{Frame, concentric_disk, uniform_cone, uniform_sphere};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
