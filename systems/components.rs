@@ -62,9 +62,9 @@ impl ShadowRay {
 /// Where a path is in its life.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum PathStatus {
-    /// Needs a camera ray for its next sample.
+    /// Needs its first ray: a camera path's for its next sample, a photon's from a light.
     #[default]
-    NeedsCamera,
+    NeedsStart,
     /// Bouncing.
     Active,
     /// Ended; radiance waits to be splatted.
@@ -107,7 +107,7 @@ impl PathState {
             sampler: Sampler::new(0, pixel, sample),
             path: CameraPath::START,
             gathering: false,
-            status: PathStatus::NeedsCamera,
+            status: PathStatus::NeedsStart,
             rays: 0,
             shadow_rays: 0,
             lookups: 0,
@@ -134,7 +134,7 @@ impl Default for PhotonHit {
     }
 }
 
-/// A photon in flight. `status` reuses the path life cycle (`NeedsCamera` = needs emitting).
+/// A photon in flight. `status` reuses the path life cycle (`NeedsStart`: needs emitting).
 #[derive(Component, Clone, Copy, Debug, Default)]
 pub struct PhotonState {
     /// Photon number within its pass (selects its random numbers).

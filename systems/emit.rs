@@ -26,7 +26,7 @@ pub fn emit_camera_paths<const LENS: bool, const MOTION: bool>(
     let view_axis = camera.view_axis();
     paths.par_iter_mut().batching_strategy(super::resources::wavefront_batching()).for_each(
         |(mut ray, mut state, aov)| {
-            if state.status != PathStatus::NeedsCamera {
+            if state.status != PathStatus::NeedsStart {
                 return;
             }
             let sampler = Sampler::of(config.sampler, config.seed, state.pixel, state.sample);
@@ -93,7 +93,7 @@ pub fn emit_photons(
 ) {
     photons.par_iter_mut().batching_strategy(super::resources::wavefront_batching()).for_each(
         |(mut ray, mut state)| {
-            if state.status != PathStatus::NeedsCamera {
+            if state.status != PathStatus::NeedsStart {
                 return;
             }
             let sampler =

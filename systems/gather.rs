@@ -23,7 +23,7 @@ use super::resources::{
     PhotonStats, PhotonWork, ProgressiveConfig, RenderStats, SceneResource, Workload, wavefront_batching,
 };
 use bevy_ecs::prelude::*;
-use caustica_core::lights::area::luminance;
+use caustica_core::lights::light::luminance;
 use caustica_core::photon::progressive::{biweight_laplacian, chi2_cell};
 use caustica_core::render_scene::RenderScene;
 use glam::Vec3;
@@ -91,7 +91,7 @@ pub fn splat_paths_to_film(
                 Some((pixel, sample)) => {
                     state.pixel = pixel;
                     state.sample = sample;
-                    state.status = PathStatus::NeedsCamera;
+                    state.status = PathStatus::NeedsStart;
                     tally.active += 1;
                 }
                 None => state.status = PathStatus::Idle,
@@ -168,7 +168,7 @@ impl Drop for SplatTally<'_> {
 fn finished(status: PathStatus, active: &mut u32) -> bool {
     match status {
         PathStatus::Idle => false,
-        PathStatus::Active | PathStatus::NeedsCamera => {
+        PathStatus::Active | PathStatus::NeedsStart => {
             *active += 1;
             false
         }
@@ -200,7 +200,7 @@ pub fn store_photons(
         if work.next < work.settings.total {
             state.index = work.next;
             work.next += 1;
-            state.status = PathStatus::NeedsCamera;
+            state.status = PathStatus::NeedsStart;
             active += 1;
         } else {
             state.status = PathStatus::Idle;

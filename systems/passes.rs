@@ -56,7 +56,7 @@ pub fn hand_out_samples(
             let Some((pixel, sample)) = workload.take(workload.lane_of_entity(ordinal as u32)) else {
                 continue;
             };
-            (state.pixel, state.sample, state.status) = (pixel, sample, PathStatus::NeedsCamera);
+            (state.pixel, state.sample, state.status) = (pixel, sample, PathStatus::NeedsStart);
         }
     }
 }
@@ -115,7 +115,7 @@ pub fn begin_camera_pass(
     let per_pixel = config.hit_points_per_pixel;
     for mut state in &mut paths {
         state.sample = range.begin * per_pixel + state.sample % per_pixel;
-        state.status = PathStatus::NeedsCamera;
+        state.status = PathStatus::NeedsStart;
     }
 }
 
@@ -169,7 +169,7 @@ pub fn begin_photon_pass(
     let mut handed = 0;
     for mut state in &mut photons {
         if handed < total {
-            (state.index, state.status) = (handed, PathStatus::NeedsCamera);
+            (state.index, state.status) = (handed, PathStatus::NeedsStart);
             handed += 1;
         } else {
             state.status = PathStatus::Idle;

@@ -15,7 +15,7 @@ pub enum When {
     /// Every pass.
     EveryPass,
     /// The first pass this process runs (`pm`'s photon maps, which no part or checkpoint holds).
-    FirstPass,
+    FirstPassOfProcess,
     /// The render's first pass, pass 0 of the whole render (`ppm`'s hit points, which a checkpoint
     /// holds: a resumed render does not trace them again).
     RenderStart,
@@ -29,7 +29,7 @@ impl When {
     pub fn includes(self, index: u32, begin: u32) -> bool {
         match self {
             Self::EveryPass => true,
-            Self::FirstPass => index == 0,
+            Self::FirstPassOfProcess => index == 0,
             Self::RenderStart => begin == 0,
             Self::LaterPasses => index > 0,
         }

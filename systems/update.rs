@@ -9,7 +9,7 @@
 use super::components::{AdaptiveStats, Chi2Cells, HitPoint};
 use super::resources::{ProgressiveConfig, wavefront_batching};
 use bevy_ecs::prelude::*;
-use caustica_core::lights::area::luminance;
+use caustica_core::lights::light::luminance;
 use caustica_core::photon::progressive::{
     CHI2_CELLS, add_pass_estimate, chi2_shrink, global_radius2, hachisuka_update,
 };

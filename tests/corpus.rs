@@ -7,7 +7,7 @@ mod common;
 use bevy_ecs::world::World;
 use caustica::Renderer;
 use caustica::film::Image;
-use caustica::lights::area::luminance;
+use caustica::lights::light::luminance;
 use caustica::resources::{CameraResource, SceneResource};
 use caustica::scene::{self, IntegratorKind};
 use glam::Vec2;

@@ -34,7 +34,7 @@ fn vertex_along(scene: &RenderScene, o: Vec3, d: Vec3) -> (Ray, Vertex) {
 }
 
 /// The lamp's solid-angle density (selection included) at `p_ref` (normal `n_ref`) for its point `p`
-/// on triangle `light`: the light's own pdf, tested on its own in `lights::area` (χ², and equal to
+/// on triangle `light`: the light's own pdf, tested on its own in `lights::light` (χ², and equal to
 /// what its samples report). Here the 1 m² lamp 1 m away is sampled by solid angle.
 fn lamp_pdf(scene: &RenderScene, light: u32, p_ref: Vec3, n_ref: Vec3, p: Vec3) -> f32 {
     scene.lights.pdf(light, p_ref, n_ref, p, Vec3::NEG_Y, 0.0)

@@ -11,7 +11,7 @@
 //! from beyond the scene (pbrt-v4 `ImageInfiniteLight::SampleLe`), so the env's power is
 //! π R² ∫ L dω: the flux through the scene's cross-section.
 
-use super::area::{EmissionSample, LightSample, luminance};
+use super::light::{EmissionSample, LightSample, luminance};
 use crate::sampling::distribution::Distribution2D;
 use crate::sampling::warp::{
     Frame, UNIFORM_SPHERE_PDF, concentric_disk, cosine_hemisphere, cosine_hemisphere_pdf, uniform_sphere,

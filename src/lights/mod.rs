@@ -1,16 +1,16 @@
 //! Lights: emissive triangles and spheres, the environment, sampled for next-event estimation, and
 //! light selection.
 
-pub mod area;
 pub mod environment;
+pub mod light;
 pub mod punctual;
 pub mod sample;
 pub mod select;
 pub mod tree;
 pub mod visibility;
 
-pub use area::{EmissionSample, Light, LightSample, LightShape, LightTexture};
 pub use environment::Environment;
+pub use light::{EmissionSample, Light, LightSample, LightShape, LightTexture};
 pub use select::LightSelector;
 pub use tree::LightTree;
 pub use visibility::VisibilityGrid;

@@ -1,5 +1,5 @@
 //! What sampling a light gives: a point for a shadow ray, or a photon's start. Every kind of light
-//! (`area.rs`, `punctual.rs`) returns these, so they live apart from each, and neither light file
+//! (`light.rs`, `punctual.rs`) returns these, so they live apart from each, and neither light file
 //! imports the other's types.
 
 use glam::Vec3;

@@ -73,7 +73,7 @@ pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result
 
     let mut phases = Vec::new();
     for (kind, count) in maps {
-        let mut photons = Phase::new("photons", When::FirstPass, Repeat::WhileBusy(photons_busy))
+        let mut photons = Phase::new("photons", When::FirstPassOfProcess, Repeat::WhileBusy(photons_busy))
             .with_begin((begin_photon_map(kind, count), begin_photon_pass).chain())
             .with_end(finish_photon_map(kind));
         add_photon_systems(&mut photons.schedule, order);
