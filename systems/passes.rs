@@ -134,27 +134,15 @@ pub fn cap_initial_radius(
     }
     let distances: Vec<f32> =
         hit_points.iter().filter(|hp| hp.is_valid()).map(|hp| (hp.p - camera.origin).length()).collect();
-    let Some(cap) = radius_cap(&camera, distances).filter(|&cap| cap < config.r0) else { return };
+    let Some(cap) =
+        caustica_core::photon::progressive::radius_cap(&camera, distances).filter(|&cap| cap < config.r0)
+    else {
+        return;
+    };
     config.r0 = cap;
     for mut hp in &mut hit_points {
         hp.r2 = cap * cap;
     }
-}
-
-/// `FOOTPRINT_PIXELS` pixel footprints at the median of `distances` from the eye, if there is one.
-pub fn radius_cap(camera: &caustica_core::camera::Camera, mut distances: Vec<f32>) -> Option<f32> {
-    /// A first estimate blurred over up to ten pixels is smooth enough and sharpens within passes.
-    const FOOTPRINT_PIXELS: f32 = 10.0;
-    let (cx, cy) = (camera.width / 2, camera.height / 2);
-    let ray = |x| camera.generate_ray(x, cy, glam::Vec2::splat(0.5), glam::Vec2::splat(0.5), 0.0);
-    let pixel_angle = ray(cx).d.normalize().angle_between(ray(cx + 1).d.normalize());
-    if distances.is_empty() || pixel_angle.is_nan() || pixel_angle <= 0.0 {
-        return None;
-    }
-    let mid = distances.len() / 2;
-    let median = *distances.select_nth_unstable_by(mid, f32::total_cmp).1;
-    let cap = FOOTPRINT_PIXELS * pixel_angle * median;
-    (cap > 0.0).then_some(cap)
 }
 
 /// Start a photon pass: every photon entity takes a photon of the pass in entity order (those beyond

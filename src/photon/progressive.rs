@@ -252,6 +252,22 @@ pub fn mse_optimal_radius(c: f64, laplacian: f64, passes: u32) -> Option<f32> {
     (c > 0.0 && denominator > 0.0 && r6.is_finite()).then(|| r6.powf(1.0 / 6.0) as f32)
 }
 
+/// `FOOTPRINT_PIXELS` pixel footprints at the median of `distances` from the eye, if there is one.
+pub fn radius_cap(camera: &crate::camera::Camera, mut distances: Vec<f32>) -> Option<f32> {
+    /// A first estimate blurred over up to ten pixels is smooth enough and sharpens within passes.
+    const FOOTPRINT_PIXELS: f32 = 10.0;
+    let (cx, cy) = (camera.width / 2, camera.height / 2);
+    let ray = |x| camera.generate_ray(x, cy, Vec2::splat(0.5), Vec2::splat(0.5), 0.0);
+    let pixel_angle = ray(cx).d.normalize().angle_between(ray(cx + 1).d.normalize());
+    if distances.is_empty() || pixel_angle.is_nan() || pixel_angle <= 0.0 {
+        return None;
+    }
+    let mid = distances.len() / 2;
+    let median = *distances.select_nth_unstable_by(mid, f32::total_cmp).1;
+    let cap = FOOTPRINT_PIXELS * pixel_angle * median;
+    (cap > 0.0).then_some(cap)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

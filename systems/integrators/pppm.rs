@@ -71,7 +71,7 @@ fn fix_initial_radius(world: &mut World) {
         distances
     };
     let camera = world.resource::<CameraResource>();
-    let cap = crate::passes::radius_cap(camera, distances);
+    let cap = caustica_core::photon::progressive::radius_cap(camera, distances);
     let mut config = world.resource_mut::<ProgressiveConfig>();
     if let Some(cap) = cap.filter(|&cap| cap < config.r0) {
         config.r0 = cap;
