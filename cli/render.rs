@@ -8,7 +8,7 @@ use anyhow::{Context, Result};
 use caustica::Renderer;
 use caustica::driver::StopReason;
 use caustica::driver::init_thread_pools;
-use caustica::film::accumulator::{self, PartInfo};
+use caustica::film::accumulator;
 use caustica::film::aov::Aov;
 use caustica::film::output;
 use caustica::scene::{self, RunFile};
@@ -64,8 +64,10 @@ pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>) -> Result<bool
             }
         }
     }
-    let mut part = args.part.map(|(i, k)| part_info(&scene, &run, i, k, &outputs)).transpose()?;
-    if part.is_some() && (args.checkpoint.is_some() || args.resume.is_some()) {
+    if args.part.is_some() {
+        check_part_output(&outputs)?;
+    }
+    if args.part.is_some() && (args.checkpoint.is_some() || args.resume.is_some()) {
         anyhow::bail!("--part renders a share of its own; it does not combine with --checkpoint or --resume");
     }
     let resumed =
@@ -81,8 +83,14 @@ pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>) -> Result<bool
         None => None,
     };
     let reference = args.reference.as_deref().map(output::read_exr).transpose()?;
-    let mut renderer =
-        Renderer::new(scene, &run).with_context(|| format!("preparing {}", scene_path.display()))?;
+    let preparing = || format!("preparing {}", scene_path.display());
+    let (mut renderer, part) = match args.part {
+        Some((i, k)) => {
+            let (renderer, info) = Renderer::for_share(scene, &run, i, k).with_context(preparing)?;
+            (renderer, Some(info))
+        }
+        None => (Renderer::new(scene, &run).with_context(preparing)?, None),
+    };
     if let Some(reference) = &reference {
         let film = renderer.report();
         if (reference.width, reference.height) != (film.width, film.height) {
@@ -95,12 +103,6 @@ pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>) -> Result<bool
                 film.height
             );
         }
-    }
-    if let Some(info) = &mut part {
-        renderer
-            .set_samples(info.samples.clone())
-            .with_context(|| format!("--part {}/{}", info.part, info.parts))?;
-        info.per_unit = renderer.camera_samples_per_unit();
     }
     if profile.is_some() {
         renderer.world.insert_resource(TraceStatistics::default());
@@ -253,13 +255,12 @@ fn write_outputs(
         .collect()
 }
 
-/// What share `i` of `k` is: its samples, and the fingerprint a merge checks. A part writes one
-/// accumulator, so it takes exactly one `-o`, an .exr.
-fn part_info(scene: &scene::Scene, run: &RunFile, i: u32, k: u32, outputs: &[PathBuf]) -> Result<PartInfo> {
+/// A part writes one accumulator, so it takes exactly one `-o`, an .exr.
+fn check_part_output(outputs: &[PathBuf]) -> Result<()> {
     if outputs.len() != 1 || !outputs[0].extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
         anyhow::bail!("--part writes one accumulator file: give one -o FILE.exr (got {})", outputs.len());
     }
-    PartInfo::of_share(scene, run, i, k).map_err(|problem| anyhow::anyhow!("--{problem}"))
+    Ok(())
 }
 
 /// `caustica merge`: the parts' sums added, the image written to every output.

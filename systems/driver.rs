@@ -4,7 +4,7 @@
 //! and a host application all drive every integrator through [`Renderer`]; none of them knows which
 //! integrator it runs.
 
-use crate::integrators;
+use crate::integrators::{self, Integrator};
 use crate::plan::{Plan, Repeat};
 pub use crate::report::StopReason;
 use crate::report::{AdaptiveSummary, PhaseTime, Report, Unit};
@@ -12,6 +12,7 @@ use crate::resources::{AdaptiveSampling, FilmResource, PassRange, PhotonStats, R
 use bevy_ecs::prelude::*;
 use caustica_core::error::Result;
 use caustica_core::film::Image;
+use caustica_core::film::accumulator::PartInfo;
 use caustica_core::scene::{RunFile, Scene};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -37,6 +38,10 @@ pub struct Renderer {
     pub world: World,
     /// The integrator's phases; a host may add its systems to them (`Plan::phase_mut`).
     pub plan: Plan,
+    /// What the integrator is: its unit, whether it splits, what it takes.
+    integrator: &'static Integrator,
+    /// Why a share of this render cannot be rendered alone, if it cannot.
+    share_refusal: Option<String>,
     /// What the scene uses.
     pub features: SceneFeatures,
     /// Passes run.
@@ -75,20 +80,20 @@ impl Renderer {
     /// Check the settings against the scene, build the World and the integrator's plan. The target is
     /// the run's `render.spp` or `progressive.passes`, by the integrator.
     pub fn new(scene: Scene, run: &RunFile) -> Result<Self> {
-        integrators::check(scene_pixels(&scene, run)?, &scene, run)?;
+        let integrator = integrators::of_run(run);
+        integrator.check(scene_pixels(&scene, run)?, &scene, run)?;
         let (mut world, features) = scene_world(scene, run)?;
-        let plan = integrators::plan(&mut world, run, features)?;
+        let plan = (integrator.plan)(integrator, &mut world, run, features)?;
         crate::aov::equip_paths(&mut world);
-        let target = match plan.unit {
-            Unit::Samples => run.render.spp,
-            Unit::Passes => run.progressive.passes,
-        };
-        let samples_per_unit = integrators::camera_samples_per_unit(run);
+        let target = integrator.units(run);
+        let samples_per_unit = (integrator.camera_samples_per_unit)(integrator, run);
         let phase_times =
             plan.phases.iter().map(|p| PhaseTime { name: p.name, seconds: 0.0, runs: 0 }).collect();
         Ok(Self {
             world,
             plan,
+            integrator,
+            share_refusal: integrator.share_refusal(run),
             features,
             passes: 0,
             done: 0,
@@ -108,6 +113,21 @@ impl Renderer {
         })
     }
 
+    /// A renderer of share `part` (from 1) of `parts` of the render `run` sets up of `scene` (a
+    /// render split across processes or machines), stopping only between passes, and what its
+    /// accumulator records (`film::accumulator::write_part`): the one sequence the command and the
+    /// hosts use.
+    pub fn for_share(scene: Scene, run: &RunFile, part: u32, parts: u32) -> Result<(Self, PartInfo)> {
+        let units = integrators::of_run(run).units(run);
+        let mut info = PartInfo::of_share(&scene, run, units, part, parts)
+            .map_err(|problem| caustica_core::error::Error::Setting { name: "part".into(), problem })?;
+        let mut renderer = Self::new(scene, run)?;
+        renderer.set_whole_passes(true);
+        renderer.set_samples(info.samples.clone())?;
+        info.per_unit = renderer.camera_samples_per_unit();
+        Ok((renderer, info))
+    }
+
     /// What progress is aimed at.
     pub fn target(&self) -> u32 {
         self.target
@@ -121,33 +141,16 @@ impl Renderer {
         self.stopped_by = None;
     }
 
-    /// Render only samples (or `pppm`'s passes) `samples` of every pixel: one share of a render split
-    /// across processes or machines (`caustica render --part`). The film then holds their sums, which
-    /// merge with the other shares' into the same bits as one run of all of them. Before the first
-    /// pass, and not for `ppm`, `sppm`, `appm`, `cppm`, whose passes each build on the one before, nor
-    /// with visibility-aware light selection, which learns from the render's own first samples.
+    /// Render only samples (or passes) `samples` of every pixel: one share of a render split across
+    /// processes or machines (`caustica render --part`). The film then holds their sums, which merge
+    /// with the other shares' into the same bits as one run of all of them. Before the first pass, and
+    /// only where [`share_refusal`] has no objection.
     pub fn set_samples(&mut self, samples: std::ops::Range<u32>) -> Result<()> {
         let refuse = |problem: &str| {
             Err(caustica_core::error::Error::Setting { name: "part".into(), problem: problem.into() })
         };
-        if self.plan.unit != Unit::Samples && self.plan.kind != caustica_core::scene::IntegratorKind::Pppm {
-            return refuse(
-                "this progressive photon mapper's passes each build on the one before; split pt, pt-naive, pm or pppm",
-            );
-        }
-        if self.features.learns_visibility {
-            return refuse(
-                "visibility-aware light selection learns from the render's first samples, which one share does not have; use uniform, power or tree",
-            );
-        }
-        if self.has_aovs() {
-            return refuse("a part's accumulator holds colour only: render feature images (--aov) unsplit");
-        }
-        if self.is_adaptive() {
-            return refuse(
-                "adaptive sampling decides which pixels take more samples from all of a pixel's samples \
-                 so far, which one share does not have; split with render.noise_threshold = 0",
-            );
+        if let Some(problem) = &self.share_refusal {
+            return refuse(problem);
         }
         if self.passes > 0 {
             return refuse("the render has started");
@@ -160,10 +163,14 @@ impl Renderer {
     }
 
     /// Whether this render's film alone says where it stands, so that a partial render or a
-    /// checkpoint of it continues exactly: true for `pt`, `pt-naive`, `pm` and `pppm`; the other
-    /// progressive mappers keep per-pixel statistics that chain their passes.
+    /// checkpoint of it continues exactly (`Integrator::film_is_the_state`).
     pub fn film_is_the_state(&self) -> bool {
-        self.plan.unit == Unit::Samples || self.plan.kind == caustica_core::scene::IntegratorKind::Pppm
+        self.integrator.film_is_the_state
+    }
+
+    /// What the integrator is.
+    pub fn integrator(&self) -> &'static Integrator {
+        self.integrator
     }
 
     /// Why a checkpoint cannot hold this render, if it cannot. It holds the film, and for the
@@ -304,13 +311,7 @@ impl Renderer {
 
     /// Camera samples a pixel gets per unit of progress (a sample per pixel, or a pass).
     pub fn camera_samples_per_unit(&self) -> u32 {
-        match self.plan.unit {
-            Unit::Samples => self.samples_per_unit,
-            Unit::Passes => self
-                .world
-                .get_resource::<crate::resources::ProgressiveConfig>()
-                .map_or(1, |c| c.hit_points_per_pixel),
-        }
+        self.samples_per_unit
     }
 
     /// Whether the camera pass runs in the render's first pass only (`ppm`): its visible points are
@@ -360,7 +361,7 @@ impl Renderer {
 
     /// How far the render has come.
     pub fn progress(&self) -> Progress {
-        let done = match self.plan.unit {
+        let done = match self.integrator.unit {
             Unit::Passes => (self.first + self.passes) as f64,
             Unit::Samples => {
                 let film = self.world.resource::<FilmResource>();
@@ -370,7 +371,7 @@ impl Renderer {
                         / (pixels * self.samples_per_unit as f64)
             }
         };
-        Progress { unit: self.plan.unit, done, target: self.target }
+        Progress { unit: self.integrator.unit, done, target: self.target }
     }
 
     /// Run passes until the target is reached or, with `time_limit`, that many seconds have passed:
@@ -420,7 +421,7 @@ impl Renderer {
                 }
                 let end_requested = self.pass_end_requested.swap(false, Ordering::Relaxed);
                 if self.whole_passes
-                    && self.plan.unit == Unit::Samples
+                    && self.integrator.unit == Unit::Samples
                     && !cut
                     && (self.stopped || end_requested)
                 {
@@ -504,10 +505,10 @@ impl Renderer {
             .try_query::<&crate::components::PathState>()
             .map_or(0, |mut q| q.iter(&self.world).count() as u32);
         let mut report = Report {
-            integrator: self.plan.kind,
+            integrator: self.integrator.kind,
             width: film.width,
             height: film.height,
-            unit: self.plan.unit,
+            unit: self.integrator.unit,
             done: self.progress().done,
             target: self.target,
             seed: self.world.resource::<crate::resources::RenderConfig>().seed,
@@ -549,4 +550,10 @@ impl Renderer {
 fn scene_pixels(scene: &Scene, run: &RunFile) -> Result<u64> {
     let (w, h) = resolution(scene, run)?;
     Ok(w as u64 * h as u64)
+}
+
+/// Why a share of the render `run` sets up cannot be rendered alone and merged, if it cannot: what a
+/// host asks before it splits (`Renderer::set_samples` has the last word).
+pub fn share_refusal(run: &RunFile) -> Option<String> {
+    integrators::of_run(run).share_refusal(run)
 }

@@ -7,7 +7,6 @@ pub use crate::report::Unit;
 use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::{ScheduleLabel, SingleThreadedExecutor};
 use caustica_core::film::Image;
-use caustica_core::scene::IntegratorKind;
 
 /// In which passes a phase runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -115,10 +114,6 @@ pub type PassEnd = Box<dyn Fn(u32, u32) -> u32 + Send + Sync>;
 /// An integrator, ready to run: its entities and resources are in the World; this says how to drive
 /// them.
 pub struct Plan {
-    /// Which integrator.
-    pub kind: IntegratorKind,
-    /// What progress is counted in.
-    pub unit: Unit,
     /// The phases of a pass, in order.
     pub phases: Vec<Phase>,
     /// Where each pass ends.

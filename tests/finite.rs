@@ -44,10 +44,11 @@ fn every_scene_with_every_integrator_drops_nothing() {
             (run.photons.photons, run.photons.caustic_photons) = (5000, 5000);
             run.render.time_limit = None;
             // The run file's schedule may be for another integrator (scenes/reordered.toml is sppm's).
-            if !kind.is_progressive() {
+            let integrator = caustica::integrators::of(kind);
+            if !integrator.takes(caustica::integrators::Setting::PassOrder) {
                 run.schedule.passes = None;
             }
-            if matches!(kind, IntegratorKind::PtNaive | IntegratorKind::Ppm | IntegratorKind::Pm) {
+            if integrator.light_sampling != caustica::integrators::LightSampling::On {
                 run.schedule.nee = None;
             }
             let dropped = dropped(scene, &run);

@@ -64,7 +64,25 @@ fn a_run_file_with_an_invalid_order_is_refused_naming_the_dependency() {
     let text = "[schedule]\norder = [\"trace\", \"emit\", \"scatter\", \"shadow\", \"gather\"]\n";
     let message = RunFile::parse(text, path).unwrap_err().to_string();
     assert!(message.contains("bad-order.toml") && message.contains("after Gather"), "{message}");
-    let text = "[render]\nintegrator = \"pm\"\n[schedule]\ncaustic_map = false\n";
-    let message = RunFile::parse(text, path).unwrap_err().to_string();
-    assert!(message.contains("caustic"), "{message}");
+}
+
+#[test]
+fn optional_systems_are_refused_where_the_integrator_cannot_take_them() {
+    let refusal = |kind, schedule| {
+        let (scene, run) = run_for(kind, schedule);
+        caustica::Renderer::new(scene, &run).err().map(|e| e.to_string())
+    };
+    let no_caustics = ScheduleSettings { caustic_map: Some(false), ..Default::default() };
+    let message = refusal(IntegratorKind::Pm, no_caustics).expect("pm without its caustic map is refused");
+    assert!(message.contains("would lose caustics"), "{message}");
+    let nee = ScheduleSettings { nee: Some(true), ..Default::default() };
+    let message = refusal(IntegratorKind::Ppm, nee.clone()).expect("ppm with light sampling is refused");
+    assert!(message.contains("contradicts ppm"), "{message}");
+    assert!(refusal(IntegratorKind::Sppm, nee).is_none());
+    let passes = ScheduleSettings {
+        passes: Some(vec![Pass::Photons, Pass::Camera, Pass::Statistics]),
+        ..Default::default()
+    };
+    let message = refusal(IntegratorKind::Pt, passes).expect("pt with a pass order is refused");
+    assert!(message.contains("schedule.passes applies to ppm"), "{message}");
 }

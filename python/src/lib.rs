@@ -3,7 +3,7 @@
 //! host steps between its own simulation steps. The pure-Python half (`caustica/__init__.py`) turns
 //! keyword overrides into run-file assignments and documents the API.
 
-use caustica::film::accumulator::{self, PartInfo};
+use caustica::film::accumulator;
 use caustica::film::aov::{Aov, AovImages};
 use caustica::report::Unit;
 use caustica::scene::{self, RunFile};
@@ -148,13 +148,13 @@ impl Scene {
         // exact and a session that goes on renders what an uninterrupted one would.
         renderer.set_whole_passes(true);
         if let Some((target, name)) = target {
-            let unit = renderer.progress().unit;
-            let wanted = if unit == Unit::Samples { "spp" } else { "passes" };
+            let integrator = renderer.integrator();
+            let wanted = integrator.units_key();
             if name != wanted {
                 return Err(PyValueError::new_err(format!(
-                    "{}: {:?} counts its progress in {wanted}, not {name}",
+                    "{}: {} counts its progress in {wanted}, not {name}",
                     self.path.display(),
-                    run.render.integrator
+                    integrator.name()
                 )));
             }
             if target == 0 {
@@ -221,15 +221,10 @@ impl Scene {
         })
     }
 
-    /// Whether a render of these settings splits into parts that merge exactly (`render_part`):
-    /// `pt`, `pt-naive`, `pm` and `pppm`, unless light selection learns from the render's own first
-    /// samples (`visibility`). The renderer has the last word when a part is rendered.
+    /// Whether a render of these settings splits into parts that merge exactly (`render_part`), as
+    /// the driver rules (`caustica::driver::share_refusal`).
     fn splits(&self) -> bool {
-        use caustica::scene::{IntegratorKind, LightSelection};
-        matches!(
-            self.run.render.integrator,
-            IntegratorKind::Pt | IntegratorKind::PtNaive | IntegratorKind::Pm | IntegratorKind::Pppm
-        ) && self.run.render.light_selection != LightSelection::Visibility
+        caustica::driver::share_refusal(&self.run).is_none()
     }
 
     /// Render share `part` (from 1) of `parts` of the render of `spp` samples per pixel or `passes`
@@ -247,24 +242,19 @@ impl Scene {
         passes: Option<u32>,
     ) -> PyResult<Py<PyDict>> {
         let mut run = self.settings(&[], &[])?;
-        let progressive = run.render.integrator.is_progressive();
-        match target_of(spp, passes)? {
-            Some((n, "spp")) if !progressive => run.render.spp = n,
-            Some((n, "passes")) if progressive => run.progressive.passes = n,
-            Some((_, name)) => {
+        if let Some((n, unit)) = target_of(spp, passes)? {
+            let integrator = caustica::integrators::of_run(&run);
+            if unit != integrator.units_key() {
                 return Err(PyValueError::new_err(format!(
-                    "{}: {:?} does not count its progress in {name}",
+                    "{}: {} does not count its progress in {unit}",
                     self.path.display(),
-                    run.render.integrator
+                    integrator.name()
                 )));
             }
-            None => {}
+            integrator.set_units(&mut run, n);
         }
-        let mut info = PartInfo::of_share(&self.scene, &run, part, parts).map_err(PyValueError::new_err)?;
-        let mut renderer = py.detach(|| Renderer::new(self.scene.clone(), &run)).map_err(refused)?;
-        renderer.set_whole_passes(true);
-        renderer.set_samples(info.samples.clone()).map_err(refused)?;
-        info.per_unit = renderer.camera_samples_per_unit();
+        let (mut renderer, info) =
+            py.detach(|| Renderer::for_share(self.scene.clone(), &run, part, parts)).map_err(refused)?;
         let report = run_detached(py, &mut renderer, None)?;
         py.detach(|| accumulator::write_part(renderer.film(), &info, &path)).map_err(refused)?;
         Ok(stats(py, &report)?.unbind())

@@ -63,17 +63,16 @@ pub struct PartInfo {
 }
 
 impl PartInfo {
-    /// Share `part` (from 1) of `parts` of the render `run` sets up of `scene`: its samples (or
-    /// passes), and the fingerprint a merge checks; `per_unit` is 1 until the renderer says more.
-    /// The problem, if the share cannot exist.
+    /// Share `part` (from 1) of `parts` of the render `run` sets up of `scene`, of `units` samples
+    /// per pixel or passes in all: its units, and the fingerprint a merge checks; `per_unit` is 1
+    /// until the renderer says more. The problem, if the share cannot exist.
     pub fn of_share(
         scene: &crate::scene::Scene,
         run: &crate::scene::RunFile,
+        units: u32,
         part: u32,
         parts: u32,
     ) -> std::result::Result<Self, String> {
-        let units =
-            if run.render.integrator.is_progressive() { run.progressive.passes } else { run.render.spp };
         if part == 0 || part > parts {
             return Err(format!("part {part}/{parts}: parts are numbered 1 to {parts}"));
         }

@@ -6,7 +6,6 @@
 //! where a run starts, so every rotation renders the same image bit for bit; any other order feeds a
 //! stage data its predecessor has not written yet, and is refused with the dependency it breaks.
 
-use super::IntegratorKind;
 use serde::Deserialize;
 
 /// A stage of the per-bounce cycle (`systems::PassSystems`), as named in run files.
@@ -116,62 +115,12 @@ impl ScheduleSettings {
         Ok([passes[0], passes[1], passes[2]])
     }
 
-    /// Check everything against the integrator that will run.
-    pub fn check(&self, integrator: IntegratorKind) -> Result<(), String> {
+    /// Check the orders (what each integrator takes is its descriptor's to check:
+    /// `systems::integrators::Integrator::check`).
+    pub fn check(&self) -> Result<(), String> {
         self.stage_order()?;
-        if self.passes.is_some() && !integrator.is_progressive() {
-            return Err(format!(
-                "schedule.passes applies to ppm, sppm, appm, cppm and pppm, not {integrator:?}"
-            ));
-        }
         self.pass_order()?;
-        match (self.nee, integrator) {
-            (
-                Some(_),
-                IntegratorKind::Pt
-                | IntegratorKind::Sppm
-                | IntegratorKind::Appm
-                | IntegratorKind::Cppm
-                | IntegratorKind::Pppm,
-            )
-            | (None, _) => {}
-            (Some(true), IntegratorKind::PtNaive | IntegratorKind::Ppm) => {
-                return Err(format!(
-                    "schedule.nee = true contradicts {integrator:?}, which samples no light by design"
-                ));
-            }
-            (Some(false), IntegratorKind::PtNaive | IntegratorKind::Ppm) => {}
-            (Some(_), IntegratorKind::Pm) => {
-                return Err(
-                    "schedule.nee does not apply to pm: its direct light always comes from light sampling"
-                        .into(),
-                );
-            }
-        }
-        if self.caustic_map == Some(false) {
-            return Err(if integrator == IntegratorKind::Pm {
-                "schedule.caustic_map = false would lose caustics: pm's indirect and global estimates leave out \
-                 L S+ D E paths, which only the caustic map carries"
-                    .into()
-            } else {
-                format!("schedule.caustic_map applies to pm, not {integrator:?}")
-            });
-        }
         Ok(())
-    }
-
-    /// Whether camera vertices sample lights for `integrator`.
-    pub fn nee_for(&self, integrator: IntegratorKind) -> bool {
-        let default = matches!(
-            integrator,
-            IntegratorKind::Pt
-                | IntegratorKind::Pm
-                | IntegratorKind::Sppm
-                | IntegratorKind::Appm
-                | IntegratorKind::Cppm
-                | IntegratorKind::Pppm
-        );
-        self.nee.unwrap_or(default)
     }
 }
 
@@ -209,16 +158,5 @@ mod tests {
         assert!(s(&[Photons, Camera, Statistics]).pass_order().is_ok());
         assert!(s(&[Camera, Statistics, Photons]).pass_order().is_err());
         assert!(s(&[Camera, Photons]).pass_order().is_err());
-    }
-
-    #[test]
-    fn optional_systems_are_checked_against_the_integrator() {
-        let nee = |v| ScheduleSettings { nee: Some(v), ..Default::default() };
-        assert!(nee(false).check(IntegratorKind::Pt).is_ok());
-        assert!(nee(false).check(IntegratorKind::Sppm).is_ok());
-        assert!(nee(true).check(IntegratorKind::Ppm).is_err());
-        assert!(nee(true).check(IntegratorKind::Pm).is_err());
-        let no_caustics = ScheduleSettings { caustic_map: Some(false), ..Default::default() };
-        assert!(no_caustics.check(IntegratorKind::Pm).unwrap_err().contains("caustic"));
     }
 }

@@ -13,7 +13,8 @@
 //! size, and the band keeps that in check. Per-pass estimates are averaged (each with its own radius)
 //! instead of Hachisuka's flux correction, which assumes a radius that only shrinks.
 
-use super::progressive::{Variant, plan as progressive_plan};
+use super::descriptor::Integrator;
+use super::progressive::{self, Variant};
 use crate::PassSystems;
 use crate::gather::{build_pass_photon_map, gather_photons_with_laplacian};
 use crate::plan::{Plan, When};
@@ -22,13 +23,15 @@ use crate::update::update_radii_adaptive;
 use bevy_ecs::prelude::*;
 use caustica_core::error::Result;
 use caustica_core::photon::progressive::RadiusRule;
-use caustica_core::scene::RunFile;
+use caustica_core::scene::{IntegratorKind, RunFile};
+
+/// `appm`: `sppm` with an MSE-optimal radius per hit point.
+pub static APPM: Integrator = progressive::descriptor(IntegratorKind::Appm, plan);
 
 /// The plan of `appm`: `sppm`'s passes with the Laplacian-estimating gather and the MSE-optimal radius.
-pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
+fn plan(this: &Integrator, world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
     let variant = Variant {
         rule: RadiusRule::Adaptive,
-        nee: run.schedule.nee_for(run.render.integrator),
         camera: When::EveryPass,
         statistics: |schedule| {
             schedule.add_systems(
@@ -37,5 +40,5 @@ pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result
             schedule.add_systems(update_radii_adaptive.in_set(PassSystems::Update));
         },
     };
-    progressive_plan(world, run, features, variant)
+    progressive::plan(this, world, run, features, variant)
 }

@@ -12,7 +12,8 @@
 //! shrink factors and patience); the count threshold starts at 64 photons here instead of their
 //! k-NN parameter.
 
-use super::progressive::{Variant, plan as progressive_plan};
+use super::descriptor::Integrator;
+use super::progressive::{self, Variant};
 use crate::PassSystems;
 use crate::gather::{build_pass_photon_map, gather_photons_into_chi2_cells};
 use crate::plan::{Plan, When};
@@ -21,13 +22,15 @@ use crate::update::update_radii_by_chi2;
 use bevy_ecs::prelude::*;
 use caustica_core::error::Result;
 use caustica_core::photon::progressive::RadiusRule;
-use caustica_core::scene::RunFile;
+use caustica_core::scene::{IntegratorKind, RunFile};
+
+/// `cppm`: `sppm` with the radius chosen by a χ² test.
+pub static CPPM: Integrator = progressive::descriptor(IntegratorKind::Cppm, plan);
 
 /// The plan of `cppm`: `sppm`'s passes with the cell-counting gather and the χ² radius rule.
-pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
+fn plan(this: &Integrator, world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
     let variant = Variant {
         rule: RadiusRule::ChiSquare,
-        nee: run.schedule.nee_for(run.render.integrator),
         camera: When::EveryPass,
         statistics: |schedule| {
             schedule.add_systems(
@@ -36,5 +39,5 @@ pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result
             schedule.add_systems(update_radii_by_chi2.in_set(PassSystems::Update));
         },
     };
-    progressive_plan(world, run, features, variant)
+    progressive::plan(this, world, run, features, variant)
 }

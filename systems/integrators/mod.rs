@@ -1,9 +1,11 @@
-//! Integrators as plans: each file builds what its integrator is — the checks on its settings, the
-//! entities and resources it puts into the World, and the phases of its passes (schedules of the
-//! `PassSystems` stages) — and [`plan`] picks the one the run asks for. The driver runs any plan.
+//! Integrators as descriptors and plans: each file holds its integrator's [`Integrator`] — what it
+//! counts, splits and takes, the checks on its settings, and the plan that puts its entities and
+//! resources into the World with the phases of its passes (schedules of the `PassSystems` stages).
+//! [`of`] is the one lookup by kind; the driver runs any plan.
 
 pub mod appm;
 pub mod cppm;
+pub mod descriptor;
 pub mod path;
 pub mod photon_map;
 pub mod ppm;
@@ -12,53 +14,43 @@ pub mod progressive;
 pub mod sppm;
 
 use crate::PassSystems;
-use crate::plan::Plan;
 use crate::resources::SceneFeatures;
 use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::IntoScheduleConfigs;
 use caustica_core::error::{Error, Result};
 use caustica_core::scene::schedule::{CYCLE, Stage};
-use caustica_core::scene::{IntegratorKind, RunFile, Scene};
+use caustica_core::scene::{IntegratorKind, RunFile};
+pub use descriptor::{Integrator, LightSampling, MemoryNeed, Setting};
 
-/// Check the run's settings for its integrator before anything is built: `pixels` is the image
-/// size the run asks for (budgets are checked before anything that big is allocated).
-pub fn check(pixels: u64, scene: &Scene, run: &RunFile) -> Result<()> {
-    let kind = run.render.integrator;
-    run.schedule.check(kind).map_err(|problem| Error::Setting { name: "schedule".into(), problem })?;
-    if kind.is_progressive() {
-        return progressive::check(pixels, scene, run);
+/// The descriptor of `kind`: the one place that says which integrator is which.
+pub fn of(kind: IntegratorKind) -> &'static Integrator {
+    match kind {
+        IntegratorKind::Pt => &path::PT,
+        IntegratorKind::PtNaive => &path::PT_NAIVE,
+        IntegratorKind::Pm => &photon_map::PM,
+        IntegratorKind::Ppm => &ppm::PPM,
+        IntegratorKind::Sppm => &sppm::SPPM,
+        IntegratorKind::Appm => &appm::APPM,
+        IntegratorKind::Cppm => &cppm::CPPM,
+        IntegratorKind::Pppm => &pppm::PPPM,
     }
-    if run.render.spp == 0 {
-        return Err(Error::Setting { name: "spp".into(), problem: "must be at least 1".into() });
-    }
-    check_memory(run, sample_integrator_bytes(pixels, run), || match kind {
-        IntegratorKind::Pm => format!(
-            "a {pixels}-pixel film, its paths and the maps of {} + {} photons",
-            run.photons.photons, run.photons.caustic_photons
-        ),
-        _ => format!("a {pixels}-pixel film and its paths"),
-    })
 }
 
-/// Bytes a sample integrator needs: the film (f64 sums and counts per pixel), its wavefront of paths,
-/// and for `pm` its photon maps (each stored photon twice while its kd-tree is built; a photon is
-/// stored about 1/(1 − albedo) times, counted as 4).
-fn sample_integrator_bytes(pixels: u64, run: &RunFile) -> u64 {
-    use crate::components::{PathHit, PathRay, PathState, ShadowRay};
-    const STORES_PER_PHOTON: u64 = 4;
-    let film = pixels * (size_of::<glam::DVec3>() + size_of::<u32>()) as u64;
-    let path = (size_of::<PathRay>() + size_of::<PathHit>() + size_of::<PathState>() + size_of::<ShadowRay>())
-        as u64;
-    let paths = pixels.min(crate::world::MAX_WAVEFRONT as u64) * path;
-    let photons = if run.render.integrator == IntegratorKind::Pm {
-        (run.photons.photons as u64 + run.photons.caustic_photons as u64)
-            * STORES_PER_PHOTON
-            * 2
-            * size_of::<caustica_core::photon::Photon>() as u64
-    } else {
-        0
-    };
-    film + paths + photons
+/// Every integrator's descriptor, in `IntegratorKind::ALL`'s order.
+pub static ALL: [&Integrator; 8] = [
+    &path::PT,
+    &path::PT_NAIVE,
+    &photon_map::PM,
+    &ppm::PPM,
+    &sppm::SPPM,
+    &appm::APPM,
+    &cppm::CPPM,
+    &pppm::PPPM,
+];
+
+/// The descriptor of the integrator `run` asks for.
+pub fn of_run(run: &RunFile) -> &'static Integrator {
+    of(run.render.integrator)
 }
 
 /// Refuse a render whose `needed` bytes exceed the memory budget (the run's, else half the machine's),
@@ -78,26 +70,6 @@ pub fn check_memory(run: &RunFile, needed: u64, what: impl FnOnce() -> String) -
         });
     }
     Ok(())
-}
-
-/// Build the integrator the run asks for in `world` (which holds the scene's resources, as
-/// `driver::scene_world` makes them): its entities, resources and phases.
-pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
-    match run.render.integrator {
-        IntegratorKind::Pt | IntegratorKind::PtNaive => path::plan(world, run, features),
-        IntegratorKind::Pm => photon_map::plan(world, run, features),
-        IntegratorKind::Ppm => ppm::plan(world, run, features),
-        IntegratorKind::Sppm => sppm::plan(world, run, features),
-        IntegratorKind::Appm => appm::plan(world, run, features),
-        IntegratorKind::Cppm => cppm::plan(world, run, features),
-        IntegratorKind::Pppm => pppm::plan(world, run, features),
-    }
-}
-
-/// Camera samples per pixel that one sample of progress stands for: `pm` shoots each final-gather
-/// ray with a camera sample of its own.
-pub fn camera_samples_per_unit(run: &RunFile) -> u32 {
-    if run.render.integrator == IntegratorKind::Pm { run.photons.final_gather.max(1) } else { 1 }
 }
 
 /// The stage set of a run-file stage name.

@@ -21,6 +21,7 @@
 //! when the camera has an aperture or something moves, and `pt` drops light sampling when there is
 //! no light.
 
+use super::descriptor::{Integrator, LightSampling, MemoryNeed, Setting, no_checks, one_sample_per_unit};
 use super::{configure_stages, film_image, paths_busy, stage_order};
 use crate::PassSystems;
 use crate::emit::emit_camera_paths_for;
@@ -35,14 +36,44 @@ use caustica_core::error::Result;
 use caustica_core::scene::schedule::Stage;
 use caustica_core::scene::{IntegratorKind, RunFile};
 
+/// `pt`: light sampling and BSDF sampling combined by MIS.
+pub static PT: Integrator = PATH_TRACER;
+
+/// `pt-naive`: BSDF sampling only.
+pub static PT_NAIVE: Integrator =
+    Integrator { kind: IntegratorKind::PtNaive, light_sampling: LightSampling::Never, ..PATH_TRACER };
+
+const PATH_TRACER: Integrator = Integrator {
+    kind: IntegratorKind::Pt,
+    unit: Unit::Samples,
+    film_is_the_state: true,
+    light_sampling: LightSampling::On,
+    takes: &[Setting::NoiseThreshold],
+    default_hit_points_per_pixel: 0,
+    camera_samples_per_unit: one_sample_per_unit,
+    memory: |_, pixels, _| film_and_paths(pixels),
+    check: no_checks,
+    plan,
+};
+
+/// What a sample integrator's film (f64 sums and counts per pixel) and wavefront of paths need.
+pub fn film_and_paths(pixels: u64) -> MemoryNeed {
+    use crate::components::{PathHit, PathRay, PathState, ShadowRay};
+    let film = pixels * (size_of::<glam::DVec3>() + size_of::<u32>()) as u64;
+    let path = (size_of::<PathRay>() + size_of::<PathHit>() + size_of::<PathState>() + size_of::<ShadowRay>())
+        as u64;
+    let paths = pixels.min(crate::world::MAX_WAVEFRONT as u64) * path;
+    MemoryNeed { bytes: film + paths, what: format!("a {pixels}-pixel film and its paths") }
+}
+
 /// The plan of `pt` or `pt-naive` for the scene in `world`.
-pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
-    let kind = run.render.integrator;
-    let nee = run.schedule.nee_for(kind);
+fn plan(this: &Integrator, world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
+    let nee = this.nee(run);
     if !nee {
         warn_unseen_delta_lights(world);
     }
-    let features = if kind == IntegratorKind::Pt && nee {
+    // Only light sampling's shadow rays teach visibility-aware selection.
+    let features = if nee {
         features
     } else {
         super::without_visibility_learning(world, features, "using the light tree")
@@ -73,15 +104,7 @@ pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result
     } else {
         Plan::all_at_once()
     };
-    Ok(Plan {
-        kind,
-        unit: Unit::Samples,
-        phases,
-        pass_end,
-        image: film_image,
-        report: |_, _| {},
-        reset: |_| {},
-    })
+    Ok(Plan { phases, pass_end, image: film_image, report: |_, _| {}, reset: |_| {} })
 }
 
 /// Point, spot and sun lights are Dirac deltas: a BSDF-sampled ray never finds them, so without

@@ -15,6 +15,7 @@
 //! the path tracer's bounce schedule with `scatter_photon_mapped` in the Scatter set. A scene pays
 //! for what it has: no caustic pass without specular surfaces.
 
+use super::descriptor::{Integrator, LightSampling, MemoryNeed, Setting};
 use super::{
     add_photon_systems, configure_stages, film_image, paths_busy, photons_busy, spawn_photons, stage_order,
 };
@@ -31,12 +32,58 @@ use crate::scatter::scatter_photon_mapped;
 use crate::trace::{trace_paths, trace_shadow_rays};
 use crate::world::MAX_WAVEFRONT;
 use bevy_ecs::prelude::*;
-use caustica_core::error::Result;
+use caustica_core::error::{Error, Result};
 use caustica_core::photon::PhotonMapKind;
-use caustica_core::scene::RunFile;
+use caustica_core::scene::{IntegratorKind, RunFile, Scene};
+
+/// `pm`: photon maps built once per process, read by camera paths at a fixed number of samples.
+pub static PM: Integrator = Integrator {
+    kind: IntegratorKind::Pm,
+    unit: Unit::Samples,
+    // The maps are rebuilt by every process from the same seeds: a share's film is all it adds.
+    film_is_the_state: true,
+    light_sampling: LightSampling::Always("its direct light always comes from light sampling"),
+    takes: &[Setting::CausticMap],
+    default_hit_points_per_pixel: 0,
+    // Each final-gather ray has a camera sample of its own.
+    camera_samples_per_unit: |_, run| run.photons.final_gather.max(1),
+    memory,
+    check,
+    plan,
+};
+
+/// The film and paths of the path tracers, and the photon maps (each stored photon twice while its
+/// kd-tree is built; a photon is stored about 1/(1 − albedo) times, counted as 4).
+fn memory(_: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
+    const STORES_PER_PHOTON: u64 = 4;
+    let (photons, caustic) = (run.photons.photons, run.photons.caustic_photons);
+    let paths = super::path::film_and_paths(pixels);
+    let maps = (photons as u64 + caustic as u64)
+        * STORES_PER_PHOTON
+        * 2
+        * size_of::<caustica_core::photon::Photon>() as u64;
+    MemoryNeed {
+        bytes: paths.bytes + maps,
+        what: format!("a {pixels}-pixel film, its paths and the maps of {photons} + {caustic} photons"),
+    }
+}
+
+/// The caustic map cannot be dropped.
+fn check(_: &Scene, run: &RunFile) -> Result<()> {
+    if run.schedule.caustic_map == Some(false) {
+        return Err(Error::Setting {
+            name: "schedule.caustic_map".into(),
+            problem:
+                "schedule.caustic_map = false would lose caustics: pm's indirect and global estimates leave \
+                      out L S+ D E paths, which only the caustic map carries"
+                    .into(),
+        });
+    }
+    Ok(())
+}
 
 /// The plan of `pm` for the scene in `world`.
-pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
+fn plan(this: &Integrator, world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
     let settings = &run.photons;
     let features = super::without_visibility_learning(world, features, "photon mapping uses the light tree");
     let order = stage_order(run);
@@ -80,7 +127,7 @@ pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result
         phases.push(photons);
     }
     let mut bounce = Phase::new("bounce", When::EveryPass, Repeat::WhileBusy(paths_busy))
-        .with_begin(hand_out_samples(super::camera_samples_per_unit(run)));
+        .with_begin(hand_out_samples((this.camera_samples_per_unit)(this, run)));
     configure_stages(&mut bounce.schedule, order);
     bounce.schedule.add_systems(emit_camera_paths_for(features).in_set(PassSystems::Emit));
     bounce.schedule.add_systems(trace_paths.in_set(PassSystems::Trace));
@@ -89,8 +136,6 @@ pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result
     bounce.schedule.add_systems(splat_paths_to_film.in_set(PassSystems::Gather));
     phases.push(bounce);
     Ok(Plan {
-        kind: run.render.integrator,
-        unit: Unit::Samples,
         phases,
         pass_end: Plan::all_at_once(),
         image: film_image,

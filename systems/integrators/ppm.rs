@@ -7,7 +7,8 @@
 //! One fixed hit point per pixel would converge to a point-sampled image and alias every edge; the
 //! default is 32 per pixel, the points of a (0, 5, 2)-net over the pixel filter (`sampling::net`).
 
-use super::progressive::{Variant, plan as progressive_plan};
+use super::descriptor::{Integrator, LightSampling};
+use super::progressive::{self, Variant};
 use crate::PassSystems;
 use crate::gather::{build_pass_photon_map, gather_photons_into_hit_points};
 use crate::plan::{Plan, When};
@@ -16,14 +17,20 @@ use crate::update::update_hit_point_radii;
 use bevy_ecs::prelude::*;
 use caustica_core::error::Result;
 use caustica_core::photon::progressive::RadiusRule;
-use caustica_core::scene::RunFile;
+use caustica_core::scene::{IntegratorKind, RunFile};
+
+/// `ppm`: hit points traced once, 32 per pixel by default, and all light but directly seen emission from photons.
+pub static PPM: Integrator = Integrator {
+    light_sampling: LightSampling::Never,
+    default_hit_points_per_pixel: 32,
+    ..progressive::descriptor(IntegratorKind::Ppm, plan)
+};
 
 /// The plan of `ppm`: the camera pass once, without light sampling; photons from their first hit
 /// on; the shrinking-radius update.
-pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
+fn plan(this: &Integrator, world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
     let variant = Variant {
         rule: RadiusRule::Shrinking,
-        nee: false,
         camera: When::RenderStart,
         statistics: |schedule| {
             schedule.add_systems(
@@ -32,5 +39,5 @@ pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result
             schedule.add_systems(update_hit_point_radii.in_set(PassSystems::Update));
         },
     };
-    progressive_plan(world, run, features, variant)
+    progressive::plan(this, world, run, features, variant)
 }

@@ -12,7 +12,8 @@
 //! (a share that starts at pass 40 has not seen them): it is the same cap computed from rays
 //! through the centres of a grid of at most 64 × 64 pixels, traced when the render is prepared.
 
-use super::progressive::{Variant, plan as progressive_plan};
+use super::descriptor::Integrator;
+use super::progressive::{self, Variant};
 use crate::PassSystems;
 use crate::components::{HitPoint, PathState};
 use crate::gather::{build_pass_photon_map, gather_photons_into_hit_points};
@@ -24,14 +25,18 @@ use bevy_ecs::prelude::*;
 use caustica_core::error::Result;
 use caustica_core::film::fixed;
 use caustica_core::photon::progressive::{RadiusRule, global_radius2};
-use caustica_core::scene::RunFile;
+use caustica_core::scene::{IntegratorKind, RunFile};
+
+/// `pppm`: independent passes at a global radius sequence: the film is the whole state, so passes split
+/// across machines and a checkpoint holds the film only.
+pub static PPPM: Integrator =
+    Integrator { film_is_the_state: true, ..progressive::descriptor(IntegratorKind::Pppm, plan) };
 
 /// The plan of `pppm`: `sppm`'s camera and photon passes, a gather at the pass's global radius, and
 /// the pass's estimate added to the film.
-pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
+fn plan(this: &Integrator, world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
     let variant = Variant {
         rule: RadiusRule::Global,
-        nee: run.schedule.nee_for(run.render.integrator),
         camera: When::EveryPass,
         statistics: |schedule| {
             schedule.add_systems(
@@ -42,7 +47,7 @@ pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result
             schedule.add_systems(add_pass_estimates_to_film.in_set(PassSystems::Update));
         },
     };
-    let plan = progressive_plan(world, run, features, variant)?;
+    let plan = progressive::plan(this, world, run, features, variant)?;
     if run.progressive.initial_radius.is_none() {
         fix_initial_radius(world);
     }

@@ -14,6 +14,7 @@
 //! | `hit_points_per_pixel` | power of two | 32 (`ppm`), 1 | hit points per pixel, stratified over the filter |
 //! | `memory_budget_mib` | u64 | half the RAM | hit points + photons may not exceed it |
 
+use super::descriptor::{Integrator, LightSampling, MemoryNeed, PlanFn, Setting};
 use super::{add_photon_systems, configure_stages, paths_busy, photons_busy, spawn_photons, stage_order};
 use crate::PassSystems;
 use crate::components::{
@@ -38,7 +39,7 @@ use caustica_core::film::Image;
 use caustica_core::photon::PhotonMapKind;
 use caustica_core::photon::progressive::{CHI2_CELLS, CHI2_FIRST_TEST, RadiusRule, initial_radius};
 use caustica_core::scene::schedule::Pass;
-use caustica_core::scene::{RunFile, Scene};
+use caustica_core::scene::{IntegratorKind, RunFile, Scene};
 use glam::Vec3;
 use std::sync::atomic::Ordering;
 
@@ -52,24 +53,38 @@ pub const BYTES_PER_HIT_POINT: usize = size_of::<HitPoint>()
 /// Bytes a photon of one pass costs: its deposit in the buffer and in the pass's kd-tree.
 pub const BYTES_PER_PHOTON: usize = 2 * size_of::<caustica_core::photon::Photon>();
 
-/// What distinguishes one progressive integrator from another.
+/// The descriptor the progressive mappers share: progress in passes, each building on the statistics
+/// of the one before, light sampling at the hit points unless the run turns it off, one hit point per
+/// pixel; each file names its kind and plan and changes what differs.
+pub const fn descriptor(kind: IntegratorKind, plan: PlanFn) -> Integrator {
+    Integrator {
+        kind,
+        unit: Unit::Passes,
+        film_is_the_state: false,
+        light_sampling: LightSampling::On,
+        takes: &[Setting::PassOrder],
+        default_hit_points_per_pixel: 1,
+        camera_samples_per_unit: |this, run| this.hit_points_per_pixel(run),
+        memory,
+        check,
+        plan,
+    }
+}
+
+/// What distinguishes one progressive integrator from another in its plan.
 pub struct Variant {
     /// How statistics become radiance and a radius.
     pub rule: RadiusRule,
-    /// Whether the camera pass samples a light at the hit points.
-    pub nee: bool,
     /// When the camera pass runs (`ppm`: the first pass; the others re-trace every pass).
     pub camera: When,
     /// Adds the gather and the update to the statistics schedule.
     pub statistics: fn(&mut Schedule),
 }
 
-/// The settings of a progressive integrator, checked before anything is allocated: hit points for
-/// every pixel plus one pass of photons must fit the memory budget.
-pub fn check(pixels: u64, scene: &Scene, run: &RunFile) -> Result<()> {
-    let settings = run.progressive;
-    let kind = run.render.integrator;
-    settings.check().map_err(|problem| Error::Setting { name: "progressive".into(), problem })?;
+/// The settings of a progressive integrator (`[progressive]`, checked however they arrived) and the
+/// material indices its hit points hold in 16 bits.
+fn check(scene: &Scene, run: &RunFile) -> Result<()> {
+    run.progressive.check().map_err(|problem| Error::Setting { name: "progressive".into(), problem })?;
     if scene.materials.len() > u16::MAX as usize + 1 {
         return Err(Error::Setting {
             name: "integrator".into(),
@@ -79,28 +94,39 @@ pub fn check(pixels: u64, scene: &Scene, run: &RunFile) -> Result<()> {
             ),
         });
     }
-    let hit_points = pixels * settings.hit_points_for(kind) as u64;
+    Ok(())
+}
+
+/// Hit points for every pixel plus one pass of photons.
+fn memory(this: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
+    let settings = run.progressive;
+    let hit_points = pixels * this.hit_points_per_pixel(run) as u64;
     let photon_wavefront = settings.photons_per_pass.min(MAX_WAVEFRONT);
     let needed = hit_points * BYTES_PER_HIT_POINT as u64
         + settings.photons_per_pass as u64 * BYTES_PER_PHOTON as u64
         + photon_wavefront as u64
             * (size_of::<PhotonState>() + size_of::<PhotonRay>() + size_of::<PhotonHit>()) as u64;
-    super::check_memory(run, needed, || {
-        format!(
-            "{hit_points} hit points ({BYTES_PER_HIT_POINT} bytes each, see hit_points_per_pixel) and {} photons per pass",
-            settings.photons_per_pass
-        )
-    })
+    let what = format!(
+        "{hit_points} hit points ({BYTES_PER_HIT_POINT} bytes each, see hit_points_per_pixel) and {} photons per pass",
+        settings.photons_per_pass
+    );
+    MemoryNeed { bytes: needed, what }
 }
 
 /// The plan of a progressive integrator for the scene in `world`.
-pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures, variant: Variant) -> Result<Plan> {
+pub fn plan(
+    this: &Integrator,
+    world: &mut World,
+    run: &RunFile,
+    features: SceneFeatures,
+    variant: Variant,
+) -> Result<Plan> {
     let settings = run.progressive;
-    let kind = run.render.integrator;
+    let nee = this.nee(run);
     let features =
         super::without_visibility_learning(world, features, "progressive passes use the light tree");
     let order = stage_order(run);
-    let per_pixel = settings.hit_points_for(kind);
+    let per_pixel = this.hit_points_per_pixel(run);
     let (area, diagonal) = {
         let scene = world.resource::<SceneResource>();
         let (min, max) = scene.geometry.bounds();
@@ -122,7 +148,7 @@ pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures, variant: 
 
     let config = world.resource::<RenderConfig>().clone();
     // Without light sampling at the hit points, photons carry direct light too.
-    let stored = if variant.nee { PhotonMapKind::Bounced } else { PhotonMapKind::Global };
+    let stored = if nee { PhotonMapKind::Bounced } else { PhotonMapKind::Global };
     world.insert_resource(PhotonWork::new(stored, settings.photons_per_pass, &config, features.motion));
     world.insert_resource(PhotonBuffer::default());
     world.insert_resource(PhotonStats::default());
@@ -136,7 +162,7 @@ pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures, variant: 
                 let mut camera = Phase::new("camera", variant.camera, Repeat::WhileBusy(paths_busy))
                     .with_begin(begin_camera_pass)
                     .with_end(cap_initial_radius);
-                add_camera_systems(&mut camera.schedule, features, order, variant.nee);
+                add_camera_systems(&mut camera.schedule, features, order, nee);
                 phases.push(camera);
             }
             Pass::Photons => {
@@ -153,7 +179,7 @@ pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures, variant: 
             }
         }
     }
-    Ok(Plan { kind, unit: Unit::Passes, phases, pass_end: Plan::one_per_pass(), image, report, reset })
+    Ok(Plan { phases, pass_end: Plan::one_per_pass(), image, report, reset })
 }
 
 /// One entity per hit point, pixel-major (`per_pixel` consecutive entities share a pixel, sample `j`

@@ -6,7 +6,8 @@
 //! The hit point's statistics (N, R, τ) persist per pixel across passes. Direct light comes from one
 //! light sample per pass into the film; photons are kept from their second hit on.
 
-use super::progressive::{Variant, plan as progressive_plan};
+use super::descriptor::Integrator;
+use super::progressive::{self, Variant};
 use crate::PassSystems;
 use crate::gather::{build_pass_photon_map, gather_photons_into_hit_points};
 use crate::plan::{Plan, When};
@@ -15,14 +16,16 @@ use crate::update::update_hit_point_radii;
 use bevy_ecs::prelude::*;
 use caustica_core::error::Result;
 use caustica_core::photon::progressive::RadiusRule;
-use caustica_core::scene::RunFile;
+use caustica_core::scene::{IntegratorKind, RunFile};
+
+/// `sppm`: hit points re-traced every pass.
+pub static SPPM: Integrator = progressive::descriptor(IntegratorKind::Sppm, plan);
 
 /// The plan of `sppm`: camera pass with light sampling (without it, `[schedule] nee = false`, photons
 /// carry direct light too), photon pass, gather, shrinking-radius update.
-pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
+fn plan(this: &Integrator, world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
     let variant = Variant {
         rule: RadiusRule::Shrinking,
-        nee: run.schedule.nee_for(run.render.integrator),
         camera: When::EveryPass,
         statistics: |schedule| {
             schedule.add_systems(
@@ -31,5 +34,5 @@ pub fn plan(world: &mut World, run: &RunFile, features: SceneFeatures) -> Result
             schedule.add_systems(update_hit_point_radii.in_set(PassSystems::Update));
         },
     };
-    progressive_plan(world, run, features, variant)
+    progressive::plan(this, world, run, features, variant)
 }

@@ -1,7 +1,6 @@
 //! The ranges serde cannot express, checked however a setting arrives (run file, `--set`, flags).
 
-use super::{IntegratorKind, PhotonSettings, ProgressiveSettings, RunFile};
-use crate::choice::Choice;
+use super::{PhotonSettings, ProgressiveSettings, RunFile};
 
 impl RunFile {
     /// Ranges serde cannot express; the message names the key. Run after the command line's
@@ -60,7 +59,7 @@ impl RunFile {
         if self.output.write_every == Some(0) {
             return Err("output.write_every is 0, must be at least 1 (or absent)".to_owned());
         }
-        self.schedule.check(self.render.integrator)?;
+        self.schedule.check()?;
         if let Some(t) = self.render.time_limit
             && !(t.is_finite() && t > 0.0)
         {
@@ -112,17 +111,7 @@ impl RunFile {
         if !(t.is_finite() && t >= 0.0) {
             return Err(format!("render.noise_threshold is {t}, must be finite and >= 0 (0 turns it off)"));
         }
-        if !self.is_adaptive() {
-            return Ok(());
-        }
-        if !matches!(render.integrator, IntegratorKind::Pt | IntegratorKind::PtNaive) {
-            return Err(format!(
-                "render.noise_threshold is {t}, but adaptive sampling is for pt and pt-naive, not {}: \
-                 the photon mappers' pixels share their photons, so a pixel cannot stop alone",
-                render.integrator.name()
-            ));
-        }
-        if render.min_spp < 2 {
+        if self.is_adaptive() && render.min_spp < 2 {
             return Err(format!(
                 "render.min_spp is {}, must be at least 2 (a variance needs two samples)",
                 render.min_spp
@@ -146,11 +135,6 @@ impl RunFile {
 pub const MAX_HIT_POINTS_PER_PIXEL: u32 = 256;
 
 impl ProgressiveSettings {
-    /// Hit points per pixel for `integrator`: the setting, or its default.
-    pub fn hit_points_for(&self, integrator: IntegratorKind) -> u32 {
-        self.hit_points_per_pixel.unwrap_or(if integrator == IntegratorKind::Ppm { 32 } else { 1 })
-    }
-
     /// Which setting is out of range, if any (named as in the run file, without the table).
     pub fn check(&self) -> Result<(), String> {
         if self.passes == 0 {

@@ -34,11 +34,6 @@ impl IntegratorKind {
     /// Every integrator.
     pub const ALL: [IntegratorKind; 8] =
         [Self::Pt, Self::PtNaive, Self::Pm, Self::Ppm, Self::Sppm, Self::Appm, Self::Cppm, Self::Pppm];
-
-    /// Whether this integrator runs passes of photons into persistent hit points.
-    pub fn is_progressive(self) -> bool {
-        matches!(self, Self::Ppm | Self::Sppm | Self::Appm | Self::Cppm | Self::Pppm)
-    }
 }
 
 /// How next-event estimation picks a light.
