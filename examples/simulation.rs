@@ -10,10 +10,10 @@
 
 use bevy_ecs::prelude::*;
 use caustica::film::output::write_image;
-use caustica::resources::{RenderStats, SceneResource};
+use caustica::resources::RenderStats;
 use caustica::scene::{IntegratorKind, load};
-use caustica::{PassSystems, RenderScene, Renderer};
-use glam::Vec3;
+use caustica::{PassSystems, Renderer};
+use glam::{Mat4, Vec3};
 use std::path::Path;
 
 /// The host's own state, a resource of the same World.
@@ -43,25 +43,20 @@ fn main() -> anyhow::Result<()> {
     run.film.width = Some(SIZE);
     run.film.height = Some(SIZE);
 
-    // Caustica's World and plan, with the host's resource and system in them.
-    let mut renderer = Renderer::new(scene.clone(), &run)?;
+    // Caustica's World and plan, with the host's resource and system in them; `movable` keeps the
+    // scene as loaded, which `move_node` moves.
+    let mut renderer = Renderer::movable(scene, &run)?;
     renderer.world.insert_resource(Simulation::default());
     let bounce = renderer.plan.phase_mut("bounce").expect("pt has a bounce phase");
     bounce.schedule.add_systems(count_bounces.after(PassSystems::Gather));
 
     std::fs::create_dir_all("out")?;
     for frame in 0..FRAMES {
-        // Move the short block along +x and rebuild the geometry the systems trace against.
-        let mut moved = scene.clone();
+        // Move the short block along +x: the renderer rebuilds what its systems trace against and
+        // starts a black film, on the same entities.
         let offset = Vec3::new(0.04 * frame as f32 - 0.06, 0.0, 0.0);
-        for mesh in moved.meshes.iter_mut().filter(|m| m.node_name.as_deref() == Some("short_block")) {
-            mesh.positions.iter_mut().for_each(|p| *p += offset);
-        }
-        renderer.world.insert_resource(SceneResource(RenderScene::build(&moved, run.render.light_selection)));
+        renderer.move_node("short_block", Mat4::from_translation(offset))?;
         renderer.world.resource_mut::<Simulation>().bounces = 0;
-
-        // A black film and the samples of this frame, on the same entities.
-        renderer.restart();
         renderer.run(None, |_| {});
         let image = renderer.image();
         let out = format!("out/simulation-{frame}.png");

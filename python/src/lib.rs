@@ -142,8 +142,19 @@ impl Scene {
 
     /// A renderer of this scene with settings `run`, aiming at `target` units (samples per pixel, or
     /// passes) when given.
-    fn renderer(&self, py: Python<'_>, run: &RunFile, target: Option<(u32, &str)>) -> PyResult<Renderer> {
-        let mut renderer = py.detach(|| Renderer::new(self.scene.clone(), run)).map_err(refused)?;
+    /// A renderer of these settings aiming at `target`; `movable` keeps the scene as loaded, for
+    /// `Session.set_transform`.
+    fn renderer(
+        &self,
+        py: Python<'_>,
+        run: &RunFile,
+        target: Option<(u32, &str)>,
+        movable: bool,
+    ) -> PyResult<Renderer> {
+        let scene = self.scene.clone();
+        let made =
+            py.detach(|| if movable { Renderer::movable(scene, run) } else { Renderer::new(scene, run) });
+        let mut renderer = made.map_err(refused)?;
         // Stop (Ctrl-C, a time limit) only at whole samples per pixel or passes, so that `done` is
         // exact and a session that goes on renders what an uninterrupted one would.
         renderer.set_whole_passes(true);
@@ -205,7 +216,7 @@ impl Scene {
             return Err(PyValueError::new_err("time_limit must be a positive number of seconds"));
         }
         let run = self.settings(&override_sets(py, overrides)?, &aovs)?;
-        let mut renderer = self.renderer(py, &run, target_of(spp, passes)?)?;
+        let mut renderer = self.renderer(py, &run, target_of(spp, passes)?, false)?;
         let report = run_detached(py, &mut renderer, time_limit)?;
         let (image, features) = py.detach(|| (renderer.image(), renderer.aov_images()));
         Ok(RenderResult {
@@ -270,16 +281,9 @@ impl Scene {
         overrides: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Session> {
         let run = self.settings(&override_sets(py, overrides)?, &aovs)?;
-        let renderer = self.renderer(py, &run, None)?;
+        let renderer = self.renderer(py, &run, None, true)?;
         let final_target = renderer.target();
-        Ok(Session {
-            renderer,
-            final_target,
-            loaded: self.scene.clone(),
-            light_selection: run.render.light_selection,
-            aovs: run.film.aovs.clone(),
-            transforms: Vec::new(),
-        })
+        Ok(Session { renderer, final_target, aovs: run.film.aovs.clone() })
     }
 }
 
@@ -363,38 +367,8 @@ struct Session {
     renderer: Renderer,
     /// The settings' target, what `step()` with no argument runs to.
     final_target: u32,
-    /// The scene as loaded, which `set_transform`'s matrices apply to.
-    loaded: scene::Scene,
-    light_selection: caustica::scene::LightSelection,
     /// The feature images it makes.
     aovs: Vec<Aov>,
-    /// Each moved node's matrix, by the name or index it was given as.
-    transforms: Vec<(String, glam::Mat4)>,
-}
-
-/// Whether `mesh` is the glTF node called `node` (its name, or its index as a string).
-fn is_node(mesh: &caustica::scene::Mesh, node: &str) -> bool {
-    mesh.node_name.as_deref() == Some(node) || mesh.node.is_some_and(|i| i.to_string() == node)
-}
-
-/// `mesh` moved by `m`: positions, normals and tangents, and the winding when `m` mirrors.
-fn transform_mesh(mesh: &mut caustica::scene::Mesh, m: glam::Mat4) {
-    let normal_matrix = glam::Mat3::from_mat4(m).inverse().transpose();
-    let linear = glam::Mat3::from_mat4(m);
-    mesh.positions.iter_mut().for_each(|p| *p = m.transform_point3(*p));
-    if let Some(normals) = &mut mesh.normals {
-        normals.iter_mut().for_each(|n| *n = (normal_matrix * *n).normalize_or_zero());
-    }
-    let mirrored = linear.determinant() < 0.0;
-    if let Some(tangents) = &mut mesh.tangents {
-        for t in tangents.iter_mut() {
-            let xyz = (linear * t.truncate()).normalize_or_zero();
-            *t = xyz.extend(if mirrored { -t.w } else { t.w });
-        }
-    }
-    if mirrored {
-        mesh.indices.iter_mut().for_each(|tri| tri.swap(1, 2));
-    }
 }
 
 #[pymethods]
@@ -420,31 +394,10 @@ impl Session {
     /// the moved scene.
     fn set_transform(&mut self, py: Python<'_>, node: String, matrix: [[f32; 4]; 4]) -> PyResult<()> {
         let m = glam::Mat4::from_cols_array_2d(&matrix).transpose();
-        let determinant = glam::Mat3::from_mat4(m).determinant();
-        if !m.is_finite() || determinant.abs() < 1e-12 {
-            return Err(PyValueError::new_err(format!(
-                "set_transform({node:?}): the matrix must be finite and invertible"
-            )));
-        }
-        if !self.loaded.meshes.iter().any(|mesh| is_node(mesh, &node)) {
-            return Err(refused(format!(
-                "{}: no mesh of a node named or numbered {node:?}",
-                self.loaded.source.display()
-            )));
-        }
-        self.transforms.retain(|(name, _)| *name != node);
-        self.transforms.push((node, m));
-        let mut moved = self.loaded.clone();
-        for (name, m) in &self.transforms {
-            for mesh in moved.meshes.iter_mut().filter(|mesh| is_node(mesh, name)) {
-                transform_mesh(mesh, *m);
-            }
-        }
-        let selection = self.light_selection;
-        let render_scene = py.detach(|| caustica::RenderScene::build(&moved, selection));
-        self.renderer.world.insert_resource(caustica::resources::SceneResource(render_scene));
-        self.renderer.restart();
-        Ok(())
+        py.detach(|| self.renderer.move_node(&node, m)).map_err(|e| match e {
+            caustica::error::Error::Setting { .. } => PyValueError::new_err(e.to_string()),
+            e => refused(e),
+        })
     }
 
     /// The image so far: float32, height × width × 3, linear.

@@ -6,6 +6,7 @@
 pub mod environment;
 pub mod fingerprint;
 pub mod gltf;
+pub mod pose;
 pub mod punctual;
 pub mod run_file;
 pub mod schedule;

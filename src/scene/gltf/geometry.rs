@@ -4,7 +4,7 @@
 use super::{Loader, label};
 use crate::error::{Error, Result};
 use crate::scene::Mesh;
-use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
+use glam::{Mat4, Vec2, Vec3, Vec4};
 use gltf::Semantic;
 use gltf::accessor::{Accessor, DataType, Dimensions};
 use gltf::mesh::Mode;
@@ -12,8 +12,6 @@ use tracing::warn;
 
 impl Loader<'_> {
     pub(super) fn add_mesh(&mut self, node: &gltf::Node, mesh: &gltf::Mesh, world: Mat4) -> Result<()> {
-        let normal_matrix = Mat3::from_mat4(world).inverse().transpose();
-        let flip = world.determinant() < 0.0;
         let weights = node.weights().or(mesh.weights());
         for primitive in mesh.primitives() {
             let name = format!(
@@ -23,32 +21,7 @@ impl Loader<'_> {
                 primitive.index()
             );
             let mut out = self.primitive(&primitive, weights, &name)?;
-            for p in &mut out.positions {
-                *p = world.transform_point3(*p);
-            }
-            if let Some(normals) = &mut out.normals {
-                for n in normals {
-                    let m = normal_matrix * *n;
-                    // Zero and NaN normals are left for validation to report.
-                    let length = m.length();
-                    *n = if length > 0.0 && length.is_finite() { m / length } else { m };
-                }
-            }
-            if let Some(tangents) = &mut out.tangents {
-                // Tangents are directions on the surface: they map with the model matrix, and a
-                // mirroring transform flips the bitangent's handedness.
-                let model = Mat3::from_mat4(world);
-                let sign = if flip { -1.0 } else { 1.0 };
-                for t in tangents {
-                    let m = (model * t.truncate()).normalize_or_zero();
-                    *t = m.extend(if t.w < 0.0 { -sign } else { sign });
-                }
-            }
-            if flip {
-                for t in &mut out.indices {
-                    t.swap(1, 2);
-                }
-            }
+            out.transform(world);
             let normal_map = self
                 .scene
                 .materials

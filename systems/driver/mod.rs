@@ -5,15 +5,19 @@
 //! integrator it runs.
 
 use crate::integrators::{self, Integrator};
+
+mod host;
+mod state;
+
 use crate::plan::{Plan, Repeat};
 pub use crate::report::StopReason;
 use crate::report::{AdaptiveSummary, PhaseTime, Report, Unit};
-use crate::resources::{AdaptiveSampling, FilmResource, PassRange, PhotonStats, RenderStats, SceneFeatures};
+use crate::resources::{AdaptiveSampling, FilmResource, PassRange, RenderStats, SceneFeatures};
 use bevy_ecs::prelude::*;
 use caustica_core::error::Result;
 use caustica_core::film::Image;
-use caustica_core::film::accumulator::PartInfo;
 use caustica_core::scene::{RunFile, Scene};
+pub use host::share_refusal;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
@@ -42,6 +46,10 @@ pub struct Renderer {
     integrator: &'static Integrator,
     /// Why a share of this render cannot be rendered alone, if it cannot.
     share_refusal: Option<String>,
+    /// The settings it was made with.
+    run: RunFile,
+    /// The scene as loaded and the nodes a host moved (`Renderer::movable`).
+    moves: Option<caustica_core::scene::pose::NodeMoves>,
     /// What the scene uses.
     pub features: SceneFeatures,
     /// Passes run.
@@ -94,6 +102,8 @@ impl Renderer {
             plan,
             integrator,
             share_refusal: integrator.share_refusal(run),
+            run: run.clone(),
+            moves: None,
             features,
             passes: 0,
             done: 0,
@@ -113,21 +123,6 @@ impl Renderer {
         })
     }
 
-    /// A renderer of share `part` (from 1) of `parts` of the render `run` sets up of `scene` (a
-    /// render split across processes or machines), stopping only between passes, and what its
-    /// accumulator records (`film::accumulator::write_part`): the one sequence the command and the
-    /// hosts use.
-    pub fn for_share(scene: Scene, run: &RunFile, part: u32, parts: u32) -> Result<(Self, PartInfo)> {
-        let units = integrators::of_run(run).units(run);
-        let mut info = PartInfo::of_share(&scene, run, units, part, parts)
-            .map_err(|problem| caustica_core::error::Error::Setting { name: "part".into(), problem })?;
-        let mut renderer = Self::new(scene, run)?;
-        renderer.set_whole_passes(true);
-        renderer.set_samples(info.samples.clone())?;
-        info.per_unit = renderer.camera_samples_per_unit();
-        Ok((renderer, info))
-    }
-
     /// What progress is aimed at.
     pub fn target(&self) -> u32 {
         self.target
@@ -141,57 +136,9 @@ impl Renderer {
         self.stopped_by = None;
     }
 
-    /// Render only samples (or passes) `samples` of every pixel: one share of a render split across
-    /// processes or machines (`caustica render --part`). The film then holds their sums, which merge
-    /// with the other shares' into the same bits as one run of all of them. Before the first pass, and
-    /// only where [`share_refusal`] has no objection.
-    pub fn set_samples(&mut self, samples: std::ops::Range<u32>) -> Result<()> {
-        let refuse = |problem: &str| {
-            Err(caustica_core::error::Error::Setting { name: "part".into(), problem: problem.into() })
-        };
-        if let Some(problem) = &self.share_refusal {
-            return refuse(problem);
-        }
-        if self.passes > 0 {
-            return refuse("the render has started");
-        }
-        if samples.is_empty() {
-            return refuse("the share holds no samples");
-        }
-        (self.first, self.done, self.target) = (samples.start, samples.start, samples.end);
-        Ok(())
-    }
-
-    /// Whether this render's film alone says where it stands, so that a partial render or a
-    /// checkpoint of it continues exactly (`Integrator::film_is_the_state`).
-    pub fn film_is_the_state(&self) -> bool {
-        self.integrator.film_is_the_state
-    }
-
     /// What the integrator is.
     pub fn integrator(&self) -> &'static Integrator {
         self.integrator
-    }
-
-    /// Why a checkpoint cannot hold this render, if it cannot. It holds the film, and for the
-    /// progressive mappers but `pppm` their hit points (statistics, and for `ppm`, which traces them
-    /// once, the hits).
-    pub fn checkpoint_refusal(&self) -> Option<String> {
-        if self.has_aovs() {
-            return Some("a checkpoint holds colour only: render feature images (--aov) without one".into());
-        }
-        if self.is_adaptive() {
-            return Some(
-                "adaptive sampling decides from the samples' squares, which a checkpoint does not hold; \
-                 checkpoint with render.noise_threshold = 0"
-                    .into(),
-            );
-        }
-        self.features.learns_visibility.then(|| {
-            "visibility-aware light selection learns from the first samples, which a checkpoint does not \
-             hold; use uniform, power or tree"
-                .to_string()
-        })
     }
 
     /// Whether adaptive sampling chooses the pixels that take samples (`render.noise_threshold`).
@@ -220,51 +167,6 @@ impl Renderer {
         let film = self.film();
         images.spp = (0..film.width * film.height).map(|p| film.samples(p) as f32).collect();
         Some(images)
-    }
-
-    /// The hit points' state, for a checkpoint (`None` without hit points).
-    pub fn hit_point_state(&self) -> Option<caustica_core::film::accumulator::HitPointState> {
-        if self.film_is_the_state() {
-            None
-        } else {
-            crate::hit_point_state::save(&self.world, self.traces_visible_points_once())
-        }
-    }
-
-    /// Continue from `film`, which holds units `0..done` (samples per pixel, or passes) of this
-    /// render, and for `sppm`, `appm`, `cppm` and `ppm` from their `hit_points`, towards the current target:
-    /// the same bits, once it is reached, as a render that never stopped. Before the first pass.
-    pub fn resume(
-        &mut self,
-        film: caustica_core::film::Film,
-        done: u32,
-        hit_points: Option<&caustica_core::film::accumulator::HitPointState>,
-    ) -> Result<()> {
-        let refuse =
-            |problem: String| Err(caustica_core::error::Error::Setting { name: "resume".into(), problem });
-        if let Some(problem) = self.checkpoint_refusal() {
-            return refuse(problem);
-        }
-        if self.passes > 0 {
-            return refuse("the render has started".into());
-        }
-        let current = self.film();
-        if (film.width, film.height) != (current.width, current.height) {
-            return refuse(format!(
-                "the checkpoint is {}x{}, the render {}x{}",
-                film.width, film.height, current.width, current.height
-            ));
-        }
-        if !self.film_is_the_state() {
-            let Some(state) = hit_points else {
-                return refuse("the checkpoint holds no hit points, which this integrator needs".into());
-            };
-            let with_hits = self.traces_visible_points_once();
-            crate::hit_point_state::restore(&mut self.world, state, with_hits)?;
-        }
-        self.world.insert_resource(FilmResource(film));
-        (self.first, self.done) = (done, done);
-        Ok(())
     }
 
     /// Stop for a signal or the time limit only between passes, so that the film always holds whole
@@ -312,18 +214,6 @@ impl Renderer {
     /// Camera samples a pixel gets per unit of progress (a sample per pixel, or a pass).
     pub fn camera_samples_per_unit(&self) -> u32 {
         self.samples_per_unit
-    }
-
-    /// Whether the camera pass runs in the render's first pass only (`ppm`): its visible points are
-    /// then state a checkpoint must hold, and the film's counts stop growing after it.
-    fn traces_visible_points_once(&self) -> bool {
-        self.plan.phases.iter().any(|phase| phase.when == crate::plan::When::RenderStart)
-    }
-
-    /// Camera samples each pixel of the film holds once `units` units are done.
-    pub fn film_samples_after(&self, units: u32) -> u32 {
-        let units = if self.traces_visible_points_once() { units.min(1) } else { units };
-        self.camera_samples_per_unit() * units
     }
 
     /// The film: every sample's sum and count so far.
@@ -467,36 +357,6 @@ impl Renderer {
         (self.plan.image)(&self.world, self.first + self.passes)
     }
 
-    /// Start over on the same entities: a black film, zero counters, no passes (a host's next
-    /// frame, after it has moved things and replaced `SceneResource`).
-    pub fn restart(&mut self) {
-        let (width, height) = {
-            let film = self.world.resource::<FilmResource>();
-            (film.width, film.height)
-        };
-        self.world.insert_resource(FilmResource(caustica_core::film::Film::new(width, height)));
-        if self.has_aovs() {
-            let film = caustica_core::film::aov::AovFilm::new(width, height);
-            self.world.insert_resource(crate::resources::AovFilmResource(film));
-        }
-        self.world.insert_resource(RenderStats::default());
-        if let Some(mut adaptive) = self.world.get_resource_mut::<AdaptiveSampling>() {
-            let (threshold, min_spp) = (adaptive.threshold, adaptive.min_spp);
-            *adaptive = AdaptiveSampling::new(threshold, min_spp, width as usize * height as usize);
-        }
-        if self.world.contains_resource::<PhotonStats>() {
-            self.world.insert_resource(PhotonStats::default());
-        }
-        (self.plan.reset)(&mut self.world);
-        self.passes = 0;
-        self.done = self.first;
-        self.stopped = false;
-        self.stopped_by = None;
-        self.interrupt.store(false, Ordering::Relaxed);
-        self.seconds = 0.0;
-        self.phase_times.iter_mut().for_each(|t| (t.seconds, t.runs) = (0.0, 0));
-    }
-
     /// What the render did so far.
     pub fn report(&self) -> Report {
         let film = self.world.resource::<FilmResource>();
@@ -550,10 +410,4 @@ impl Renderer {
 fn scene_pixels(scene: &Scene, run: &RunFile) -> Result<u64> {
     let (w, h) = resolution(scene, run)?;
     Ok(w as u64 * h as u64)
-}
-
-/// Why a share of the render `run` sets up cannot be rendered alone and merged, if it cannot: what a
-/// host asks before it splits (`Renderer::set_samples` has the last word).
-pub fn share_refusal(run: &RunFile) -> Option<String> {
-    integrators::of_run(run).share_refusal(run)
 }
