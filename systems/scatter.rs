@@ -26,9 +26,8 @@ use caustica_core::geometry::Ray;
 use caustica_core::geometry::bvh::Hit;
 use caustica_core::kernel::aov::FirstSurface;
 use caustica_core::kernel::dimensions::photon_sampler;
-use caustica_core::kernel::emission::{add_escaped_radiance, add_surface_emission};
 use caustica_core::kernel::photon::scatter_photon;
-use caustica_core::kernel::{EmissionWeight, Quantity, Vertex, VertexSampler, continue_path, sample_light};
+use caustica_core::kernel::{Arrival, EmissionWeight, Quantity, continue_path, sample_light};
 use caustica_core::photon::estimate::radiance_estimate;
 use caustica_core::photon::{Neighbors, PhotonMap};
 use caustica_core::render_scene::RenderScene;
@@ -64,36 +63,19 @@ fn path_vertex<const NEE: bool>(
     shadow: &mut ShadowRay,
     aov: Option<&mut FirstSurface>,
 ) -> bool {
-    let rule = if NEE { EmissionWeight::Mis } else { EmissionWeight::One };
-    let path = &mut state.path;
-    path.travel(scene, hit);
-    if !hit.is_hit() {
-        add_escaped_radiance(scene, rule, path, ray.d);
-        if let Some(aov) = aov {
-            aov.escaped(scene, ray.d, path.beta);
+    let arrival = Arrival {
+        emission: Some(if NEE { EmissionWeight::Mis } else { EmissionWeight::One }),
+        last_depth: config.limits.max_depth,
+    };
+    arrival.arrive(scene, ray, hit, &mut state.path, state.sampler, aov, |path, ray, v, u| {
+        if NEE
+            && !v.bsdf.is_delta()
+            && let Some(sample) = sample_light(scene, v, path, ray.time, u, true)
+        {
+            shadow.queue(sample);
         }
-        return false;
-    }
-    // Drawn first: the numbers are a long chain of multiplies that the out-of-order core can run
-    // beside the surface's and the material's work, which does not need them.
-    let u = VertexSampler::new(state.sampler, path.depth);
-    let si = scene.geometry.surface_hit(ray, hit);
-    add_surface_emission(scene, rule, path, &si, -ray.d, ray.time);
-    // pbrt-v4 counts emission at the last vertex, then stops before sampling anything there.
-    if path.depth >= config.limits.max_depth {
-        return false;
-    }
-    let v = Vertex::new(scene, ray, si);
-    if let Some(aov) = aov {
-        aov.reached(&v, hit.t, path.beta);
-    }
-    if NEE
-        && !v.bsdf.is_delta()
-        && let Some(sample) = sample_light(scene, &v, path, ray.time, &u, true)
-    {
-        shadow.queue(sample);
-    }
-    continue_from(ray, continue_path(path, &v, ray.time, &u, config.limits))
+        continue_from(ray, continue_path(path, v, ray.time, u, config.limits))
+    })
 }
 
 /// Store the continuation's ray; false when there is none.
@@ -156,69 +138,52 @@ fn photon_mapped_vertex(
     aov: Option<&mut FirstSurface>,
 ) -> bool {
     // A final-gather ray only reads the global map: light it reaches is in there already.
-    let counts_emission = !state.gathering;
-    let rule = EmissionWeight::SeenDirectly;
-    state.path.travel(scene, hit);
-    if !hit.is_hit() {
-        if counts_emission {
-            add_escaped_radiance(scene, rule, &mut state.path, ray.d);
-        }
-        if let Some(aov) = aov {
-            aov.escaped(scene, ray.d, state.path.beta);
-        }
-        return false;
-    }
-    // Drawn first, as in `path_vertex`.
-    let u = VertexSampler::new(state.sampler, state.path.depth);
-    let si = scene.geometry.surface_hit(ray, hit);
-    if counts_emission {
-        add_surface_emission(scene, rule, &mut state.path, &si, -ray.d, ray.time);
-    }
-    let v = Vertex::new(scene, ray, si);
-    if let Some(aov) = aov {
-        aov.reached(&v, hit.t, state.path.beta);
-    }
-    let mut estimate = |map: &PhotonMap, lookups: &mut u32| {
-        *lookups += 1;
-        radiance_estimate(
-            map,
-            &v.si,
-            &v.frame,
-            &v.bsdf,
-            v.wo,
-            maps.k,
-            maps.max_radius2,
-            maps.kernel,
-            neighbors,
-        )
-    };
-    if !v.bsdf.is_delta() {
-        if state.gathering {
-            // The end of a final-gather ray: everything the global map knows.
-            if let Some(global) = &maps.global {
-                let l = state.path.beta * estimate(global, &mut state.lookups);
-                state.path.add(l, Quantity::PhotonEstimate);
-            }
-            return false;
-        }
-        if let Some(sample) = sample_light(scene, &v, &state.path, ray.time, &u, false) {
-            shadow.queue(sample);
-        }
-        if let Some(caustic) = &maps.caustic {
-            let l = state.path.beta * estimate(caustic, &mut state.lookups);
-            state.path.add(l, Quantity::PhotonEstimate);
-        }
-        match (&maps.indirect, maps.final_gather) {
-            (Some(indirect), false) => {
-                let l = state.path.beta * estimate(indirect, &mut state.lookups);
-                state.path.add(l, Quantity::PhotonEstimate);
+    let emission = (!state.gathering).then_some(EmissionWeight::SeenDirectly);
+    let arrival = Arrival { emission, last_depth: u32::MAX };
+    let (gathering, lookups) = (&mut state.gathering, &mut state.lookups);
+    arrival.arrive(scene, ray, hit, &mut state.path, state.sampler, aov, |path, ray, v, u| {
+        let mut estimate = |map: &PhotonMap| {
+            *lookups += 1;
+            radiance_estimate(
+                map,
+                &v.si,
+                &v.frame,
+                &v.bsdf,
+                v.wo,
+                maps.k,
+                maps.max_radius2,
+                maps.kernel,
+                neighbors,
+            )
+        };
+        if !v.bsdf.is_delta() {
+            if *gathering {
+                // The end of a final-gather ray: everything the global map knows.
+                if let Some(global) = &maps.global {
+                    let l = path.beta * estimate(global);
+                    path.add(l, Quantity::PhotonEstimate);
+                }
                 return false;
             }
-            (_, true) => state.gathering = true,
-            (None, false) => return false,
+            if let Some(sample) = sample_light(scene, v, path, ray.time, u, false) {
+                shadow.queue(sample);
+            }
+            if let Some(caustic) = &maps.caustic {
+                let l = path.beta * estimate(caustic);
+                path.add(l, Quantity::PhotonEstimate);
+            }
+            match (&maps.indirect, maps.final_gather) {
+                (Some(indirect), false) => {
+                    let l = path.beta * estimate(indirect);
+                    path.add(l, Quantity::PhotonEstimate);
+                    return false;
+                }
+                (_, true) => *gathering = true,
+                (None, false) => return false,
+            }
         }
-    }
-    continue_from(ray, continue_path(&mut state.path, &v, ray.time, &u, config.limits))
+        continue_from(ray, continue_path(path, v, ray.time, u, config.limits))
+    })
 }
 
 /// What a progressive camera path's scatter reads and writes.
@@ -280,31 +245,17 @@ fn visible_point_vertex<const NEE: bool>(
         // Until this pass finds a surface, the hit point gathers nothing.
         hit_point.beta = glam::Vec3::ZERO;
     }
-    let rule = EmissionWeight::SeenDirectly;
-    state.path.travel(scene, hit);
-    if !hit.is_hit() {
-        add_escaped_radiance(scene, rule, &mut state.path, ray.d);
-        if let Some(aov) = aov {
-            aov.escaped(scene, ray.d, state.path.beta);
+    let arrival = Arrival { emission: Some(EmissionWeight::SeenDirectly), last_depth: u32::MAX };
+    arrival.arrive(scene, ray, hit, &mut state.path, state.sampler, aov, |path, ray, v, u| {
+        if v.bsdf.is_delta() {
+            return continue_from(ray, continue_path(path, v, ray.time, u, config.limits));
         }
-        return false;
-    }
-    // Drawn first, as in `path_vertex`.
-    let u = VertexSampler::new(state.sampler, state.path.depth);
-    let si = scene.geometry.surface_hit(ray, hit);
-    add_surface_emission(scene, rule, &mut state.path, &si, -ray.d, ray.time);
-    let v = Vertex::new(scene, ray, si);
-    if let Some(aov) = aov {
-        aov.reached(&v, hit.t, state.path.beta);
-    }
-    if v.bsdf.is_delta() {
-        return continue_from(ray, continue_path(&mut state.path, &v, ray.time, &u, config.limits));
-    }
-    if NEE && let Some(sample) = sample_light(scene, &v, &state.path, ray.time, &u, false) {
-        shadow.queue(sample);
-    }
-    hit_point.record(&v, -ray.d, state.path.beta);
-    false
+        if NEE && let Some(sample) = sample_light(scene, v, path, ray.time, u, false) {
+            shadow.queue(sample);
+        }
+        hit_point.record(v, -ray.d, path.beta);
+        false
+    })
 }
 
 /// Deposit each photon where its map wants it, then continue it by BSDF sampling or end it by

@@ -14,6 +14,7 @@
 //! systems in `systems/` are thin queries over these functions.
 
 pub mod aov;
+pub mod arrival;
 pub mod continuation;
 pub mod dimensions;
 pub mod direct;
@@ -31,6 +32,7 @@ use crate::render_scene::RenderScene;
 use crate::sampling::warp::Frame;
 use glam::Vec3;
 
+pub use arrival::Arrival;
 pub use continuation::{PathLimits, continue_path};
 pub use dimensions::VertexSampler;
 pub use direct::{ShadowSample, sample_light};
