@@ -28,6 +28,7 @@ impl Arrival {
     /// continues. False when the path ends: it left the scene, reached `last_depth`, or `at_surface`
     /// ended it. (The vertex is handed on, not returned: a few hundred bytes that a return would
     /// copy on the hottest path of every integrator.)
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     pub fn arrive(
         self,
