@@ -5,13 +5,11 @@ use bevy_ecs::component::Component;
 use caustica_core::geometry::{Ray, bvh::Hit};
 use caustica_core::kernel::photon::PhotonPath;
 use caustica_core::kernel::{CameraPath, Vertex};
-use caustica_core::materials::Bsdf;
 use caustica_core::photon::estimate::GatherPoint;
 use caustica_core::photon::progressive::AdaptiveStatistics;
-use caustica_core::photon::record::{decode_octahedral, encode_octahedral};
+use caustica_core::photon::visible_point::PackedShading;
 use caustica_core::render_scene::RenderScene;
 use caustica_core::sampling::Sampler;
-use caustica_core::sampling::warp::Frame;
 use glam::Vec3;
 
 /// The ray a path will trace next (hot: read by `trace_paths`).
@@ -175,16 +173,8 @@ pub struct HitPoint {
     pub r2: f32,
     /// M: photons gathered in this pass.
     pub m: u32,
-    /// Outgoing direction (towards the camera), octahedral 2 × 16 bits.
-    pub wo: u32,
-    /// Shading normal, octahedral 2 × 16 bits.
-    pub ns: u32,
-    /// Base colour after textures and vertex colours, 16-bit unorm (the BSDF clamps it to [0, 1]).
-    pub base_color: [u16; 3],
-    /// Metallic and roughness after textures, 16-bit unorm.
-    pub metallic_roughness: [u16; 2],
-    /// Material index (the rest of the BSDF's parameters).
-    pub material: u16,
+    /// The visible point's direction, normal and BSDF parameters, packed.
+    pub shading: PackedShading,
 }
 
 const _: () = assert!(size_of::<HitPoint>() <= 96);
@@ -200,11 +190,7 @@ impl HitPoint {
             phi: Vec3::ZERO,
             r2,
             m: 0,
-            wo: 0,
-            ns: 0,
-            base_color: [0; 3],
-            metallic_roughness: [0; 2],
-            material: 0,
+            shading: PackedShading::default(),
         }
     }
 
@@ -217,35 +203,15 @@ impl HitPoint {
     /// Make vertex `v`, seen from direction `wo` (world, towards the camera) by a path of throughput
     /// `beta`, this pass's visible point; the statistics stay.
     pub fn record(&mut self, v: &Vertex, wo: Vec3, beta: Vec3) {
-        let unorm = |x: f32| (x.clamp(0.0, 1.0) * 65535.0).round() as u16;
         self.p = v.si.p;
-        self.wo = encode_octahedral(wo, 16);
-        self.ns = encode_octahedral(v.si.ns, 16);
         self.beta = beta;
-        self.material = v.si.material as u16;
-        self.base_color = v.params.base_color.to_array().map(unorm);
-        self.metallic_roughness = [unorm(v.params.metallic), unorm(v.params.roughness)];
+        self.shading = PackedShading::of(v, wo);
     }
 
     /// The visible point as the gather sees it: its BSDF rebuilt from the stored parameters.
+    #[inline]
     pub fn gather_point(&self, scene: &RenderScene) -> GatherPoint {
-        let from_unorm = |x: u16| x as f32 / 65535.0;
-        let m = &scene.materials[self.material as usize];
-        let params = m.shading_params(
-            Vec3::from_array(self.base_color.map(from_unorm)),
-            from_unorm(self.metallic_roughness[0]),
-            from_unorm(self.metallic_roughness[1]),
-        );
-        let frame = Frame::from_z(decode_octahedral(self.ns, 16));
-        let wo = frame.to_local(decode_octahedral(self.wo, 16));
-        GatherPoint {
-            p: self.p,
-            beta: self.beta,
-            bsdf: Bsdf::new(&params),
-            frame,
-            wo,
-            transmits: m.transmission > 0.0,
-        }
+        self.shading.gather_point(scene, self.p, self.beta)
     }
 }
 

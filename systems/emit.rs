@@ -11,10 +11,9 @@ use super::resources::{CameraResource, PhotonWork, RenderConfig, SceneFeatures, 
 use bevy_ecs::prelude::*;
 use caustica_core::kernel::CameraPath;
 use caustica_core::kernel::aov::FirstSurface;
+use caustica_core::kernel::camera_sample::{camera_sampler, filter_sample};
 use caustica_core::kernel::dimensions::{camera as dim, photon_sampler};
 use caustica_core::kernel::photon::{emit_photon, photon_time};
-use caustica_core::sampling::net::net_point;
-use caustica_core::sampling::{Sampler, SamplerKind};
 use glam::Vec2;
 
 /// Generate camera rays for paths that need one. `LENS`: sample the aperture; `MOTION`: sample the shutter.
@@ -29,20 +28,17 @@ pub fn emit_camera_paths<const LENS: bool, const MOTION: bool>(
             if state.status != PathStatus::NeedsStart {
                 return;
             }
-            let sampler = Sampler::of(config.sampler, config.seed, state.pixel, state.sample);
+            let sampler = camera_sampler(config.sampler, config.seed, state.pixel, state.sample);
             let x = state.pixel % camera.width;
             let y = state.pixel / camera.width;
-            let u_filter = match config.sampler {
-                // The sequence itself is a (0, m, 2)-net over any 2^m consecutive samples.
-                SamplerKind::Sobol => sampler.get2d(dim::FILTER),
-                SamplerKind::Independent => stratified(
-                    sampler.get2d(dim::FILTER),
-                    config.seed,
-                    state.pixel,
-                    state.sample,
-                    config.strata,
-                ),
-            };
+            let u_filter = filter_sample(
+                &sampler,
+                config.sampler,
+                config.seed,
+                state.pixel,
+                state.sample,
+                config.strata,
+            );
             let u_lens = if LENS { sampler.get2d(dim::LENS) } else { Vec2::splat(0.5) };
             let time =
                 if MOTION { config.pass_time.unwrap_or_else(|| sampler.get1d(dim::TIME)) } else { 0.0 };
@@ -56,20 +52,6 @@ pub fn emit_camera_paths<const LENS: bool, const MOTION: bool>(
             state.status = PathStatus::Active;
         },
     );
-}
-
-/// The filter sample of camera sample `sample` of the independent sampler when `strata` samples of a
-/// pixel share a pass (its hit points): point `sample mod strata` of a (0, m, 2)-net scrambled per
-/// pixel, so that they cover the pixel evenly in every direction; `u` itself when there is one.
-#[inline]
-fn stratified(u: Vec2, seed: u64, pixel: u32, sample: u32, strata: u32) -> Vec2 {
-    if strata <= 1 {
-        return u;
-    }
-    let bits = caustica_core::sampling::rng::mix64(
-        seed ^ caustica_core::sampling::rng::mix64(pixel as u64 ^ 0x6e65_7473),
-    );
-    net_point(sample % strata, [bits as u32, (bits >> 32) as u32])
 }
 
 /// The `emit_camera_paths` instance for a scene: lens and time sampling only when the scene has an
@@ -110,23 +92,4 @@ pub fn emit_photons(
             }
         },
     );
-}
-
-#[cfg(test)]
-mod tests {
-    use super::stratified;
-    use glam::Vec2;
-
-    #[test]
-    fn a_pixels_strata_cover_it_in_rows_and_columns() {
-        for strata in [4u32, 16, 64] {
-            let mut rows = vec![0u32; strata as usize];
-            for sample in 0..strata {
-                let u = stratified(Vec2::splat(0.5), 7, 3, sample + 5 * strata, strata);
-                rows[(u.y * strata as f32) as usize] += 1;
-            }
-            assert!(rows.iter().all(|&n| n == 1), "{strata}: {rows:?}");
-        }
-        assert_eq!(stratified(Vec2::new(0.3, 0.7), 7, 3, 5, 1), Vec2::new(0.3, 0.7));
-    }
 }

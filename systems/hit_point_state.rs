@@ -8,6 +8,7 @@ use bevy_ecs::prelude::*;
 use caustica_core::error::{Error, Result};
 use caustica_core::film::accumulator::HitPointState;
 use caustica_core::photon::progressive::CHI2_CELLS;
+use caustica_core::photon::visible_point::PackedShading;
 use glam::{DVec3, Vec3};
 
 /// Words of a `HitPoint`'s statistics: τ, N and R². What a pass gathers (M, Φ) is zero between
@@ -58,10 +59,7 @@ fn push_hit_point(words: &mut Vec<u32>, hp: &HitPoint, with_hit: bool) {
     if with_hit {
         push_vec3(words, hp.p);
         push_vec3(words, hp.beta);
-        words.extend([hp.wo, hp.ns]);
-        let [r, g, b] = hp.base_color.map(u32::from);
-        let [metallic, roughness] = hp.metallic_roughness.map(u32::from);
-        words.extend([r | g << 16, b | metallic << 16, roughness | (hp.material as u32) << 16]);
+        words.extend(hp.shading.to_words());
     }
     debug_assert_eq!(words.len() - start, STATISTICS_WORDS + if with_hit { HIT_WORDS } else { 0 });
 }
@@ -73,11 +71,7 @@ fn read_hit_point(w: &mut Words, hp: &mut HitPoint, with_hit: bool) {
     (hp.m, hp.phi) = (0, Vec3::ZERO);
     if with_hit {
         (hp.p, hp.beta) = (w.vec3(), w.vec3());
-        (hp.wo, hp.ns) = (w.u32(), w.u32());
-        let (rg, bm, rough_material) = (w.u32(), w.u32(), w.u32());
-        hp.base_color = [rg as u16, (rg >> 16) as u16, bm as u16];
-        hp.metallic_roughness = [(bm >> 16) as u16, rough_material as u16];
-        hp.material = (rough_material >> 16) as u16;
+        hp.shading = PackedShading::from_words(std::array::from_fn(|_| w.u32()));
     }
 }
 

@@ -19,8 +19,8 @@ use crate::resources::{
     PhotonStats, PhotonWork, ProgressiveConfig, RenderConfig, SceneResource, Workload,
 };
 use bevy_ecs::prelude::*;
+use caustica_core::kernel::camera_sample::pass_time;
 use caustica_core::photon::{PhotonMap, PhotonMapKind};
-use caustica_core::sampling::Sampler;
 
 /// A system that hands the pass's samples (`PassRange` begin..end, each standing for
 /// `camera_samples_per_unit` camera samples) of every pixel, or with adaptive sampling of the pixels
@@ -97,7 +97,7 @@ pub fn begin_progressive_pass(
         // The pass's number in the whole render (`begin`), not in this process: a render split by
         // passes gives each pass the photons and shutter time it has in one run.
         let pass = range.begin;
-        let time = motion.then(|| Sampler::of(config.sampler, config.seed, u32::MAX, pass).get1d(0));
+        let time = motion.then(|| pass_time(config.sampler, config.seed, pass));
         config.pass_time = time;
         work.time = time;
         work.pass = pass;

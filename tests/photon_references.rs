@@ -148,7 +148,7 @@ fn pixel_geometry() -> PixelGeometry {
         // The hit point lies at the pixel's filter sample; the quadrature wants the pixel's centre, on
         // the same plane (every surface of the box is flat; a pixel across an edge keeps its sample's
         // plane).
-        let normal = decode_octahedral(hp.ns, 16);
+        let normal = decode_octahedral(hp.shading.ns, 16);
         let dir = geometry.dir[i];
         let t = normal.dot(hp.p - eye) / normal.dot(dir);
         let centre_hit = eye + dir * t;
@@ -158,7 +158,7 @@ fn pixel_geometry() -> PixelGeometry {
         geometry.p[i] = centre_hit;
         geometry.d[i] = t;
         geometry.n[i] = normal;
-        geometry.lamp[i] = scene.materials[hp.material as usize].emission != Vec3::ZERO;
+        geometry.lamp[i] = scene.materials[hp.shading.material as usize].emission != Vec3::ZERO;
     }
     geometry
 }

@@ -15,6 +15,7 @@
 
 pub mod aov;
 pub mod arrival;
+pub mod camera_sample;
 pub mod continuation;
 pub mod dimensions;
 pub mod direct;

@@ -5,6 +5,7 @@ pub mod estimate;
 pub mod kdtree;
 pub mod progressive;
 pub mod record;
+pub mod visible_point;
 
 pub use kdtree::{Neighbors, PhotonMap};
 pub use record::Photon;

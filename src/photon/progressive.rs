@@ -268,6 +268,31 @@ pub fn radius_cap(camera: &crate::camera::Camera, mut distances: Vec<f32>) -> Op
     (cap > 0.0).then_some(cap)
 }
 
+/// The distances from the eye of the first hits of rays through the centres of a grid of at most
+/// 64 × 64 of the camera's pixels: what `pppm` caps its first radius by before any pass, so that
+/// the radius is a function of the scene and camera alone (any share of a split render computes it).
+pub fn probe_hit_distances(camera: &crate::camera::Camera, geometry: &crate::geometry::Geometry) -> Vec<f32> {
+    let step = |n: u32| n.div_ceil(64).max(1) as usize;
+    let mut distances = Vec::new();
+    for y in (0..camera.height).step_by(step(camera.height)) {
+        for x in (0..camera.width).step_by(step(camera.width)) {
+            let ray = camera.generate_ray(x, y, Vec2::splat(0.5), Vec2::splat(0.5), 0.0);
+            let hit = geometry.intersect(&ray);
+            if hit.t.is_finite() {
+                distances.push(hit.t * ray.d.length());
+            }
+        }
+    }
+    distances
+}
+
+/// A pass's radiance estimate at a hit point from the flux Φ its photons brought within radius²
+/// `r2` (Knaus & Zwicker 2011, eq. 9 with the uniform kernel): Φ / (π r²).
+#[inline]
+pub fn pass_estimate(phi: Vec3, r2: f32) -> Vec3 {
+    phi / (std::f32::consts::PI * r2)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -24,7 +24,9 @@ use crate::resources::{
 use bevy_ecs::prelude::*;
 use caustica_core::error::Result;
 use caustica_core::film::fixed;
-use caustica_core::photon::progressive::{RadiusRule, global_radius2};
+use caustica_core::photon::progressive::{
+    RadiusRule, global_radius2, pass_estimate, probe_hit_distances, radius_cap,
+};
 use caustica_core::scene::{IntegratorKind, RunFile};
 
 /// `pppm`: independent passes at a global radius sequence: the film is the whole state, so passes split
@@ -60,23 +62,10 @@ fn plan(this: &Integrator, world: &mut World, run: &RunFile, features: SceneFeat
 fn fix_initial_radius(world: &mut World) {
     let distances = {
         let camera = world.resource::<CameraResource>();
-        let scene = world.resource::<SceneResource>();
-        let step = |n: u32| n.div_ceil(64).max(1);
-        let (sx, sy) = (step(camera.width), step(camera.height));
-        let mut distances = Vec::new();
-        for y in (0..camera.height).step_by(sy as usize) {
-            for x in (0..camera.width).step_by(sx as usize) {
-                let ray = camera.generate_ray(x, y, glam::Vec2::splat(0.5), glam::Vec2::splat(0.5), 0.0);
-                let hit = scene.geometry.intersect(&ray);
-                if hit.t.is_finite() {
-                    distances.push(hit.t * ray.d.length());
-                }
-            }
-        }
-        distances
+        probe_hit_distances(camera, &world.resource::<SceneResource>().geometry)
     };
     let camera = world.resource::<CameraResource>();
-    let cap = caustica_core::photon::progressive::radius_cap(camera, distances);
+    let cap = radius_cap(camera, distances);
     let mut config = world.resource_mut::<ProgressiveConfig>();
     if let Some(cap) = cap.filter(|&cap| cap < config.r0) {
         config.r0 = cap;
@@ -99,7 +88,7 @@ pub fn add_pass_estimates_to_film(
 ) {
     hit_points.par_iter_mut().batching_strategy(wavefront_batching()).for_each(|(state, mut hp)| {
         if hp.m > 0 {
-            let l = hp.phi / (std::f32::consts::PI * hp.r2);
+            let l = pass_estimate(hp.phi, hp.r2);
             if fixed::accepts(l) {
                 film.add_sums(
                     state.pixel,
