@@ -17,27 +17,11 @@ use crate::error::{Error, Result};
 use std::collections::HashMap;
 use std::path::Path;
 
-/// A progressive photon mapper's hit points in a checkpoint: each of `points_per_pixel` hit points
-/// per pixel is `channels.len()` 32-bit words, channel `k` holding word `k` of every hit point in
-/// entity order (pixel-major): the uint channels `w.000`, `w.001`, … of a second EXR part,
-/// `hit_points`, of width × points per pixel, as they are; and the initial radius, in its header
-/// (`caustica.r0`, the f32's bits).
-#[derive(Clone, Debug, PartialEq)]
-pub struct HitPointState {
-    /// Hit points per pixel.
-    pub points_per_pixel: u32,
-    /// The initial radius the render chose.
-    pub r0: f32,
-    /// One channel per word of a hit point, each as long as there are hit points.
-    pub channels: Vec<Vec<u32>>,
-}
+mod checkpoint;
+mod merge;
 
-impl HitPointState {
-    /// Hit points held.
-    pub fn points(&self) -> usize {
-        self.channels.first().map_or(0, Vec::len)
-    }
-}
+pub use checkpoint::{HitPointState, write_checkpoint};
+pub use merge::merge_parts;
 
 /// Version of the layout above.
 pub const FORMAT_VERSION: u32 = 1;
@@ -107,17 +91,6 @@ const CHANNELS: [&str; 3] = ["R", "G", "B"];
 /// ZIP-compressed: a part travels between machines.
 pub fn write_part(film: &Film, info: &PartInfo, path: &Path) -> Result<()> {
     write_accumulator(film, info, None, path, exr::prelude::Encoding::SMALL_LOSSLESS)
-}
-
-/// Write `film` with `info`, and a progressive mapper's hit points when given, to `path`,
-/// uncompressed: a checkpoint is written often, during the render, and read at most once.
-pub fn write_checkpoint(
-    film: &Film,
-    info: &PartInfo,
-    hit_points: Option<HitPointState>,
-    path: &Path,
-) -> Result<()> {
-    write_accumulator(film, info, hit_points, path, exr::prelude::Encoding::UNCOMPRESSED)
 }
 
 fn write_accumulator(
@@ -355,100 +328,6 @@ pub fn read_checkpoint(path: &Path) -> Result<(Film, PartInfo, Option<HitPointSt
         }
     };
     Ok((film, info, hit_points))
-}
-
-/// Merge accumulators into the film of the whole render, checking first that they make one: the
-/// same fingerprint, size and split, each share once, none missing, each complete. The sums are
-/// integers, so the order of `paths` cannot change a bit.
-pub fn merge_parts(paths: &[impl AsRef<Path>]) -> Result<(Film, PartInfo)> {
-    let merge_err = |problem: String| Error::Merge { problem };
-    // The headers first: a foreign, duplicate or missing part is found before any pixel is read.
-    let mut headers = Vec::new();
-    for path in paths {
-        let (info, size) = read_info(path.as_ref())?;
-        headers.push((path.as_ref(), info, size));
-    }
-    let Some((first_path, base, size)) = headers.first().cloned() else {
-        return Err(merge_err("no parts given".into()));
-    };
-    let mut by_index: Vec<Option<&Path>> = vec![None; base.parts as usize];
-    for (path, info, part_size) in &headers {
-        let differs = |what: &str| {
-            merge_err(format!(
-                "{} is not a part of the same render as {}: its {what} differs",
-                path.display(),
-                first_path.display()
-            ))
-        };
-        if info.fingerprint != base.fingerprint {
-            return Err(differs("scene or settings (fingerprint)"));
-        }
-        if info.parts != base.parts || info.spp != base.spp || info.per_unit != base.per_unit {
-            return Err(differs("split (parts or samples per pixel)"));
-        }
-        if *part_size != size {
-            return Err(differs("image size"));
-        }
-        if info.part == 0
-            || info.part > info.parts
-            || info.samples != PartInfo::share(info.part, info.parts, info.spp)
-        {
-            return Err(merge_err(format!(
-                "{}: part {}/{} with samples {:?} is not a share this build makes",
-                path.display(),
-                info.part,
-                info.parts,
-                info.samples
-            )));
-        }
-        let slot = &mut by_index[info.part as usize - 1];
-        if let Some(other) = slot {
-            return Err(merge_err(format!(
-                "part {}/{} is given twice: {} and {}",
-                info.part,
-                info.parts,
-                other.display(),
-                path.display()
-            )));
-        }
-        *slot = Some(path);
-    }
-    let missing: Vec<String> = by_index
-        .iter()
-        .enumerate()
-        .filter(|(_, p)| p.is_none())
-        .map(|(i, _)| format!("{}/{}", i + 1, base.parts))
-        .collect();
-    if !missing.is_empty() {
-        return Err(merge_err(format!(
-            "missing part{} {}",
-            if missing.len() > 1 { "s" } else { "" },
-            missing.join(", ")
-        )));
-    }
-    // Then the pixels, one part at a time: memory for the whole film and one part.
-    let (width, height) = size;
-    let whole = Film::new(width, height);
-    for (path, _, _) in &headers {
-        let (film, info) = read_part(path)?;
-        let want = info.samples.len() as u32 * info.per_unit;
-        if let Some(pixel) = (0..width * height).find(|&i| film.samples(i) != want) {
-            return Err(merge_err(format!(
-                "{}: part {}/{} is incomplete: pixel ({}, {}) has {} of its {want} samples (was it stopped before its end?)",
-                path.display(),
-                info.part,
-                info.parts,
-                pixel % width,
-                pixel / width,
-                film.samples(pixel)
-            )));
-        }
-        for i in 0..width * height {
-            let (sums, count) = film.sums(i);
-            whole.add_sums(i, sums, count);
-        }
-    }
-    Ok((whole, PartInfo { part: 1, parts: 1, samples: 0..base.spp, ..base }))
 }
 
 #[cfg(test)]
