@@ -40,16 +40,24 @@ pub fn scatter_paths<const NEE: bool>(
 ) {
     paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each(
         |(hit, mut ray, mut state, mut shadow, mut aov)| {
-            if state.status != PathStatus::Active {
-                return;
-            }
-            state.rays += 1;
             let aov = aov.as_deref_mut().map(|a| &mut a.0);
-            if !path_vertex::<NEE>(&scene, &config, &hit.0, &mut ray.0, &mut state, &mut shadow, aov) {
-                state.status = PathStatus::Finished;
-            }
+            advance(&mut state, |state| {
+                path_vertex::<NEE>(&scene, &config, &hit.0, &mut ray.0, state, &mut shadow, aov)
+            });
         },
     );
+}
+
+/// Run `vertex` on an active camera path, counting its ray, and finish the path when it says so.
+#[inline(always)]
+fn advance(state: &mut PathState, vertex: impl FnOnce(&mut PathState) -> bool) {
+    if state.status != PathStatus::Active {
+        return;
+    }
+    state.rays += 1;
+    if !vertex(state) {
+        state.status = PathStatus::Finished;
+    }
 }
 
 /// One vertex of `pt` or `pt-naive`; false when the path ends.
@@ -102,23 +110,20 @@ pub fn scatter_photon_mapped(
     paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each_init(
         || Neighbors::with_capacity(maps.k),
         |neighbors, (hit, mut ray, mut state, mut shadow, mut aov)| {
-            if state.status != PathStatus::Active {
-                return;
-            }
-            state.rays += 1;
-            if !photon_mapped_vertex(
-                &scene,
-                &config,
-                &maps,
-                neighbors,
-                &hit.0,
-                &mut ray.0,
-                &mut state,
-                &mut shadow,
-                aov.as_deref_mut().map(|a| &mut a.0),
-            ) {
-                state.status = PathStatus::Finished;
-            }
+            let aov = aov.as_deref_mut().map(|a| &mut a.0);
+            advance(&mut state, |state| {
+                photon_mapped_vertex(
+                    &scene,
+                    &config,
+                    &maps,
+                    neighbors,
+                    &hit.0,
+                    &mut ray.0,
+                    state,
+                    &mut shadow,
+                    aov,
+                )
+            });
         },
     );
 }
@@ -208,22 +213,19 @@ pub fn scatter_to_visible_points<const NEE: bool>(
 ) {
     paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each(
         |(hit, mut ray, mut state, mut shadow, mut hit_point, mut aov)| {
-            if state.status != PathStatus::Active {
-                return;
-            }
-            state.rays += 1;
-            if !visible_point_vertex::<NEE>(
-                &scene,
-                &config,
-                &hit.0,
-                &mut ray.0,
-                &mut state,
-                &mut shadow,
-                &mut hit_point,
-                aov.as_deref_mut().map(|a| &mut a.0),
-            ) {
-                state.status = PathStatus::Finished;
-            }
+            let aov = aov.as_deref_mut().map(|a| &mut a.0);
+            advance(&mut state, |state| {
+                visible_point_vertex::<NEE>(
+                    &scene,
+                    &config,
+                    &hit.0,
+                    &mut ray.0,
+                    state,
+                    &mut shadow,
+                    &mut hit_point,
+                    aov,
+                )
+            });
         },
     );
 }
