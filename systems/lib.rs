@@ -5,7 +5,8 @@
 //!
 //! ```text
 //! scene (glTF + run file) ─load─▶ World resources: SceneResource (BVH, lights, materials), camera, film
-//!   integrator = a Plan: phases of a pass, each a Schedule of the stages below, run once or until idle
+//!   integrator = a descriptor (integrators::of: unit, split rule, settings, checks) whose Plan is
+//!                the phases of a pass, each a Schedule of the stages below, run once or until idle
 //!   Emit ─▶ Trace ─▶ Scatter (kernel: emission, NEE, BSDF continuation, Russian roulette) ─▶ Shadow ─▶ Gather ─▶ Update
 //!   entities: camera paths, photons, progressive hit points, spawned once and reused
 //! ```
