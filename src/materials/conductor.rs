@@ -166,6 +166,33 @@ mod tests {
         assert!((s.f * s.wi.z / s.pdf - base).abs().max_element() < 1e-6);
     }
 
+    /// glTF's metal Fresnel (the spec's Appendix B): F = f0 + (1 − f0)(1 − |V·H|)⁵ per channel, at the
+    /// angle between the view and the microfacet normal H. D and G are the same for every channel, so
+    /// a ratio of two channels of f is the ratio of the two channels of F alone, written out here.
+    /// (F taken at normal incidence instead would give f0.x / f0.y = 0.22 where 0.54 is due at 80°.)
+    #[test]
+    fn rough_metal_fresnel_follows_the_angle_to_the_microfacet_normal() {
+        let base = Vec3::new(0.2, 0.9, 0.5);
+        let bsdf = Bsdf::new(&params(base, 1.0, 0.4, 0.0, 1.5, 1.0));
+        let direction = |degrees: f32, phi: f32| {
+            let (s, c) = degrees.to_radians().sin_cos();
+            Vec3::new(s * phi.cos(), s * phi.sin(), c)
+        };
+        for (theta_o, theta_i, phi_i) in
+            [(80.0, 80.0, std::f32::consts::PI), (75.0, 40.0, 2.5), (60.0, 10.0, 1.0)]
+        {
+            let (wo, wi) = (direction(theta_o, 0.0), direction(theta_i, phi_i));
+            let f = bsdf.eval(wo, wi, TransportMode::Radiance);
+            let c = wo.dot((wo + wi).normalize());
+            let spec = base + (Vec3::ONE - base) * (1.0 - c).powi(5);
+            let (got, due) = (f.x / f.y, spec.x / spec.y);
+            assert!(
+                (got / due - 1.0).abs() < 1e-4,
+                "wo {theta_o}°, wi {theta_i}°: F ratio {got}, spec {due}"
+            );
+        }
+    }
+
     #[test]
     fn conductor_reflects_nothing_across_the_surface() {
         let bsdf = Bsdf::new(&params(Vec3::ONE, 1.0, 0.5, 0.0, 1.5, 1.0));

@@ -382,6 +382,40 @@ mod tests {
         }
     }
 
+    /// The unpolarized reflectance of a smooth dielectric interface from the Fresnel equations (Born &
+    /// Wolf 1999, §1.5.2), in f64, independently of `fresnel::fresnel_dielectric`.
+    pub(super) fn exact_fresnel(cos_i: f32, eta: f32) -> f32 {
+        let (cos_i, eta) = (cos_i as f64, eta as f64);
+        let cos_t = (1.0 - (1.0 - cos_i * cos_i) / (eta * eta)).sqrt();
+        let rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+        let rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+        (0.5 * (rs * rs + rp * rp)) as f32
+    }
+
+    /// Light and importance (camera paths and photons) leave smooth glass by the exact Fresnel
+    /// reflectance: Schlick's approximation is 0.0407 at 40° where the exact value is 0.0457, a
+    /// difference of 12% in what is reflected and 0.5% in what is transmitted, far beyond 1e-5.
+    #[test]
+    fn smooth_glass_reflects_by_the_exact_fresnel_equations_both_ways() {
+        let bsdf = glass(0.0, 1.5);
+        for degrees in [0.0f32, 20.0, 40.0, 60.0, 80.0] {
+            let (sin, cos) = degrees.to_radians().sin_cos();
+            let wo = Vec3::new(sin, 0.0, cos);
+            let due = exact_fresnel(cos, 1.5);
+            for mode in [TransportMode::Radiance, TransportMode::Importance] {
+                let reflected = bsdf.sample(wo, 0.0, Vec2::ZERO, mode).unwrap();
+                assert!(!reflected.is_transmission);
+                assert!(
+                    (reflected.pdf - due).abs() < 1e-5,
+                    "{degrees}°, {mode:?}: {} vs {due}",
+                    reflected.pdf
+                );
+                let weight = reflected.f.x * reflected.wi.z.abs();
+                assert!((weight - due).abs() < 1e-5, "{degrees}°, {mode:?}: reflected weight {weight}");
+            }
+        }
+    }
+
     #[test]
     fn smooth_glass_scales_transmitted_radiance_by_inverse_eta_squared() {
         let bsdf = glass(0.0, 1.5);
@@ -453,6 +487,22 @@ mod thin_tests {
                     assert!((mean - Vec3::ONE).abs().max_element() < 1e-4, "smooth sheet, {wo}: {mean}");
                 }
             }
+        }
+    }
+
+    /// A sheet's two faces reflect, and light bounces between them: R + T²R(1 + R² + …) = 2R/(1 + R)
+    /// for the single face's exact Fresnel R (Born & Wolf's equations, written out in
+    /// `exact_fresnel`), against R alone for one face: 0.077 against 0.040 at normal incidence.
+    #[test]
+    fn a_smooth_sheet_reflects_both_faces_and_their_interreflections() {
+        let bsdf = sheet(0.0, Vec3::ONE);
+        for cos in [1.0f32, 0.8, 0.5, 0.2] {
+            let wo = Vec3::new((1.0 - cos * cos).sqrt(), 0.0, cos);
+            let r = super::tests::exact_fresnel(cos, 1.5);
+            let reflected = bsdf.sample(wo, 0.0, Vec2::ZERO, TransportMode::Radiance).unwrap();
+            assert!(!reflected.is_transmission);
+            let due = 2.0 * r / (1.0 + r);
+            assert!((reflected.pdf - due).abs() < 1e-5, "cos {cos}: reflects {}, due {due}", reflected.pdf);
         }
     }
 

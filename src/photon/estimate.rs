@@ -79,3 +79,84 @@ impl GatherPoint {
         Some((local.truncate(), self.beta * f * photon.power()))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::materials::tests::params;
+
+    fn query_point() -> (SurfaceHit, Frame, Bsdf) {
+        let si = SurfaceHit {
+            p: Vec3::ZERO,
+            p_error: Vec3::ZERO,
+            ng: Vec3::Z,
+            ns: Vec3::Z,
+            uv: [Vec2::ZERO; 2],
+            color: Vec3::ONE,
+            tangent: Vec3::X.extend(1.0),
+            material: 0,
+            light: u32::MAX,
+        };
+        // White Lambertian: f = 1/π whatever the directions.
+        (si, Frame::from_z(Vec3::Z), Bsdf::new(&params(Vec3::ONE, 0.0, 1.0, 0.0, 1.5, 0.0)))
+    }
+
+    /// Photons on the floor around the query, and the same number just behind it (the other side of
+    /// a thin wall, normal −z) and on a wall meeting it at a corner (normal +x), all within the radius.
+    fn photons() -> (Vec<Photon>, Vec<Photon>) {
+        let power = Vec3::splat(0.01);
+        let at = |i: usize| Vec3::new(0.01 * (i % 5) as f32 - 0.02, 0.01 * (i / 5) as f32 - 0.02, 0.0);
+        let floor = (0..25).map(|i| Photon::new(at(i), Vec3::new(0.3, 0.1, 1.0).normalize(), Vec3::Z, power));
+        let behind = (0..25)
+            .map(|i| Photon::new(at(i) - 0.001 * Vec3::Z, -Vec3::Z, -Vec3::Z, power))
+            .collect::<Vec<_>>();
+        let corner = (0..25).map(|i| {
+            let p = Vec3::new(0.001, at(i).y, at(i).x.abs());
+            Photon::new(p, Vec3::X, Vec3::X, power)
+        });
+        (floor.collect(), behind.into_iter().chain(corner).collect())
+    }
+
+    /// The estimate at a surface is that surface's photons' alone: photons of another orientation
+    /// within the radius, behind a thin wall or on a wall at a corner, change it by nothing (k covers
+    /// every photon, so the radius is the maximum radius either way).
+    #[test]
+    fn photons_on_surfaces_of_another_orientation_are_left_out() {
+        let (si, frame, bsdf) = query_point();
+        let (floor, others) = photons();
+        let estimate = |photons: Vec<Photon>| {
+            let map = PhotonMap::build(photons);
+            let mut neighbors = Neighbors::with_capacity(200);
+            radiance_estimate(
+                &map,
+                &si,
+                &frame,
+                &bsdf,
+                Vec3::Z,
+                200,
+                0.05 * 0.05,
+                Kernel::Uniform,
+                &mut neighbors,
+            )
+        };
+        let alone = estimate(floor.clone());
+        assert!(alone.x > 0.0);
+        let with_others = estimate(floor.into_iter().chain(others).collect());
+        assert_eq!(with_others, alone, "photons of other surfaces were gathered");
+    }
+
+    /// A progressive hit point takes photons from behind only when its material transmits, and never
+    /// from a surface at a corner.
+    #[test]
+    fn a_hit_point_gathers_only_its_own_surfaces_photons() {
+        let (si, frame, bsdf) = query_point();
+        let (floor, others) = photons();
+        let point = |transmits| GatherPoint { p: si.p, beta: Vec3::ONE, bsdf, frame, wo: Vec3::Z, transmits };
+        for transmits in [false, true] {
+            assert!(floor.iter().all(|photon| point(transmits).contribution(photon).is_some()));
+            let (behind, corner) = others.split_at(25);
+            assert!(corner.iter().all(|photon| point(transmits).contribution(photon).is_none()));
+            assert!(behind.iter().all(|photon| point(transmits).contribution(photon).is_some() == transmits));
+        }
+    }
+}
