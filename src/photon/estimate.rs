@@ -102,7 +102,8 @@ mod tests {
     }
 
     /// Photons on the floor around the query, and the same number just behind it (the other side of
-    /// a thin wall, normal −z) and on a wall meeting it at a corner (normal +x), all within the radius.
+    /// a thin wall, normal −z, arrived from below) and on a wall meeting it at a corner (normal +x),
+    /// all within the radius.
     fn photons() -> (Vec<Photon>, Vec<Photon>) {
         let power = Vec3::splat(0.01);
         let at = |i: usize| Vec3::new(0.01 * (i % 5) as f32 - 0.02, 0.01 * (i / 5) as f32 - 0.02, 0.0);
@@ -110,9 +111,11 @@ mod tests {
         let behind = (0..25)
             .map(|i| Photon::new(at(i) - 0.001 * Vec3::Z, -Vec3::Z, -Vec3::Z, power))
             .collect::<Vec<_>>();
+        // Arrived from above and to the right: towards the wall, and from the floor's side of it, so
+        // that the floor's BSDF would take them if they were counted.
         let corner = (0..25).map(|i| {
             let p = Vec3::new(0.001, at(i).y, at(i).x.abs());
-            Photon::new(p, Vec3::X, Vec3::X, power)
+            Photon::new(p, Vec3::new(0.6, 0.0, 0.8), Vec3::X, power)
         });
         (floor.collect(), behind.into_iter().chain(corner).collect())
     }
