@@ -337,6 +337,15 @@ impl RunFile {
                 .and_then(|mut t| t.remove("v"))
                 .unwrap_or_else(|| toml::Value::String(value.to_owned()));
             let mut parts: Vec<&str> = key.split('.').collect();
+            // A run file's keys are a table and a key (`render.spp`, `camera.eye`); a deeper one names
+            // nothing, and a very deep one would nest tables deeper than reading them back can recurse.
+            if parts.len() > MAX_KEY_DEPTH {
+                let shown: String = key.chars().take(40).collect();
+                return Err(format!(
+                    "--set {shown}…: a key of {} dotted parts; run-file keys have at most {MAX_KEY_DEPTH}",
+                    parts.len()
+                ));
+            }
             let last = parts.pop().filter(|p| !p.is_empty()).ok_or_else(|| format!("--set {set}: no key"))?;
             let mut node = &mut table;
             for part in parts {
@@ -356,6 +365,9 @@ impl RunFile {
     }
 }
 
+/// Most dotted parts a `--set` key may have: a table, a key, and room for a nested table's key.
+const MAX_KEY_DEPTH: usize = 4;
+
 /// `line L, column C in [table]: message`, on one line (toml's own display spans several).
 fn describe_toml_error(error: &toml::de::Error, text: &str) -> String {
     let message = error.message().trim_end();
@@ -374,4 +386,21 @@ fn describe_toml_error(error: &toml::de::Error, text: &str) -> String {
         .map(|header| format!(" in {header}"))
         .unwrap_or_default();
     format!("line {line}, column {column}{table}: {message}")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::RunFile;
+
+    /// A key of 60 000 dotted parts once nested tables deeper than reading them back could recurse
+    /// (a stack overflow, the process gone); deeply nested values fall back to text and are refused.
+    #[test]
+    fn deep_keys_and_values_are_refused_not_a_stack_overflow() {
+        let deep_key = format!("{}.b=1", vec!["a"; 60_000].join("."));
+        let message = RunFile::parse_with_sets("", &[deep_key]).unwrap_err();
+        assert!(message.contains("60001 dotted parts"), "{message}");
+        let deep_value = format!("render.spp={}{}", "[".repeat(20_000), "]".repeat(20_000));
+        assert!(RunFile::parse_with_sets("", &[deep_value]).is_err());
+        assert_eq!(RunFile::parse_with_sets("", &["render.spp=3".into()]).unwrap().render.spp, 3);
+    }
 }
