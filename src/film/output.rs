@@ -28,6 +28,9 @@ pub fn check_output_path(path: &Path) -> Result<()> {
         .map_err(|e| out_err(format!("cannot write in {}: {e}", dir.display())))
 }
 
+/// Largest exposure, in stops: 2^±64 already takes any finite radiance beyond 8 bits either way.
+pub const MAX_EXPOSURE_STOPS: f32 = 64.0;
+
 /// Write `image` to `path`, choosing the format by extension (.exr linear, .png sRGB with
 /// `exposure` stops). The bytes go to a file of a unique name beside `path`, which is then renamed
 /// over it: a failed write leaves the previous file as it was and nothing else, and two runs writing
@@ -46,6 +49,12 @@ pub fn write_image_with_aovs(
     exposure: f32,
 ) -> Result<()> {
     let out_err = |message: String| Error::Output { path: path.to_path_buf(), message };
+    // 2^NaN is NaN and 2^inf is inf: a black or white picture, written as if nothing were wrong.
+    if !exposure.is_finite() || exposure.abs() > MAX_EXPOSURE_STOPS {
+        return Err(out_err(format!(
+            "exposure {exposure} stops: it must be a finite number of stops within ±{MAX_EXPOSURE_STOPS}"
+        )));
+    }
     let dir = output_dir(path);
     std::fs::create_dir_all(dir).map_err(|e| out_err(format!("cannot create folder: {e}")))?;
     let name = path.file_name().map_or("image".into(), |n| n.to_string_lossy().into_owned());
@@ -241,6 +250,20 @@ mod tests {
         write_image(&image, &path, 0.0).unwrap();
         assert_eq!(read_exr(&path).unwrap(), image);
         std::fs::remove_dir_all(dir).ok();
+    }
+
+    /// An exposure of NaN or ±inf once wrote an all-black or all-white PNG and said nothing.
+    #[test]
+    fn a_non_finite_exposure_is_refused_and_nothing_is_written() {
+        let image = Image { width: 1, height: 1, pixels: vec![Vec3::splat(0.5)] };
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("out.png");
+        for exposure in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, 1e6] {
+            let message = write_image(&image, &path, exposure).unwrap_err().to_string();
+            assert!(message.contains("out.png") && message.contains("exposure"), "{message}");
+        }
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0, "something was written");
+        write_image(&image, &path, -2.0).unwrap();
     }
 
     #[test]
