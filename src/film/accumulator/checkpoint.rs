@@ -10,7 +10,7 @@ use std::path::Path;
 /// per pixel is `channels.len()` 32-bit words, channel `k` holding word `k` of every hit point in
 /// entity order (pixel-major): the uint channels `w.000`, `w.001`, … of a second EXR part,
 /// `hit_points`, of width × points per pixel, as they are; and the initial radius, in its header
-/// (`caustica.r0`, the f32's bits).
+/// (entry `r0`, the f32's bits).
 #[derive(Clone, Debug, PartialEq)]
 pub struct HitPointState {
     /// Hit points per pixel.

@@ -6,7 +6,9 @@
 //!   sum ([`super::fixed`]), 96-bit two's complement in three 32-bit words, least significant first;
 //! - `count` (uint): samples in the pixel.
 //!
-//! The header's text attributes `caustica.*` say what the sums are of: the format version, a
+//! The header's attribute `caustica`, a list of `key=value` texts in a fixed order (so the same sums
+//! are the same bytes in any process; files written before it have a text attribute `caustica.KEY`
+//! per entry, and are read too), says what the sums are of: the format version, a
 //! fingerprint of the scene and every setting that changes the image, the share (`part` of
 //! `parts`), the samples it covers (`samples`, a range of sample indices per pixel) and the whole
 //! render's (`spp`). That is what makes a merge safe: parts of different scenes or settings, a part
@@ -85,6 +87,8 @@ impl PartInfo {
 }
 
 const ATTRIBUTE_PREFIX: &str = "caustica.";
+/// The name of the attribute that holds a layer's entries.
+const ENTRIES_ATTRIBUTE: &str = "caustica";
 const CHANNELS: [&str; 3] = ["R", "G", "B"];
 
 /// Write `film` with `info` to `path` (a temporary file beside it, renamed over it once complete),
@@ -115,20 +119,14 @@ fn write_accumulator(
     channels
         .push(AnyChannel::new("count", FlatSamples::U32((0..n as u32).map(|i| film.samples(i)).collect())));
     let mut attributes = LayerAttributes::named("accumulator");
-    let text = |key: &str, value: String| {
-        (
-            Text::from(format!("{ATTRIBUTE_PREFIX}{key}").as_str()),
-            AttributeValue::Text(Text::from(value.as_str())),
-        )
-    };
-    attributes.other = HashMap::from([
-        text("format", FORMAT_VERSION.to_string()),
-        text("fingerprint", info.fingerprint.clone()),
-        text("integrator", info.integrator.clone()),
-        text("part", format!("{}/{}", info.part, info.parts)),
-        text("samples", format!("{}..{}", info.samples.start, info.samples.end)),
-        text("spp", info.spp.to_string()),
-        text("per_unit", info.per_unit.to_string()),
+    attributes.other = entries_attribute(&[
+        ("format", FORMAT_VERSION.to_string()),
+        ("fingerprint", info.fingerprint.clone()),
+        ("integrator", info.integrator.clone()),
+        ("part", format!("{}/{}", info.part, info.parts)),
+        ("samples", format!("{}..{}", info.samples.start, info.samples.end)),
+        ("spp", info.spp.to_string()),
+        ("per_unit", info.per_unit.to_string()),
     ]);
     let layer = Layer::new(
         (film.width as usize, film.height as usize),
@@ -162,10 +160,10 @@ fn write_accumulator(
             .map(|(w, words)| AnyChannel::new(format!("w.{w:03}").as_str(), FlatSamples::U32(words)))
             .collect();
         let mut attributes = LayerAttributes::named("hit_points");
-        attributes.other = HashMap::from([
-            text("words_per_point", words_per_point.to_string()),
-            text("points_per_pixel", points_per_pixel.to_string()),
-            text("r0", r0.to_bits().to_string()),
+        attributes.other = entries_attribute(&[
+            ("words_per_point", words_per_point.to_string()),
+            ("points_per_pixel", points_per_pixel.to_string()),
+            ("r0", r0.to_bits().to_string()),
         ]);
         layers.push(Layer::new(
             (width, film.height as usize),
@@ -205,12 +203,50 @@ fn bad(path: &Path, message: String) -> Error {
     Error::Accumulator { path: path.to_path_buf(), message }
 }
 
-fn info_from(attributes: &exr::meta::header::LayerAttributes, path: &Path) -> Result<PartInfo> {
+/// The attribute that holds a layer's `key=value` entries, in their order. One attribute, because
+/// the EXR writer writes a layer's attributes in the order of a `HashMap`, which differs from process
+/// to process: several would make the same sums different bytes run to run.
+fn entries_attribute(
+    entries: &[(&str, String)],
+) -> HashMap<exr::prelude::Text, exr::prelude::AttributeValue> {
     use exr::prelude::{AttributeValue, Text};
+    let list = entries.iter().map(|(key, value)| Text::from(format!("{key}={value}").as_str())).collect();
+    HashMap::from([(Text::from(ENTRIES_ATTRIBUTE), AttributeValue::TextVector(list))])
+}
+
+/// A layer's entries: the one list attribute, or in files written before it, a text attribute per
+/// key (`caustica.format`, …).
+fn entries(attributes: &exr::meta::header::LayerAttributes) -> Vec<(String, String)> {
+    use exr::prelude::{AttributeValue, Text};
+    if let Some(AttributeValue::TextVector(list)) = attributes.other.get(&Text::from(ENTRIES_ATTRIBUTE)) {
+        return list
+            .iter()
+            .filter_map(|t| t.to_string().split_once('=').map(|(k, v)| (k.to_owned(), v.to_owned())))
+            .collect();
+    }
+    attributes
+        .other
+        .iter()
+        .filter_map(|(name, value)| match value {
+            AttributeValue::Text(t) => {
+                name.to_string().strip_prefix(ATTRIBUTE_PREFIX).map(|key| (key.to_owned(), t.to_string()))
+            }
+            _ => None,
+        })
+        .collect()
+}
+
+/// The value of `key` among `entries`.
+fn entry<'a>(entries: &'a [(String, String)], key: &str) -> Option<&'a str> {
+    entries.iter().find(|(k, _)| k == key).map(|(_, v)| v.as_str())
+}
+
+fn info_from(attributes: &exr::meta::header::LayerAttributes, path: &Path) -> Result<PartInfo> {
+    let entries = entries(attributes);
     let attribute = |key: &str| -> Result<String> {
-        match attributes.other.get(&Text::from(format!("{ATTRIBUTE_PREFIX}{key}").as_str())) {
-            Some(AttributeValue::Text(t)) => Ok(t.to_string()),
-            _ => Err(bad(
+        match entry(&entries, key) {
+            Some(value) => Ok(value.to_owned()),
+            None => Err(bad(
                 path,
                 format!(
                     "no {ATTRIBUTE_PREFIX}{key} attribute: not a caustica accumulator (written with --part)"
@@ -297,12 +333,11 @@ pub fn read_checkpoint(path: &Path) -> Result<(Film, PartInfo, Option<HitPointSt
     let hit_points = match named("hit_points") {
         None => None,
         Some(layer) => {
+            let entries = entries(&layer.attributes);
             let number = |key: &str| -> crate::error::Result<u32> {
-                match layer.attributes.other.get(&Text::from(format!("{ATTRIBUTE_PREFIX}{key}").as_str())) {
-                    Some(AttributeValue::Text(t)) => {
-                        t.to_string().parse().map_err(|_| bad(path, format!("unreadable {key}")))
-                    }
-                    _ => Err(bad(path, format!("hit points without {ATTRIBUTE_PREFIX}{key}"))),
+                match entry(&entries, key) {
+                    Some(value) => value.parse().map_err(|_| bad(path, format!("unreadable {key}"))),
+                    None => Err(bad(path, format!("hit points without {ATTRIBUTE_PREFIX}{key}"))),
                 }
             };
             let per = number("words_per_point")? as usize;
