@@ -35,7 +35,7 @@ pub fn compare_files(image: &Path, reference: &Path, window: Option<&[u32]>) -> 
         )
     })?;
     let perceptual = flip(&a, &b).expect("sizes checked above");
-    println!("RMSE {:.6}\nrelMSE {:.6}\nMAE {:.6}", e.rmse, e.relmse, e.mae);
-    println!("FLIP {:.6}  (mean LDR-FLIP after the PNG tone map, 67 pixels per degree)", perceptual.mean);
+    outln!("RMSE {:.6}\nrelMSE {:.6}\nMAE {:.6}", e.rmse, e.relmse, e.mae);
+    outln!("FLIP {:.6}  (mean LDR-FLIP after the PNG tone map, 67 pixels per degree)", perceptual.mean);
     Ok(())
 }

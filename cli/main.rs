@@ -1,5 +1,18 @@
 //! The `caustica` command: parse, call the driver, print.
 
+/// `println!` that goes quiet once standard output is a closed pipe (`caustica compare … | head -c
+/// 1`): `println!` panics there, and the work the command is doing (files it writes) must finish.
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        if !crate::STDOUT_GONE.load(std::sync::atomic::Ordering::Relaxed)
+            && let Err(e) = writeln!(std::io::stdout(), $($arg)*)
+        {
+            crate::stdout_failed(e);
+        }
+    }};
+}
+
 mod args;
 mod bench;
 mod checkpoint;
@@ -15,6 +28,18 @@ use anyhow::Result;
 use args::{Cli, Command};
 use clap::Parser;
 use profile::SystemProfile;
+
+/// Set once standard output has gone (a closed pipe): nothing more is printed to it.
+static STDOUT_GONE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// A write to standard output failed: a closed pipe silences it; anything else is said once on
+/// standard error.
+fn stdout_failed(error: std::io::Error) {
+    let first = !STDOUT_GONE.swap(true, std::sync::atomic::Ordering::Relaxed);
+    if first && error.kind() != std::io::ErrorKind::BrokenPipe {
+        eprintln!("warning: cannot print to standard output: {error}; printing stops");
+    }
+}
 
 fn main() -> std::process::ExitCode {
     match run() {
@@ -61,7 +86,7 @@ fn run() -> Result<()> {
         }
         Some(Command::Density(args)) => {
             let summary = density_plot::run(&args)?;
-            println!(
+            outln!(
                 "{} points, h = {:.4} ({}); wrote {}",
                 summary.n,
                 summary.h,

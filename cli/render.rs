@@ -177,21 +177,21 @@ pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>) -> Result<bool
     };
     print_report(&scene_path, &report, start.elapsed().as_secs_f64());
     if let Some(profile) = profile {
-        println!("\nper-system profile (tracing spans)\n{}", profile.table());
+        outln!("\nper-system profile (tracing spans)\n{}", profile.table());
         if let Some(mut statistics) = renderer.world.get_resource_mut::<TraceStatistics>() {
-            println!("trace counters (BVH8: nodes = inner nodes, leaves = packs of 8 triangles or a sphere)");
-            println!("{}", profile.trace_table(&statistics.totals()));
+            outln!("trace counters (BVH8: nodes = inner nodes, leaves = packs of 8 triangles or a sphere)");
+            outln!("{}", profile.trace_table(&statistics.totals()));
         }
     }
     if let Some(reference) = &reference {
         let e = caustica::film::compare::compare(&image, reference).expect("sizes checked before rendering");
-        println!("error       RMSE {:.5}  relMSE {:.5}  MAE {:.5}", e.rmse, e.relmse, e.mae);
+        outln!("error       RMSE {:.5}  relMSE {:.5}  MAE {:.5}", e.rmse, e.relmse, e.mae);
     }
     for path in outputs.iter().chain(denoised.iter().filter(|_| denoise_failed.is_none())) {
-        println!("wrote       {}", path.display());
+        outln!("wrote       {}", path.display());
     }
     if let Some(checkpoints) = &checkpoints {
-        println!("checkpoints {}", checkpoints.summary());
+        outln!("checkpoints {}", checkpoints.summary());
     }
     if let Some(e) = checkpoint_failed {
         anyhow::bail!("the checkpoint was not written: {e:#}");
@@ -272,7 +272,7 @@ pub fn merge(parts: &[PathBuf], outputs: &[PathBuf], exposure: f32) -> Result<()
     for path in outputs {
         output::write_image(&image, path, exposure)?;
     }
-    println!(
+    outln!(
         "merged      {} parts of {}x{}, {} spp ({}) in {:.3} s",
         parts.len(),
         film.width,
@@ -282,7 +282,7 @@ pub fn merge(parts: &[PathBuf], outputs: &[PathBuf], exposure: f32) -> Result<()
         start.elapsed().as_secs_f64()
     );
     for path in outputs {
-        println!("wrote       {}", path.display());
+        outln!("wrote       {}", path.display());
     }
     Ok(())
 }
@@ -321,6 +321,8 @@ fn watch_for_signals(renderer: &Renderer) {
     let result = ctrlc::set_handler(move || {
         if flag.swap(true, std::sync::atomic::Ordering::Relaxed) {
             eprintln!("\nstopped at once: nothing more is written");
+            // A write cut short leaves no partial file beside its output (the previous file stays).
+            caustica::film::partial::remove_all();
             std::process::exit(INTERRUPTED_EXIT);
         }
         eprintln!(

@@ -8,8 +8,8 @@ use std::path::Path;
 /// Print `report` of a render of `scene` that took `total_seconds` with loading.
 pub fn print_report(scene: &Path, report: &Report, total_seconds: f64) {
     let seconds = report.seconds.max(1e-9);
-    println!("scene       {}", scene.display());
-    println!(
+    outln!("scene       {}", scene.display());
+    outln!(
         "integrator  {}, {} {}{}, {}x{}",
         report.integrator.name(),
         format_progress(report.done),
@@ -22,17 +22,17 @@ pub fn print_report(scene: &Path, report: &Report, total_seconds: f64) {
         report.width,
         report.height
     );
-    println!("time        {total_seconds:.3} s total, {:.3} s rendering", report.seconds);
+    outln!("time        {total_seconds:.3} s total, {:.3} s rendering", report.seconds);
     match report.stopped_by {
-        Some(caustica::driver::StopReason::TimeLimit) => println!("stopped     by the time limit"),
+        Some(caustica::driver::StopReason::TimeLimit) => outln!("stopped     by the time limit"),
         Some(caustica::driver::StopReason::Interrupted) => {
-            println!("stopped     by a signal (Ctrl-C or SIGTERM): the image so far")
+            outln!("stopped     by a signal (Ctrl-C or SIGTERM): the image so far")
         }
         None => {}
     }
     if let Some(a) = &report.adaptive {
         let e = &a.estimate;
-        println!(
+        outln!(
             "adaptive    threshold {}: {} samples, {} of {} pixels converged ({:.1}%), {}-{} spp per pixel",
             a.threshold,
             report.paths.samples,
@@ -42,22 +42,23 @@ pub fn print_report(scene: &Path, report: &Report, total_seconds: f64) {
             a.fewest,
             a.most
         );
-        println!(
+        outln!(
             "estimated   relMSE {:.3e} (mean squared relative error of the pixels, from their samples), largest pixel error {:.3}",
-            e.relmse, e.max_error
+            e.relmse,
+            e.max_error
         );
     }
-    println!("phases      {}", phases(report));
+    outln!("phases      {}", phases(report));
     let paths = &report.paths;
-    println!("samples/s   {:.3} M", report.samples_per_second() / 1e6);
-    println!(
+    outln!("samples/s   {:.3} M", report.samples_per_second() / 1e6);
+    outln!(
         "rays/s      {:.3} M ({} rays, {} shadow rays)",
         report.rays_per_second() / 1e6,
         paths.rays,
         paths.shadow_rays
     );
     if report.unit == Unit::Samples {
-        println!(
+        outln!(
             "wavefront   {} paths, {} steps, {:.0}% busy",
             report.wavefront,
             paths.steps,
@@ -65,7 +66,7 @@ pub fn print_report(scene: &Path, report: &Report, total_seconds: f64) {
         );
     }
     if paths.lookups > 0 {
-        println!(
+        outln!(
             "lookups     {} k-nearest queries, {:.3} M/s",
             paths.lookups,
             paths.lookups as f64 / seconds / 1e6
@@ -73,7 +74,7 @@ pub fn print_report(scene: &Path, report: &Report, total_seconds: f64) {
     }
     if let Some(photons) = &report.photons {
         let photon_seconds = report.phase_seconds("photons").max(1e-9);
-        println!(
+        outln!(
             "photons     {} emitted, {} stored, {} traced, {} ended by roulette; {:.2} M photons/s",
             photons.emitted,
             photons.stored,
@@ -82,7 +83,7 @@ pub fn print_report(scene: &Path, report: &Report, total_seconds: f64) {
             photons.emitted as f64 / photon_seconds / 1e6
         );
         for map in &photons.maps {
-            println!(
+            outln!(
                 "photon map  {}: {} emitted, {} stored ({:.1} MB)",
                 Report::map_name(map.kind),
                 map.emitted,
@@ -92,31 +93,37 @@ pub fn print_report(scene: &Path, report: &Report, total_seconds: f64) {
         }
     }
     if let Some(hp) = &report.hit_points {
-        println!(
+        outln!(
             "hit points  {} ({} per pixel, {} bytes each with their camera path), mean radius {:.4e} (initial {:.4e})",
-            hp.count, hp.per_pixel, hp.bytes_each, hp.mean_radius, hp.initial_radius
+            hp.count,
+            hp.per_pixel,
+            hp.bytes_each,
+            hp.mean_radius,
+            hp.initial_radius
         );
     }
     match &report.photons {
-        Some(photons) => println!(
+        Some(photons) => outln!(
             "NaN/Inf     {} samples, {} photon contributions dropped",
-            paths.nan_samples, photons.dropped
+            paths.nan_samples,
+            photons.dropped
         ),
-        None => println!("NaN/Inf     {} samples dropped", paths.nan_samples),
+        None => outln!("NaN/Inf     {} samples dropped", paths.nan_samples),
     }
     if let Some(bad) = &paths.first_bad {
         let (x, y) = (bad.pixel % report.width, bad.pixel / report.width);
         let cause = bad.cause.map_or("its radiance".to_owned(), |(what, depth)| {
             format!("{} at depth {depth}", what.describe())
         });
-        println!(
+        outln!(
             "            the first: pixel ({x}, {y}), sample {}, {cause} went NaN or infinite; seed {}, pixel and \
              sample give every random number of it again",
-            bad.sample, report.seed
+            bad.sample,
+            report.seed
         );
     }
     if let Some(pass) = report.photons.as_ref().and_then(|p| p.first_dropped_pass) {
-        println!("            the first photon contribution dropped in pass {pass}");
+        outln!("            the first photon contribution dropped in pass {pass}");
     }
 }
 

@@ -218,3 +218,30 @@ fn the_command_line_a_user_meets() {
     let out = caustica(&["render", dir.to_str().unwrap(), "-o", o]);
     assert_fails_naming(&out, "is a directory");
 }
+
+/// Standard output closed before the command prints (`caustica compare a b | head -c 1`): the
+/// command finishes without a panic (println! panicked on the broken pipe, exit 101).
+#[test]
+fn a_closed_stdout_pipe_is_not_a_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let image = dir.path().join("a.exr");
+    let status = std::process::Command::new(env!("CARGO_BIN_EXE_caustica"))
+        .arg("render")
+        .arg(common::data("cornell-box.gltf"))
+        .args(["--spp", "1", "--width", "8", "--height", "8", "--quiet", "-o"])
+        .arg(&image)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_caustica"))
+        .arg("compare")
+        .args([&image, &image])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let output = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success() && !stderr.contains("panicked"), "{:?}: {stderr}", output.status);
+}

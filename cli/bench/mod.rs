@@ -176,7 +176,7 @@ fn render_for(
 /// Print what a bench run measured and wrote.
 pub fn print(args: &BenchArgs, report: &BenchReport) {
     if let Some(reference) = &report.rendered_reference {
-        println!(
+        outln!(
             "reference   none given: rendered one with {} for {:.0} s (seed + 1) -> {}",
             args.reference_integrator.name(),
             args.reference_time.unwrap_or(4.0 * args.time),
@@ -184,7 +184,7 @@ pub fn print(args: &BenchArgs, report: &BenchReport) {
         );
     }
     for c in &report.checkpoints {
-        println!(
+        outln!(
             "{:<6} {:>9.3} s {:>10.1} spp|passes  relMSE {:.6}  RMSE {:.6}  FLIP {:.4}",
             c.integrator.name(),
             c.seconds,
@@ -195,7 +195,7 @@ pub fn print(args: &BenchArgs, report: &BenchReport) {
         );
     }
     for path in &report.files {
-        println!("wrote       {}", path.display());
+        outln!("wrote       {}", path.display());
     }
 }
 

@@ -7,6 +7,7 @@ pub mod denoise;
 pub mod fixed;
 pub mod flip;
 pub mod output;
+pub mod partial;
 
 use fixed::PixelSums;
 

@@ -67,6 +67,7 @@ pub fn write_image_with_aovs(
     let mut file = builder
         .tempfile_in(dir)
         .map_err(|e| out_err(format!("cannot create a file in {}: {e}", dir.display())))?;
+    let _pending = super::partial::pending(file.path());
     match extension(path).as_deref() {
         Some("exr") => match aovs {
             Some((features, which)) if !which.is_empty() => {

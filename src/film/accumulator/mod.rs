@@ -144,6 +144,7 @@ fn write_accumulator(
     let mut file = builder
         .tempfile_in(dir)
         .map_err(|e| out_err(format!("cannot create a file in {}: {e}", dir.display())))?;
+    let _pending = super::partial::pending(file.path());
     let mut layers = vec![layer];
     if let Some(state) = hit_points {
         let width = film.width as usize * state.points_per_pixel as usize;
