@@ -8,6 +8,7 @@ use anyhow::{Context, Result};
 use caustica::Renderer;
 use caustica::driver::StopReason;
 use caustica::driver::init_thread_pools;
+use caustica::files::{overwritten_input, same_file};
 use caustica::film::accumulator;
 use caustica::film::aov::Aov;
 use caustica::film::output;
@@ -74,8 +75,16 @@ pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>) -> Result<bool
         args.resume.as_deref().map(|path| crate::checkpoint::read_resume(path, &scene, &run)).transpose()?;
     let mut checkpoints = match &args.checkpoint {
         Some(path) => {
-            if outputs.iter().chain(args.reference.iter()).any(|o| o == path) {
-                anyhow::bail!("{}: the checkpoint is also an image output or the reference", path.display());
+            // Every file the run reads but the checkpoint it resumes from, which it goes on writing.
+            let read = inputs(args, &run, &scene_path);
+            let read = read.iter().filter(|p| !args.resume.as_deref().is_some_and(|r| same_file(r, p)));
+            if let Some(other) = overwritten_input(path, all_outputs.iter().chain(read).map(PathBuf::as_path))
+            {
+                anyhow::bail!(
+                    "{}: the checkpoint is also {}, which this run reads or writes: refusing to overwrite it",
+                    path.display(),
+                    other.display()
+                );
             }
             output::check_output_path(path)?;
             Some(crate::checkpoint::Checkpoints::new(path, args.checkpoint_every, &scene, &run)?)
@@ -337,11 +346,15 @@ fn watch_for_signals(renderer: &Renderer) {
 /// The files a render reads: its outputs must not be any of them.
 fn inputs(args: &RenderArgs, run: &RunFile, scene_path: &Path) -> Vec<PathBuf> {
     let beside = |p: &Path| scene_path.parent().unwrap_or(Path::new("")).join(p);
+    let environment = run.environment.file.as_deref();
     [
         Some(scene_path.to_path_buf()),
         run.gltf.as_deref().map(beside),
         args.reference.clone(),
-        run.environment.file.as_deref().map(beside),
+        args.resume.clone(),
+        environment.map(beside),
+        // Given on the command line, the map is named from the working folder.
+        environment.map(Path::to_path_buf),
     ]
     .into_iter()
     .flatten()
@@ -351,19 +364,15 @@ fn inputs(args: &RenderArgs, run: &RunFile, scene_path: &Path) -> Vec<PathBuf> {
 /// Every output is a format we write, in a place we can write, and not one of the inputs (a reference
 /// or an environment map overwritten by the render it was meant for is lost).
 fn check_outputs(outputs: &[PathBuf], inputs: &[PathBuf]) -> Result<()> {
-    let same = |a: &Path, b: &Path| match (std::fs::canonicalize(a), std::fs::canonicalize(b)) {
-        (Ok(a), Ok(b)) => a == b,
-        _ => false,
-    };
     for (i, path) in outputs.iter().enumerate() {
-        if let Some(input) = inputs.iter().find(|input| same(path, input)) {
+        if let Some(input) = overwritten_input(path, inputs.iter().map(PathBuf::as_path)) {
             anyhow::bail!(
                 "{}: the output is also an input ({}): refusing to overwrite it",
                 path.display(),
                 input.display()
             );
         }
-        if outputs[..i].iter().any(|other| other == path || same(other, path)) {
+        if outputs[..i].iter().any(|other| other == path || same_file(other, path)) {
             anyhow::bail!("{}: named twice as an output", path.display());
         }
         output::check_output_path(path)?;

@@ -13,6 +13,7 @@ pub mod camera;
 pub mod choice;
 pub mod density;
 pub mod error;
+pub mod files;
 pub mod film;
 pub mod geometry;
 pub mod kernel;
