@@ -1,4 +1,4 @@
-//! The scene's primitives in four-wide BVHs built by obvhs (`wide_bvh.rs`), with our watertight
+//! The scene's primitives in four-wide BVHs built by obvhs (`wide_bvh`), with our watertight
 //! intersectors: triangles in packs of four tested together (`triangle_pack.rs`), spheres one by one.
 //!
 //! Static primitives live in one set. Primitives that move over the shutter live in a second one built
@@ -6,20 +6,25 @@
 //! the ray's time; a scene with nothing moving has no second set and pays nothing for motion.
 //! Primitive ids are positions in the order the scene lists them (triangles of each mesh, then
 //! spheres), whatever the trees' order.
+//!
+//! This module holds the types and [`Geometry`]'s queries; `build.rs` builds the sets and their
+//! trees, `query.rs` traverses one set.
+
+mod build;
+mod query;
 
 use super::Ray;
 use super::alpha::{Cutouts, NO_CUTOUT};
 use super::offset::gamma;
-use super::sphere::{intersect_sphere, sphere_hit_point};
+use super::sphere::sphere_hit_point;
 use super::triangle::triangle_point_error;
-use super::triangle_pack::{LANES, PackLanes, PackRay, TrianglePack, intersect_pack};
-use super::wide_bvh::{BoxRay, LeafRule, TraceCounts, WideBvh, build_bvh2};
-use crate::scene::{Mesh, Scene};
-use glam::{Vec2, Vec3, Vec3A, Vec4};
-use obvhs::BvhBuildParams;
+use super::triangle_pack::{LANES, PackLanes, TrianglePack};
+use super::wide_bvh::{TraceCounts, WideBvh};
+use crate::scene::Scene;
+use build::{SetBuilder, binary_trees};
+use glam::{Vec2, Vec3, Vec4};
 use obvhs::aabb::Aabb;
-use obvhs::bvh2::Bvh2;
-use rayon::prelude::*;
+use query::{QueryRay, intersect_set, occluded_set};
 use std::time::{Duration, Instant};
 
 /// The shape of one primitive, in the order the BVH stores them.
@@ -396,305 +401,6 @@ impl Geometry {
                     light: info.light,
                 }
             }
-        }
-    }
-}
-
-/// A ray prepared once for the box tests and the triangle packs of every set.
-struct QueryRay {
-    boxes: BoxRay,
-    packs: PackRay,
-}
-
-impl QueryRay {
-    #[inline(always)]
-    fn new(ray: &Ray) -> Self {
-        Self { boxes: BoxRay::new(ray.o, ray.d), packs: PackRay::new(ray.o, ray.d) }
-    }
-}
-
-/// The hits of pack `p` of `set`, its lanes seeing the ray moved back by their displacement when
-/// the set moves.
-#[inline(always)]
-fn pack_hits(
-    set: &PrimitiveSet,
-    rays: &QueryRay,
-    ray: &Ray,
-    p: usize,
-    t_max: f32,
-) -> super::triangle_pack::PackHits {
-    match set.pack_motion.get(p) {
-        None => intersect_pack(&set.packs[p].0, &rays.packs, rays.packs.origin_lanes(), None, t_max),
-        Some(m) => {
-            let time = PackLanes::splat(ray.time);
-            let (o, lanes) = rays.packs.shifted(&[m[0] * time, m[1] * time, m[2] * time]);
-            intersect_pack(&set.packs[p].0, &rays.packs, &o, Some(&lanes), t_max)
-        }
-    }
-}
-
-/// The ray's origin as sphere `prim` of `set` sees it (moved back by the sphere's displacement).
-#[inline(always)]
-fn sphere_origin(set: &PrimitiveSet, ray: &Ray, prim: usize) -> Vec3 {
-    if set.motion.is_empty() { ray.o } else { ray.o - set.motion[prim] * ray.time }
-}
-
-#[inline]
-fn intersect_set(
-    set: &PrimitiveSet,
-    cutouts: &Cutouts,
-    ray: &Ray,
-    rays: &QueryRay,
-    id_bits: u32,
-    hit: &mut Hit,
-    counts: &mut TraceCounts,
-) {
-    let has_cutouts = !set.cutout.is_empty();
-    hit.t = set.triangles.closest(&rays.boxes, hit.t, counts, |first, count, mut t_max| {
-        for p in first as usize..(first + count) as usize {
-            let mut hits = pack_hits(set, rays, ray, p, t_max);
-            // Nearest first; a lane whose triangle is cut out there lets the next one count.
-            while let Some(i) = hits.nearest() {
-                let prim = set.packs[p].1[i];
-                let (b1, b2) = (hits.b1[i], hits.b2[i]);
-                if has_cutouts && cut_out(set, cutouts, prim as usize, b1, b2, ray, id_bits) {
-                    hits.mask &= !(1 << i);
-                    continue;
-                }
-                t_max = hits.t[i];
-                *hit = Hit { t: t_max, prim: prim | id_bits, b1, b2 };
-                break;
-            }
-        }
-        t_max
-    });
-    if set.sphere_prims.is_empty() {
-        return;
-    }
-    hit.t = set.spheres.closest(&rays.boxes, hit.t, counts, |first, count, mut t_max| {
-        for &prim in &set.sphere_prims[first as usize..(first + count) as usize] {
-            let PrimitiveShape::Sphere(c, r) = set.shapes[prim as usize] else { continue };
-            if let Some(t) = intersect_sphere(sphere_origin(set, ray, prim as usize), ray.d, t_max, c, r)
-                && t < t_max
-            {
-                t_max = t;
-                *hit = Hit { t, prim: prim | id_bits, b1: 0.0, b2: 0.0 };
-            }
-        }
-        t_max
-    });
-}
-
-#[inline]
-fn occluded_set(
-    set: &PrimitiveSet,
-    cutouts: &Cutouts,
-    ray: &Ray,
-    rays: &QueryRay,
-    id_bits: u32,
-    counts: &mut TraceCounts,
-) -> bool {
-    let has_cutouts = !set.cutout.is_empty();
-    let t_max = ray.t_max;
-    let blocked = set.triangles.any(&rays.boxes, t_max, counts, |first, count| {
-        (first as usize..(first + count) as usize).any(|p| {
-            let hits = pack_hits(set, rays, ray, p, t_max);
-            if !has_cutouts {
-                return hits.mask != 0;
-            }
-            let mut mask = hits.mask;
-            while mask != 0 {
-                let i = mask.trailing_zeros() as usize;
-                mask &= mask - 1;
-                let prim = set.packs[p].1[i] as usize;
-                if !cut_out(set, cutouts, prim, hits.b1[i], hits.b2[i], ray, id_bits) {
-                    return true;
-                }
-            }
-            false
-        })
-    });
-    blocked
-        || (!set.sphere_prims.is_empty()
-            && set.spheres.any(&rays.boxes, t_max, counts, |first, count| {
-                set.sphere_prims[first as usize..(first + count) as usize].iter().any(|&prim| {
-                    let PrimitiveShape::Sphere(c, r) = set.shapes[prim as usize] else { return false };
-                    intersect_sphere(sphere_origin(set, ray, prim as usize), ray.d, t_max, c, r)
-                        .is_some_and(|t| t < t_max)
-                })
-            }))
-}
-
-/// Whether primitive `i` of `set` is cut out (alpha) where the ray meets it.
-#[inline]
-fn cut_out(
-    set: &PrimitiveSet,
-    cutouts: &Cutouts,
-    i: usize,
-    b1: f32,
-    b2: f32,
-    ray: &Ray,
-    id_bits: u32,
-) -> bool {
-    match set.cutout.get(i) {
-        Some(&id) if id != NO_CUTOUT => cutouts.lets_through(id, b1, b2, ray, i as u32 | id_bits),
-        _ => false,
-    }
-}
-
-#[derive(Default)]
-struct SetBuilder {
-    cutout: Vec<u32>,
-    shapes: Vec<PrimitiveShape>,
-    info: Vec<PrimitiveInfo>,
-    motion: Vec<Vec3>,
-}
-
-impl SetBuilder {
-    fn push(&mut self, shape: PrimitiveShape, info: PrimitiveInfo, motion: Option<Vec3>, cutout: u32) {
-        self.cutout.push(cutout);
-        if let Some(m) = motion {
-            self.motion.push(m);
-        }
-        self.shapes.push(shape);
-        self.info.push(info);
-    }
-
-    /// The set, its trees flattened from `trees` (over its triangles, then its spheres).
-    fn build(self, trees: [Option<Bvh2>; 2]) -> PrimitiveSet {
-        if self.shapes.is_empty() {
-            return PrimitiveSet::default();
-        }
-        let [triangle_tree, sphere_tree] = trees;
-        // The leaves' triangles in leaf order, each pack's share of them, and the packs made after
-        // the binary tree is freed, all at once into exactly sized tables (a growing table of packs
-        // would hold its old and new storage at once) and in parallel.
-        let mut leaf_triangles = Vec::with_capacity(self.shapes.len());
-        let mut pack_ranges: Vec<(u32, u32)> = Vec::new();
-        let triangles = flatten(triangle_tree, TRIANGLE_LEAVES, |prims| {
-            let first = pack_ranges.len() as u32;
-            for chunk in prims.chunks(LANES) {
-                pack_ranges.push((leaf_triangles.len() as u32, chunk.len() as u32));
-                leaf_triangles.extend_from_slice(chunk);
-            }
-            (first, prims.len().div_ceil(LANES) as u32)
-        });
-        let pack_of = |&(start, len): &(u32, u32)| &leaf_triangles[start as usize..(start + len) as usize];
-        let packs: Vec<(TrianglePack, [u32; LANES])> = pack_ranges
-            .par_iter()
-            .map(|range| {
-                let chunk = pack_of(range);
-                let vertices: Vec<[Vec3; 3]> = chunk
-                    .iter()
-                    .map(|&p| match self.shapes[p as usize] {
-                        PrimitiveShape::Triangle(v) => v,
-                        PrimitiveShape::Sphere(..) => unreachable!("the triangle tree holds triangles"),
-                    })
-                    .collect();
-                (TrianglePack::new(&vertices), std::array::from_fn(|i| chunk[i.min(chunk.len() - 1)]))
-            })
-            .collect();
-        let pack_motion: Vec<[PackLanes; 3]> = if self.motion.is_empty() {
-            Vec::new()
-        } else {
-            pack_ranges
-                .par_iter()
-                .map(|range| {
-                    let chunk = pack_of(range);
-                    let m = |i: usize| self.motion[chunk[i.min(chunk.len() - 1)] as usize];
-                    std::array::from_fn(|a| PackLanes::new(std::array::from_fn(|i| m(i)[a])))
-                })
-                .collect()
-        };
-        let mut sphere_prims = Vec::new();
-        let spheres = flatten(sphere_tree, SPHERE_LEAVES, |prims| {
-            let first = sphere_prims.len() as u32;
-            sphere_prims.extend_from_slice(prims);
-            (first, prims.len() as u32)
-        });
-        let cutout = if self.cutout.iter().all(|&c| c == NO_CUTOUT) { Vec::new() } else { self.cutout };
-        PrimitiveSet {
-            triangles,
-            packs,
-            pack_motion,
-            spheres,
-            sphere_prims,
-            shapes: self.shapes,
-            info: self.info,
-            motion: self.motion,
-            cutout,
-        }
-    }
-}
-
-/// The binary trees of the static and the moving set (`[set][kind]`, triangles then spheres) and the
-/// bounds of everything. They are built from boxes alone, before any shape is copied out of the scene:
-/// a big mesh's peak memory is in the tree's build, and the shapes need not be alive for it.
-fn binary_trees(scene: &Scene) -> ([[Option<Bvh2>; 2]; 2], Aabb) {
-    let mut boxes: [[Vec<Aabb>; 2]; 2] = Default::default();
-    for mesh in &scene.meshes {
-        let moving = mesh.motion.filter(|m| *m != Vec3::ZERO);
-        boxes[moving.is_some() as usize][0].extend(mesh.indices.iter().map(|tri| {
-            swept(shape_aabb(&PrimitiveShape::Triangle(tri.map(|v| mesh.positions[v as usize]))), moving)
-        }));
-    }
-    for s in &scene.spheres {
-        let moving = s.motion.filter(|m| *m != Vec3::ZERO);
-        boxes[moving.is_some() as usize][1]
-            .push(swept(shape_aabb(&PrimitiveShape::Sphere(s.center, s.radius)), moving));
-    }
-    let bounds = boxes.iter().flatten().flatten().fold(Aabb::empty(), |acc, a| acc.union(a));
-    let trees = boxes.map(|[triangles, spheres]| {
-        // A set holds its triangles first: its spheres' ids follow them.
-        let first_sphere = triangles.len() as u32;
-        [binary_tree(triangles, 0), binary_tree(spheres, first_sphere)]
-    });
-    (trees, bounds)
-}
-
-/// Linear motion sweeps a box from its start to its end position: their union bounds it.
-fn swept(aabb: Aabb, motion: Option<Vec3>) -> Aabb {
-    motion.map_or(aabb, |m| aabb.union(&Aabb::new(aabb.min + Vec3A::from(m), aabb.max + Vec3A::from(m))))
-}
-
-/// The binary tree over the primitives whose boxes are `aabbs`, their ids from `first` on; `None`
-/// without primitives. The boxes are freed as soon as the tree is built.
-fn binary_tree(aabbs: Vec<Aabb>, first: u32) -> Option<Bvh2> {
-    let ids = (first..first + aabbs.len() as u32).collect();
-    (!aabbs.is_empty()).then(|| build_bvh2(&aabbs, ids, &BvhBuildParams::medium_build()))
-}
-
-/// The wide tree of `bvh2`, its leaves chosen by `rule` and made by `make_leaf`.
-fn flatten(bvh2: Option<Bvh2>, rule: LeafRule, make_leaf: impl FnMut(&[u32]) -> (u32, u32)) -> WideBvh {
-    bvh2.map_or_else(WideBvh::default, |bvh2| WideBvh::from_bvh2(&bvh2, rule, make_leaf))
-}
-
-/// Triangle leaves: one pack of eight, a node test costing about what a pack test does. Measured
-/// (incoherent rays, one thread): node costs of 0.5 or 2 are within 2% of this on the Cornell box. obvhs's spatial
-/// pre-splits of large triangles gained nothing on either (0% and 2%, within the noise): not used.
-const TRIANGLE_LEAVES: LeafRule = LeafRule { pack: LANES as u32, max_items: 1, node_cost: 1.0 };
-/// Spheres are tested one by one.
-const SPHERE_LEAVES: LeafRule = LeafRule { pack: 1, max_items: 4, node_cost: 1.0 };
-
-fn shape_aabb(shape: &PrimitiveShape) -> Aabb {
-    match *shape {
-        PrimitiveShape::Triangle(p) => {
-            let min = p[0].min(p[1]).min(p[2]);
-            let max = p[0].max(p[1]).max(p[2]);
-            Aabb::new(min.into(), max.into())
-        }
-        PrimitiveShape::Sphere(c, r) => Aabb::new((c - r).into(), (c + r).into()),
-    }
-}
-
-impl From<&Mesh> for MeshShading {
-    fn from(m: &Mesh) -> Self {
-        Self {
-            normals: m.normals.clone(),
-            uvs: m.uvs.clone(),
-            colors: m.colors.clone(),
-            tangents: m.tangents.clone(),
-            indices: m.indices.clone(),
         }
     }
 }

@@ -1,0 +1,73 @@
+//! Conversions between the renderer's images and reports and Python's numpy arrays and dicts.
+
+use caustica::Choice;
+use caustica::film::aov::{Aov, AovImages};
+use caustica::report::Unit;
+use numpy::{PyArray1, PyArrayMethods};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+/// A linear RGB image as a float32 array of height × width × 3.
+pub(crate) fn color_array<'py>(
+    py: Python<'py>,
+    image: &caustica::film::Image,
+) -> PyResult<Bound<'py, PyAny>> {
+    let flat: Vec<f32> = image.pixels.iter().flat_map(|p| p.to_array()).collect();
+    let array = PyArray1::from_vec(py, flat).reshape([image.height as usize, image.width as usize, 3])?;
+    Ok(array.into_any())
+}
+
+/// What a render did, as a dict of plain numbers.
+pub(crate) fn stats<'py>(py: Python<'py>, report: &caustica::Report) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("integrator", format!("{:?}", report.integrator).to_lowercase())?;
+    d.set_item("unit", if report.unit == Unit::Samples { "spp" } else { "passes" })?;
+    d.set_item("done", report.done)?;
+    d.set_item("target", report.target)?;
+    d.set_item("seed", report.seed)?;
+    d.set_item("seconds", report.seconds)?;
+    d.set_item("samples", report.paths.samples)?;
+    d.set_item("rays", report.paths.rays)?;
+    d.set_item("shadow_rays", report.paths.shadow_rays)?;
+    d.set_item("nan_samples", report.paths.nan_samples)?;
+    d.set_item("stopped_by", report.stopped_by.map(|s| format!("{s:?}").to_lowercase()))?;
+    if let Some(adaptive) = &report.adaptive {
+        d.set_item("pixels_converged", adaptive.estimate.converged)?;
+        d.set_item("estimated_relmse", adaptive.estimate.relmse)?;
+    }
+    Ok(d)
+}
+
+/// The feature images `which` as numpy arrays by name: `albedo` and `normal` float32 height ×
+/// width × 3, `depth` float32 height × width.
+pub(crate) fn aov_dict<'py>(
+    py: Python<'py>,
+    features: Option<&AovImages>,
+    which: &[Aov],
+    size: [usize; 2],
+) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    let Some(features) = features else { return Ok(d) };
+    for &aov in which {
+        let array = match aov {
+            Aov::Albedo => color_array(py, &features.albedo)?,
+            Aov::Normal => color_array(py, &features.normal)?,
+            Aov::Depth => PyArray1::from_slice(py, &features.depth).reshape(size)?.into_any(),
+            Aov::Spp => PyArray1::from_slice(py, &features.spp).reshape(size)?.into_any(),
+        };
+        d.set_item(aov.name(), array)?;
+    }
+    Ok(d)
+}
+
+/// A float32 height × width × 3 array as an image.
+pub(crate) fn image_of(color: &numpy::PyReadonlyArray3<'_, f32>) -> PyResult<caustica::film::Image> {
+    let array = color.as_array();
+    let shape = array.shape();
+    if shape[2] != 3 {
+        return Err(PyValueError::new_err(format!("an image is height x width x 3, not {shape:?}")));
+    }
+    let pixels = array.rows().into_iter().map(|p| glam::Vec3::new(p[0], p[1], p[2])).collect();
+    Ok(caustica::film::Image { width: shape[1] as u32, height: shape[0] as u32, pixels })
+}
