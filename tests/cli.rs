@@ -245,3 +245,40 @@ fn a_closed_stdout_pipe_is_not_a_panic() {
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(output.status.success() && !stderr.contains("panicked"), "{:?}: {stderr}", output.status);
 }
+
+/// A checkpoint or an output that names a file the run reads, by another spelling of its path, is
+/// refused before anything is written, and the file is untouched.
+#[test]
+fn a_checkpoint_or_output_never_overwrites_what_the_run_reads() {
+    let dir = tempfile::tempdir().unwrap();
+    let caustica = |args: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_caustica"))
+            .current_dir(dir.path())
+            .arg("render")
+            .arg(common::data("cornell-box.gltf"))
+            .args(["--spp", "2", "--width", "8", "--height", "8", "--quiet"])
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    assert!(caustica(&["-o", "ref.exr"]).status.success());
+    assert!(caustica(&["--checkpoint", "ck.exr", "-o", "first.exr"]).status.success());
+    let (reference, checkpoint) = (
+        std::fs::read(dir.path().join("ref.exr")).unwrap(),
+        std::fs::read(dir.path().join("ck.exr")).unwrap(),
+    );
+    for args in [
+        &["--reference", "ref.exr", "--checkpoint", "./ref.exr", "-o", "a.exr"][..],
+        &["--checkpoint", "./c.exr", "-o", "c.exr"],
+        &["--resume", "ck.exr", "-o", "./ck.exr"],
+    ] {
+        let output = caustica(args);
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(!output.status.success() && stderr.contains("refusing to overwrite"), "{args:?}: {stderr}");
+    }
+    assert_eq!(std::fs::read(dir.path().join("ref.exr")).unwrap(), reference);
+    assert_eq!(std::fs::read(dir.path().join("ck.exr")).unwrap(), checkpoint);
+    assert!(!dir.path().join("c.exr").exists());
+    // Resuming goes on writing the checkpoint it resumed from.
+    assert!(caustica(&["--resume", "ck.exr", "--checkpoint", "./ck.exr", "-o", "b.exr"]).status.success());
+}
