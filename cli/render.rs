@@ -345,20 +345,9 @@ fn watch_for_signals(renderer: &Renderer) {
 
 /// The files a render reads: its outputs must not be any of them.
 fn inputs(args: &RenderArgs, run: &RunFile, scene_path: &Path) -> Vec<PathBuf> {
-    let beside = |p: &Path| scene_path.parent().unwrap_or(Path::new("")).join(p);
-    let environment = run.environment.file.as_deref();
-    [
-        Some(scene_path.to_path_buf()),
-        run.gltf.as_deref().map(beside),
-        args.reference.clone(),
-        args.resume.clone(),
-        environment.map(beside),
-        // Given on the command line, the map is named from the working folder.
-        environment.map(Path::to_path_buf),
-    ]
-    .into_iter()
-    .flatten()
-    .collect()
+    let mut inputs = caustica::files::scene_inputs(scene_path, run);
+    inputs.extend(args.reference.iter().chain(&args.resume).cloned());
+    inputs
 }
 
 /// Every output is a format we write, in a place we can write, and not one of the inputs (a reference

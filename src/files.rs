@@ -30,6 +30,23 @@ fn resolved(path: &Path) -> Option<std::path::PathBuf> {
     Some(std::fs::canonicalize(folder).ok()?.join(path.file_name()?))
 }
 
+/// The files a scene loaded from `scene_path` with the settings `run` reads: the scene file, the
+/// run file's glTF and its environment map (named beside the scene, or from the working folder as a
+/// command line names it).
+pub fn scene_inputs(scene_path: &Path, run: &crate::scene::RunFile) -> Vec<std::path::PathBuf> {
+    let beside = |p: &Path| scene_path.parent().unwrap_or(Path::new("")).join(p);
+    let environment = run.environment.file.as_deref();
+    [
+        Some(scene_path.to_path_buf()),
+        run.gltf.as_deref().map(beside),
+        environment.map(beside),
+        environment.map(Path::to_path_buf),
+    ]
+    .into_iter()
+    .flatten()
+    .collect()
+}
+
 /// The first of `read` that `written` would overwrite, if any.
 pub fn overwritten_input<'a>(written: &Path, read: impl IntoIterator<Item = &'a Path>) -> Option<&'a Path> {
     read.into_iter().find(|input| same_file(written, input))

@@ -92,7 +92,7 @@ def load(path: Union[str, os.PathLike[str]], sets: list[str] = ...) -> Scene: ..
 def merge(paths: list[Union[str, os.PathLike[str]]]) -> tuple[npt.NDArray[np.float32], dict[str, Any]]:
     """Merge a split render's accumulators: the image and {integrator, parts, units}. Refused,
     naming the files, when a part is missing, repeated, of another render or incomplete."""
-def write_image(path: Union[str, os.PathLike[str]], color: npt.NDArray[np.float32], exposure: float = 1.0) -> None:
+def write_image(path: Union[str, os.PathLike[str]], color: npt.NDArray[np.float32], exposure: float = 0.0) -> None:
     """Write a linear float32 height x width x 3 image as .exr or .png (tone-mapped as the CLI's PNGs)."""
 def compare(image: npt.NDArray[np.float32], reference: npt.NDArray[np.float32]) -> dict[str, float]:
     """rmse, relmse, mae (linear RGB) and flip (mean LDR-FLIP after the PNG tone map), as

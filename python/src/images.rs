@@ -30,7 +30,7 @@ pub(crate) fn merge<'py>(
 /// Write a float32 height × width × 3 linear image as .exr or .png (tone-mapped as the command
 /// line's PNGs), through a temporary file renamed over `path`.
 #[pyfunction]
-#[pyo3(signature = (path, color, exposure=1.0))]
+#[pyo3(signature = (path, color, exposure=0.0))]
 pub(crate) fn write_image(
     py: Python<'_>,
     path: PathBuf,

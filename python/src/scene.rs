@@ -194,6 +194,14 @@ impl Scene {
             }
             integrator.set_units(&mut run, n);
         }
+        let inputs = caustica::files::scene_inputs(&self.path, &run);
+        if let Some(input) = caustica::files::overwritten_input(&path, inputs.iter().map(PathBuf::as_path)) {
+            return Err(refused(format!(
+                "{}: the part would overwrite {}, which the scene reads",
+                path.display(),
+                input.display()
+            )));
+        }
         let (mut renderer, info) =
             py.detach(|| Renderer::for_share(self.scene.clone(), &run, part, parts)).map_err(refused)?;
         let report = run_detached(py, &mut renderer, None)?;

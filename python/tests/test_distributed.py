@@ -30,6 +30,20 @@ def test_parts_rendered_by_hand_merge_into_one_render_and_a_missing_one_is_named
         caustica.load(BOX, integrator="sppm", passes=4, **SMALL).render_part(1, 2, tmp_path / "s.exr")
 
 
+def test_a_part_never_overwrites_the_scene_it_renders_and_exposure_must_be_finite(tmp_path):
+    scene_file = tmp_path / "box.gltf"
+    scene_file.write_bytes(BOX.read_bytes())
+    scene = caustica.load(scene_file, **SMALL)
+    with pytest.raises(caustica.CausticaError, match="which the scene reads"):
+        scene.render_part(1, 2, tmp_path / "." / "box.gltf", spp=2)
+    assert scene_file.read_bytes() == BOX.read_bytes()
+    color = np.full((2, 2, 3), 0.5, dtype=np.float32)
+    for exposure in (float("nan"), float("inf")):
+        with pytest.raises(caustica.CausticaError, match="exposure"):
+            caustica.write_image(tmp_path / "x.png", color, exposure=exposure)
+    assert not (tmp_path / "x.png").exists()
+
+
 ray = pytest.importorskip("ray")
 import caustica.distributed  # noqa: E402
 
