@@ -75,6 +75,24 @@ fn read_hit_point(w: &mut Words, hp: &mut HitPoint, with_hit: bool) {
     }
 }
 
+/// What is impossible in a hit point read back, if anything: statistics that are not finite, a
+/// radius that is not positive, a visible point off the scene's materials.
+fn damage(hp: &HitPoint, with_hit: bool, materials: usize) -> Option<String> {
+    if !(hp.tau.is_finite() && hp.n.is_finite() && hp.n >= 0.0) {
+        return Some(format!("τ = {}, N = {}", hp.tau, hp.n));
+    }
+    if !(hp.r2.is_finite() && hp.r2 > 0.0) {
+        return Some(format!("radius² = {}", hp.r2));
+    }
+    if with_hit && !(hp.p.is_finite() && hp.beta.is_finite()) {
+        return Some(format!("visible point {} with throughput {}", hp.p, hp.beta));
+    }
+    if with_hit && hp.shading.material as usize >= materials {
+        return Some(format!("material {} of {materials}", hp.shading.material));
+    }
+    None
+}
+
 /// What a World's hit points are made of: how many, and the words each takes.
 struct Layout {
     points: usize,
@@ -146,6 +164,10 @@ pub fn restore(world: &mut World, state: &HitPointState, with_hits: bool) -> Res
             layout.words_per_point
         ));
     }
+    if !(state.r0.is_finite() && state.r0 > 0.0) {
+        return refuse(format!("the initial radius is {}: the checkpoint is damaged", state.r0));
+    }
+    let materials = world.resource::<crate::resources::SceneResource>().materials.len();
     let mut words = Vec::with_capacity(layout.words_per_point);
     let mut query = world.query::<(&mut HitPoint, Option<&mut AdaptiveStats>, Option<&mut Chi2Cells>)>();
     for (i, (mut hp, stats, cells)) in query.iter_mut(world).enumerate() {
@@ -153,16 +175,30 @@ pub fn restore(world: &mut World, state: &HitPointState, with_hits: bool) -> Res
         words.extend(state.channels.iter().map(|c| c[i]));
         let mut w = Words(words.iter());
         read_hit_point(&mut w, &mut hp, with_hits);
+        if let Some(problem) = damage(&hp, with_hits, materials) {
+            return refuse(format!("hit point {i}: {problem}: the checkpoint is damaged"));
+        }
         if let Some(mut stats) = stats {
             let s = &mut stats.0;
             (s.laplacian_sum, s.variance_sum) = (w.f64(), w.f64());
             (s.passes, s.laplacian) = (w.u32(), w.f32());
+            if ![s.laplacian_sum, s.variance_sum, s.laplacian as f64].iter().all(|v| v.is_finite()) {
+                return refuse(format!(
+                    "hit point {i}: its adaptive statistics are not finite: the checkpoint is damaged"
+                ));
+            }
         }
         if let Some(mut cells) = cells {
             for c in &mut cells.counts {
                 *c = w.u32();
             }
             cells.min_photons = w.f32();
+            if !(cells.min_photons.is_finite() && cells.min_photons >= 0.0) {
+                return refuse(format!(
+                    "hit point {i}: its χ² threshold is {}: the checkpoint is damaged",
+                    cells.min_photons
+                ));
+            }
         }
     }
     let mut config = world.resource_mut::<ProgressiveConfig>();

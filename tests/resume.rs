@@ -187,3 +187,55 @@ fn a_foreign_or_damaged_checkpoint_is_refused_and_nothing_is_overwritten() {
     ]);
     assert!(e.contains("--checkpoint") && e.contains("visibility"), "{e}");
 }
+
+/// A checkpoint damaged on disk or written wrong is refused, naming the file and the damage, never
+/// resumed into a wrong image or a panic: a flipped bit in the sums (the checksum), a `ppm` hit point
+/// whose material is not the scene's (it panicked indexing the materials), an `sppm` radius of NaN
+/// (it resumed into black pixels with exit 0).
+#[test]
+fn damaged_checkpoints_are_refused_not_resumed() {
+    use caustica::film::accumulator::{read_checkpoint, write_checkpoint};
+    let dir = tempfile::tempdir().unwrap();
+    let write = |flags: &[&str], name: &str| {
+        let ck = dir.path().join(name);
+        let args = [flags, &["--checkpoint", ck.to_str().unwrap()]].concat();
+        assert!(caustica(&args, &[]).arg("-o").arg(dir.path().join("o.exr")).status().unwrap().success());
+        ck
+    };
+    let refusal = |flags: &[&str], ck: &Path| {
+        let args = [flags, &["--resume", ck.to_str().unwrap()]].concat();
+        let output = caustica(&args, &[]).arg("-o").arg(dir.path().join("r.exr")).output().unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+        assert_eq!(output.status.code(), Some(1), "{flags:?}: {stderr}");
+        stderr
+    };
+
+    let pt = write(&["--spp", "2"], "pt.exr");
+    let mut bytes = std::fs::read(&pt).unwrap();
+    // The last bytes of an uncompressed checkpoint are the last line's high sum words.
+    let at = bytes.len() - 6;
+    bytes[at] ^= 0x10;
+    std::fs::write(&pt, bytes).unwrap();
+    let e = refusal(&["--spp", "4"], &pt);
+    assert!(e.contains("pt.exr") && e.contains("damaged"), "{e}");
+
+    // Words of a hit point: τ (6), N (2), R² (1), then ppm's visible point: p (3), β (3), wo, ns, and
+    // three words of packed shading, the material in the last one's high half.
+    let damage = |ck: &Path, word: usize, value: u32| {
+        let (film, info, state) = read_checkpoint(ck).unwrap();
+        let mut state = state.expect("hit points");
+        state.channels[word][0] = value;
+        write_checkpoint(&film, &info, Some(state), ck).unwrap();
+    };
+    let ppm = ["--integrator", "ppm", "--photons-per-pass", "2000", "--hit-points-per-pixel", "1"];
+    let ck = write(&[&ppm[..], &["--passes", "3"]].concat(), "ppm.exr");
+    damage(&ck, 19, 0xffff_0000);
+    let e = refusal(&[&ppm[..], &["--passes", "4"]].concat(), &ck);
+    assert!(e.contains("material 65535") && e.contains("damaged"), "{e}");
+
+    let sppm = ["--integrator", "sppm", "--photons-per-pass", "2000"];
+    let ck = write(&[&sppm[..], &["--passes", "2"]].concat(), "sppm.exr");
+    damage(&ck, 8, f32::NAN.to_bits());
+    let e = refusal(&[&sppm[..], &["--passes", "4"]].concat(), &ck);
+    assert!(e.contains("radius") && e.contains("damaged"), "{e}");
+}

@@ -120,6 +120,7 @@ fn write_accumulator(
         .push(AnyChannel::new("count", FlatSamples::U32((0..n as u32).map(|i| film.samples(i)).collect())));
     let mut attributes = LayerAttributes::named("accumulator");
     attributes.other = entries_attribute(&[
+        ("checksum", format!("{:08x}", checksum(film, hit_points.as_ref()))),
         ("format", FORMAT_VERSION.to_string()),
         ("fingerprint", info.fingerprint.clone()),
         ("integrator", info.integrator.clone()),
@@ -202,6 +203,29 @@ pub fn read_info(path: &Path) -> Result<(PartInfo, (u32, u32))> {
 
 fn bad(path: &Path, message: String) -> Error {
     Error::Accumulator { path: path.to_path_buf(), message }
+}
+
+/// CRC-32 of everything a resumed render or a merge takes from an accumulator: every pixel's sums
+/// and count, and the hit points' words.
+fn checksum(film: &Film, hit_points: Option<&HitPointState>) -> u32 {
+    let mut crc = crc32fast::Hasher::new();
+    let mut bytes = Vec::with_capacity(28 * film.width as usize);
+    for pixel in 0..film.width * film.height {
+        let (sums, count) = (film.sums(pixel).0, film.samples(pixel));
+        bytes.extend(sums.iter().flat_map(|s| s.to_le_bytes()));
+        bytes.extend(count.to_le_bytes());
+        if bytes.len() >= 1 << 16 {
+            crc.update(&bytes);
+            bytes.clear();
+        }
+    }
+    for channel in hit_points.iter().flat_map(|state| &state.channels) {
+        bytes.extend(channel.iter().flat_map(|w| w.to_le_bytes()));
+        crc.update(&bytes);
+        bytes.clear();
+    }
+    crc.update(&bytes);
+    crc.finalize()
 }
 
 /// The attribute that holds a layer's `key=value` entries, in their order. One attribute, because
@@ -363,6 +387,13 @@ pub fn read_checkpoint(path: &Path) -> Result<(Film, PartInfo, Option<HitPointSt
             })
         }
     };
+    // Files of the per-key form came before the checksum.
+    if let Some(written) = entry(&entries(&layer.attributes), "checksum") {
+        let read = format!("{:08x}", checksum(&film, hit_points.as_ref()));
+        if written != read {
+            return Err(bad(path, format!("checksum {read}, written {written}: the file is damaged")));
+        }
+    }
     Ok((film, info, hit_points))
 }
 
