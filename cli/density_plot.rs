@@ -44,6 +44,18 @@ pub fn run(args: &DensityArgs) -> Result<DensitySummary> {
             }
         },
     };
+    if !(h > 0.0 && h.is_finite()) {
+        return Err(Error::Setting {
+            name: "h".into(),
+            problem: format!("{h_rule} gives {h} for {} (no spread): give --h", args.data.display()),
+        });
+    }
+    if !args.origin.is_finite() {
+        return Err(Error::Setting {
+            name: "origin".into(),
+            problem: format!("{} is not finite", args.origin),
+        });
+    }
     let values = sample.values();
     let (lo, hi) = (values[0], values[values.len() - 1]);
     let pad = 0.1 * (hi - lo).max(h);

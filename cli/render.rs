@@ -86,6 +86,9 @@ pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>) -> Result<bool
                     other.display()
                 );
             }
+            if !is_exr(path) {
+                anyhow::bail!("{}: a checkpoint is an EXR accumulator: name it FILE.exr", path.display());
+            }
             output::check_output_path(path)?;
             Some(crate::checkpoint::Checkpoints::new(path, args.checkpoint_every, &scene, &run)?)
         }

@@ -282,3 +282,34 @@ fn a_checkpoint_or_output_never_overwrites_what_the_run_reads() {
     // Resuming goes on writing the checkpoint it resumed from.
     assert!(caustica(&["--resume", "ck.exr", "--checkpoint", "./ck.exr", "-o", "b.exr"]).status.success());
 }
+
+/// Odd inputs that rendered or plotted without a word: a checkpoint named .png (written as an EXR
+/// under that name), `pm` without photons, a density bandwidth of 0 from data without spread, a NaN
+/// histogram origin.
+#[test]
+fn odd_inputs_are_refused_or_said() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |args: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_caustica"))
+            .current_dir(dir.path())
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    let scene = common::data("cornell-box.gltf");
+    let scene = scene.to_str().unwrap();
+    let small = ["--width", "8", "--height", "8", "--spp", "1", "-o", "o.exr"];
+    let output = run(&[&["render", scene, "--checkpoint", "c.png"][..], &small].concat());
+    assert!(!output.status.success() && String::from_utf8_lossy(&output.stderr).contains("FILE.exr"));
+    assert!(!dir.path().join("c.png").exists() && !dir.path().join("o.exr").exists());
+    let output = run(&[&["render", scene, "--integrator", "pm", "--photons", "0"][..], &small].concat());
+    let said = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success() && said.contains("photons = 0"), "{said}");
+    std::fs::write(dir.path().join("same.txt"), "2 2 2 2\n").unwrap();
+    let output = run(&["density", "same.txt", "-o", "d.png"]);
+    assert!(!output.status.success() && String::from_utf8_lossy(&output.stderr).contains("give --h"));
+    std::fs::write(dir.path().join("d.txt"), "1 2 3 4\n").unwrap();
+    let output = run(&["density", "d.txt", "--method", "histogram", "--origin", "NaN", "-o", "d.png"]);
+    assert!(!output.status.success() && String::from_utf8_lossy(&output.stderr).contains("origin"));
+    assert!(!dir.path().join("d.png").exists());
+}

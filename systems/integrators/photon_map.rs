@@ -68,8 +68,14 @@ fn memory(_: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
     }
 }
 
-/// The caustic map cannot be dropped.
+/// The caustic map cannot be dropped; a map of no photons is said.
 fn check(_: &Scene, run: &RunFile) -> Result<()> {
+    if run.photons.photons == 0 {
+        tracing::warn!("pm with photons = 0: no global map, so no indirect light beyond caustics");
+    }
+    if run.photons.caustic_photons == 0 {
+        tracing::warn!("pm with caustic_photons = 0: no caustic map, so no light through glass or mirrors");
+    }
     if run.schedule.caustic_map == Some(false) {
         return Err(Error::Setting {
             name: "schedule.caustic_map".into(),

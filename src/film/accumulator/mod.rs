@@ -135,6 +135,10 @@ fn write_accumulator(
         encoding,
         AnyChannels::sort(SmallVec::from_vec(channels)),
     );
+    // An accumulator is an EXR: under another name it would be an EXR that viewers misread.
+    if !path.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
+        return Err(out_err("an accumulator (a part or a checkpoint) is an EXR: name it FILE.exr".into()));
+    }
     let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir).map_err(|e| out_err(format!("cannot create folder: {e}")))?;
     let mut builder = tempfile::Builder::new();
