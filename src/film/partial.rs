@@ -58,7 +58,11 @@ mod tests {
         drop(pending(&written));
         let _cut = pending(&cut);
         let mut listed: Vec<PathBuf> = lock().iter().filter(|p| p.starts_with(dir.path())).cloned().collect();
-        assert_eq!(listed, [cut.clone()], "a completed write is still listed, or a running one is not");
+        assert_eq!(
+            listed,
+            std::slice::from_ref(&cut),
+            "a completed write is still listed, or a running one is not"
+        );
         remove_listed(&mut listed);
         assert!(written.exists() && !cut.exists());
     }
