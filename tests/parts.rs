@@ -201,3 +201,45 @@ fn the_command_line_splits_and_merges_to_the_same_file() {
     assert!(!output.status.success() && stderr.contains("missing part 2/2"), "{stderr}");
     assert!(!dir.path().join("never.exr").exists());
 }
+
+/// Headers that claim more than a merge can hold are refused before anything that size is
+/// allocated: four billion shares (a slot per share was 32 GB, the list of missing ones more), and a
+/// part whose data window claims 100 000 × 100 000 pixels in a file of a few kilobytes (400 GB).
+#[test]
+fn claimed_sizes_are_checked_before_anything_that_size_is_allocated() {
+    let dir = tempfile::tempdir().unwrap();
+    let part = dir.path().join("p.exr");
+    let status = std::process::Command::new(env!("CARGO_BIN_EXE_caustica"))
+        .arg("render")
+        .arg(common::data("cornell-box.gltf"))
+        .args([
+            "--spp",
+            "4000000000",
+            "--part",
+            "1/4000000000",
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "--quiet",
+            "-o",
+        ])
+        .arg(&part)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let message = caustica::film::accumulator::merge_parts(&[&part]).unwrap_err().to_string();
+    assert!(message.contains("2/4000000000") && message.contains("3999999989 more"), "{message}");
+
+    // The data window (box2i: x min, y min, x max, y max) made 100 000 pixels square.
+    let mut bytes = std::fs::read(&part).unwrap();
+    let name = b"dataWindow\0box2i\0";
+    let at = bytes.windows(name.len()).position(|w| w == name).unwrap() + name.len() + 4;
+    for (i, value) in [0i32, 0, 99_999, 99_999].iter().enumerate() {
+        bytes[at + 4 * i..at + 4 * i + 4].copy_from_slice(&value.to_le_bytes());
+    }
+    let huge = dir.path().join("huge.exr");
+    std::fs::write(&huge, bytes).unwrap();
+    let message = caustica::film::accumulator::merge_parts(&[&huge]).unwrap_err().to_string();
+    assert!(message.contains("huge.exr") && message.contains("10000000000 pixels"), "{message}");
+}

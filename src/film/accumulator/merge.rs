@@ -19,7 +19,8 @@ pub fn merge_parts(paths: &[impl AsRef<Path>]) -> Result<(Film, PartInfo)> {
     let Some((first_path, base, size)) = headers.first().cloned() else {
         return Err(merge_err("no parts given".into()));
     };
-    let mut by_index: Vec<Option<&Path>> = vec![None; base.parts as usize];
+    // Sorted by share, not a slot per share: a header may claim four billion shares.
+    let mut given: Vec<(u32, &Path)> = Vec::with_capacity(headers.len());
     for (path, info, part_size) in &headers {
         let differs = |what: &str| {
             merge_err(format!(
@@ -49,29 +50,33 @@ pub fn merge_parts(paths: &[impl AsRef<Path>]) -> Result<(Film, PartInfo)> {
                 info.samples
             )));
         }
-        let slot = &mut by_index[info.part as usize - 1];
-        if let Some(other) = slot {
-            return Err(merge_err(format!(
-                "part {}/{} is given twice: {} and {}",
-                info.part,
-                info.parts,
-                other.display(),
-                path.display()
-            )));
-        }
-        *slot = Some(path);
+        given.push((info.part, path));
     }
-    let missing: Vec<String> = by_index
-        .iter()
-        .enumerate()
-        .filter(|(_, p)| p.is_none())
-        .map(|(i, _)| format!("{}/{}", i + 1, base.parts))
-        .collect();
-    if !missing.is_empty() {
+    given.sort_by_key(|&(part, _)| part);
+    if let Some(pair) = given.windows(2).find(|pair| pair[0].0 == pair[1].0) {
         return Err(merge_err(format!(
-            "missing part{} {}",
-            if missing.len() > 1 { "s" } else { "" },
-            missing.join(", ")
+            "part {}/{} is given twice: {} and {}",
+            pair[0].0,
+            base.parts,
+            pair[0].1.display(),
+            pair[1].1.display()
+        )));
+    }
+    let missing_count = base.parts as u64 - given.len() as u64;
+    if missing_count > 0 {
+        const NAMED: usize = 10;
+        let mut missing = Vec::new();
+        let mut next = 1u64;
+        for part in given.iter().map(|&(part, _)| part as u64).chain([base.parts as u64 + 1]) {
+            missing.extend((next..part).take(NAMED - missing.len()).map(|i| format!("{i}/{}", base.parts)));
+            next = part + 1;
+        }
+        let more = missing_count.saturating_sub(missing.len() as u64);
+        return Err(merge_err(format!(
+            "missing part{} {}{}",
+            if missing_count > 1 { "s" } else { "" },
+            missing.join(", "),
+            if more > 0 { format!(" and {more} more") } else { String::new() }
         )));
     }
     // Then the pixels, one part at a time: memory for the whole film and one part.

@@ -202,7 +202,28 @@ pub fn read_info(path: &Path) -> Result<(PartInfo, (u32, u32))> {
             bad(path, "no accumulator part: not a caustica accumulator (written with --part)".into())
         })?;
     let info = info_from(&header.own_attributes, path)?;
-    Ok((info, (header.layer_size.width() as u32, header.layer_size.height() as u32)))
+    let (width, height) = (header.layer_size.width(), header.layer_size.height());
+    check_claimed_size(path, width as u64 * height as u64)?;
+    Ok((info, (width as u32, height as u32)))
+}
+
+/// Refuse an accumulator whose header claims more pixels than its file can hold, before anything of
+/// that size is allocated: every pixel is 52 bytes of channels, which zlib (EXR's ZIP) packs at
+/// most 1032 to 1, so a file holds at most 1100 × its length of pixel bytes.
+fn check_claimed_size(path: &Path, pixels: u64) -> Result<()> {
+    const BYTES_PER_PIXEL: u64 = 52;
+    const MAX_RATIO: u64 = 1100;
+    let length = std::fs::metadata(path).map_err(|e| bad(path, e.to_string()))?.len();
+    let claimed = pixels.saturating_mul(BYTES_PER_PIXEL);
+    if claimed > length.saturating_mul(MAX_RATIO) {
+        return Err(bad(
+            path,
+            format!(
+                "its header claims {pixels} pixels ({claimed} bytes of sums), more than a file of {length} bytes can hold"
+            ),
+        ));
+    }
+    Ok(())
 }
 
 fn bad(path: &Path, message: String) -> Error {
@@ -317,6 +338,8 @@ pub fn read_part(path: &Path) -> Result<(Film, PartInfo)> {
 /// Read an accumulator with the hit points a checkpoint of a progressive mapper holds, if any.
 pub fn read_checkpoint(path: &Path) -> Result<(Film, PartInfo, Option<HitPointState>)> {
     use exr::prelude::*;
+    // The header and its claimed size first: the pixels are read whole.
+    read_info(path)?;
     let image = read()
         .no_deep_data()
         .largest_resolution_level()
