@@ -19,6 +19,7 @@ pub mod geometry;
 pub mod kernel;
 pub mod lights;
 pub mod materials;
+pub mod memory;
 pub mod photon;
 pub mod render_scene;
 pub mod sampling;

@@ -1362,3 +1362,67 @@ fn skins_animations_and_morph_targets_are_warned_about_once_each() {
     let z: Vec<f32> = scene.meshes[3..].iter().map(|m| m.positions[1].z).collect();
     assert_eq!(z, vec![0.5, 0.5, 0.0]);
 }
+
+/// Sizes a small file declares are checked before they are allocated: fifty thousand nodes placing
+/// one mesh of a million (all-zero) triangles, 5·10¹⁰ in all, from a file of under a megabyte; and
+/// a sparse accessor without a bufferView declaring 2³⁰ elements (it passed the cap of plain ones).
+#[test]
+fn declared_geometry_beyond_memory_is_refused_before_it_is_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let nodes: Vec<serde_json::Value> = (0..50_000).map(|_| serde_json::json!({ "mesh": 0 })).collect();
+    let gltf = serde_json::json!({
+        "asset": { "version": "2.0" },
+        "scene": 0,
+        "scenes": [{ "nodes": (0..50_000).collect::<Vec<u32>>() }],
+        "nodes": nodes,
+        "meshes": [{ "primitives": [{ "attributes": { "POSITION": 0 } }] }],
+        "accessors": [{ "componentType": 5126, "count": 3_000_000, "type": "VEC3", "min": [0, 0, 0], "max": [0, 0, 0] }]
+    });
+    let path = dir.path().join("instanced.gltf");
+    std::fs::write(&path, gltf.to_string()).unwrap();
+    let message = caustica::scene::load(&path).unwrap_err().to_string();
+    assert!(message.contains("instanced.gltf") && message.contains("50000000000 triangles"), "{message}");
+
+    let sparse = serde_json::json!({
+        "asset": { "version": "2.0" },
+        "scene": 0,
+        "scenes": [{ "nodes": [0] }],
+        "nodes": [{ "mesh": 0 }],
+        "meshes": [{ "primitives": [{ "attributes": { "POSITION": 0 } }] }],
+        "buffers": [{ "byteLength": 16, "uri": "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAAAAAA==" }],
+        "bufferViews": [{ "buffer": 0, "byteOffset": 0, "byteLength": 4 }, { "buffer": 0, "byteOffset": 4, "byteLength": 12 }],
+        "accessors": [{
+            "componentType": 5126, "count": 1_073_741_824, "type": "VEC3", "min": [0, 0, 0], "max": [0, 0, 0],
+            "sparse": { "count": 1, "indices": { "bufferView": 0, "componentType": 5125 }, "values": { "bufferView": 1 } }
+        }]
+    });
+    let path = dir.path().join("sparse.gltf");
+    std::fs::write(&path, sparse.to_string()).unwrap();
+    let message = caustica::scene::load(&path).unwrap_err().to_string();
+    assert!(
+        message.contains("sparse.gltf")
+            && (message.contains("no bufferView") || message.contains("triangles")),
+        "{message}"
+    );
+
+    // An external buffer of 64 GiB (a sparse file: it takes no disk) was allocated whole and aborted.
+    let big = std::fs::File::create(dir.path().join("big.bin")).unwrap();
+    big.set_len(64 << 30).unwrap();
+    let external = serde_json::json!({
+        "asset": { "version": "2.0" },
+        "scene": 0,
+        "scenes": [{ "nodes": [0] }],
+        "nodes": [{ "mesh": 0 }],
+        "meshes": [{ "primitives": [{ "attributes": { "POSITION": 0 } }] }],
+        "buffers": [{ "byteLength": 64u64 << 30, "uri": "big.bin" }],
+        "bufferViews": [{ "buffer": 0, "byteLength": 36 }],
+        "accessors": [{ "bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0] }]
+    });
+    let path = dir.path().join("external.gltf");
+    std::fs::write(&path, external.to_string()).unwrap();
+    let message = caustica::scene::load(&path).unwrap_err().to_string();
+    assert!(
+        message.contains("external.gltf") && message.contains("over half this machine's memory"),
+        "{message}"
+    );
+}

@@ -11,6 +11,34 @@ use gltf::mesh::Mode;
 use tracing::warn;
 
 impl Loader<'_> {
+    /// Refuse a file whose meshes, every placement counted, hold more triangles than half of this
+    /// machine's memory (at [`BYTES_PER_TRIANGLE`]), by the accessors' declared counts, before any is
+    /// read: a file of a few megabytes can place one large mesh in fifty thousand nodes.
+    pub(super) fn check_geometry_budget(&self) -> Result<()> {
+        let triangles = |p: gltf::Primitive| {
+            let vertices = || p.get(&Semantic::Positions).map_or(0, |a| a.count());
+            p.indices().map_or_else(vertices, |a| a.count()) as u64 / 3
+        };
+        // A node is placed at most once (the hierarchy is a tree), so each counts its mesh once.
+        let total = self
+            .document
+            .nodes()
+            .filter_map(|node| node.mesh())
+            .map(|mesh| mesh.primitives().map(triangles).sum::<u64>())
+            .fold(0u64, u64::saturating_add);
+        let budget = crate::memory::physical_bytes() / 2 / BYTES_PER_TRIANGLE;
+        if total > budget {
+            return Err(self.invalid(
+                "its meshes",
+                format!(
+                    "{total} triangles, every node's placement counted, over the {budget} that half of this \
+                     machine's memory holds"
+                ),
+            ));
+        }
+        Ok(())
+    }
+
     pub(super) fn add_mesh(&mut self, node: &gltf::Node, mesh: &gltf::Mesh, world: Mat4) -> Result<()> {
         let weights = node.weights().or(mesh.weights());
         for primitive in mesh.primitives() {
@@ -265,6 +293,10 @@ fn check_normalized(accessor: &Accessor, what: &str) -> Result<(), String> {
     ))
 }
 
+/// Memory a triangle takes once loaded, BVH included (vertices shared or not, normals, packs): the
+/// geometry budget's unit.
+const BYTES_PER_TRIANGLE: u64 = 96;
+
 /// Most elements an accessor without a bufferView (all zeros) may declare: 2^28, beyond any mesh a
 /// renderer of this machine's memory can hold.
 const MAX_ZERO_ACCESSOR_COUNT: usize = 1 << 28;
@@ -276,18 +308,18 @@ fn read<T: Default + Clone>(
     what: &str,
     values: Option<impl Iterator<Item = T>>,
 ) -> Result<Vec<T>, String> {
+    // No data behind an accessor without a bufferView (all zeros, sparse or not) bounds its count, so
+    // the file's word must be checked before it is allocated.
+    if accessor.view().is_none() && accessor.count() > MAX_ZERO_ACCESSOR_COUNT {
+        return Err(format!(
+            "{what} ({}) has no bufferView and a count of {}, over the {MAX_ZERO_ACCESSOR_COUNT} a mesh may have",
+            label("accessor", accessor.name(), accessor.index()),
+            accessor.count()
+        ));
+    }
     match values {
         Some(values) => Ok(values.collect()),
         None if accessor.view().is_none() && accessor.sparse().is_none() => {
-            // No data behind it bounds the count of an all-zeros accessor, so the file's word must be
-            // checked before it is allocated.
-            if accessor.count() > MAX_ZERO_ACCESSOR_COUNT {
-                return Err(format!(
-                    "{what} ({}) has no bufferView and a count of {}, over the {MAX_ZERO_ACCESSOR_COUNT} a mesh may have",
-                    label("accessor", accessor.name(), accessor.index()),
-                    accessor.count()
-                ));
-            }
             Ok(vec![T::default(); accessor.count()])
         }
         None => Err(format!(

@@ -178,6 +178,11 @@ fn read_external(uri: &str, base: &Path, length: usize) -> Result<Option<gltf::b
     if size < length as u64 {
         return Err(format!("holds {size} bytes but byteLength says {length}"));
     }
+    // A sparse file can be as long as it likes; what is read must fit in memory.
+    let memory = crate::memory::physical_bytes();
+    if length as u64 > memory / 2 {
+        return Err(format!("byteLength {length} is over half this machine's memory ({memory} bytes)"));
+    }
     let mut bytes = Vec::with_capacity(length);
     std::fs::File::open(&path)
         .and_then(|file| file.take(length as u64).read_to_end(&mut bytes))

@@ -73,6 +73,7 @@ pub fn load_gltf_with_camera(path: &Path, camera: Option<&str>) -> Result<Scene>
     match scene {
         Some(scene) => {
             loader.scene.resolution = resolution(&scene, path)?;
+            loader.check_geometry_budget()?;
             loader.walk(&scene, document.nodes().len())?;
         }
         None => warn!(file = %path.display(), "the file has no scene: nothing to render"),
