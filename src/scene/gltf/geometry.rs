@@ -15,9 +15,15 @@ impl Loader<'_> {
     /// machine's memory (at [`BYTES_PER_TRIANGLE`]), by the accessors' declared counts, before any is
     /// read: a file of a few megabytes can place one large mesh in fifty thousand nodes.
     pub(super) fn check_geometry_budget(&self) -> Result<()> {
+        // An accessor in a bufferView holds at most what the view does (a count past its end is
+        // refused by name when the accessor is read); one without is all zeros of its declared count.
+        let elements = |a: Accessor| match a.view() {
+            Some(view) => a.count().min(view.length() / a.size().max(1)),
+            None => a.count(),
+        };
         let triangles = |p: gltf::Primitive| {
-            let vertices = || p.get(&Semantic::Positions).map_or(0, |a| a.count());
-            p.indices().map_or_else(vertices, |a| a.count()) as u64 / 3
+            let vertices = || p.get(&Semantic::Positions).map_or(0, elements);
+            p.indices().map_or_else(vertices, elements) as u64 / 3
         };
         // A node is placed at most once (the hierarchy is a tree), so each counts its mesh once.
         let total = self
