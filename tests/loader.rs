@@ -1426,3 +1426,13 @@ fn declared_geometry_beyond_memory_is_refused_before_it_is_read() {
         "{message}"
     );
 }
+
+/// A run file's glTF that is a device never ends: refused naming it, not read forever.
+#[test]
+fn a_run_files_gltf_that_is_a_device_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = dir.path().join("zero.toml");
+    std::fs::write(&run, "gltf = \"/dev/zero\"\n").unwrap();
+    let message = caustica::scene::load(&run).unwrap_err().to_string();
+    assert!(message.contains("/dev/zero") && message.contains("not a regular file"), "{message}");
+}

@@ -9,8 +9,13 @@ use std::path::Path;
 pub(super) fn import(
     path: &Path,
 ) -> Result<(gltf::Document, Vec<gltf::buffer::Data>, Vec<gltf::image::Data>)> {
-    let bytes = std::fs::read(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
     let gltf_error = |message: String| Error::Gltf { path: path.to_path_buf(), message };
+    // A device (a run file's gltf = "/dev/zero") never ends, and the file is read whole.
+    // (A missing file is left to the read, whose error says so.)
+    if path.exists() {
+        check_regular_file(path, crate::memory::physical_bytes() / 2).map_err(gltf_error)?;
+    }
+    let bytes = std::fs::read(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
     let gltf::Gltf { document, mut blob } =
         gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| gltf_error(describe(&e)))?;
     // gltf-json 1.4's validation indexes `accessors` with each POSITION index before checking it
@@ -199,7 +204,7 @@ fn check_regular_file(path: &Path, max: u64) -> Result<u64, String> {
         return Err("is not a regular file".into());
     }
     if meta.len() > max {
-        return Err(format!("is {} bytes, over the {max} an image may have", meta.len()));
+        return Err(format!("is {} bytes, over the {max} it may have", meta.len()));
     }
     Ok(meta.len())
 }
