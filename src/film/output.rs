@@ -55,32 +55,18 @@ pub fn write_image_with_aovs(
             "exposure {exposure} stops: it must be a finite number of stops within ±{MAX_EXPOSURE_STOPS}"
         )));
     }
-    let dir = output_dir(path);
-    std::fs::create_dir_all(dir).map_err(|e| out_err(format!("cannot create folder: {e}")))?;
-    let name = path.file_name().map_or("image".into(), |n| n.to_string_lossy().into_owned());
-    let prefix = format!(".{name}.");
-    let mut builder = tempfile::Builder::new();
-    builder.prefix(&prefix).suffix(".partial");
-    // An image is an ordinary file: readable as the umask allows, not the 0600 of a temporary one.
-    #[cfg(unix)]
-    builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
-    let mut file = builder
-        .tempfile_in(dir)
-        .map_err(|e| out_err(format!("cannot create a file in {}: {e}", dir.display())))?;
-    let _pending = super::partial::pending(file.path());
+    let mut partial = super::partial::PartialFile::beside(path).map_err(out_err)?;
+    let file = partial.file();
     match extension(path).as_deref() {
         Some("exr") => match aovs {
-            Some((features, which)) if !which.is_empty() => {
-                write_exr_layers(image, features, which, &mut file)
-            }
-            _ => write_exr(image, &mut file),
+            Some((features, which)) if !which.is_empty() => write_exr_layers(image, features, which, file),
+            _ => write_exr(image, file),
         },
-        Some("png") => write_png(image, &mut file, exposure),
+        Some("png") => write_png(image, file, exposure),
         _ => return Err(out_err("unknown image format: use .exr or .png".into())),
     }
     .map_err(out_err)?;
-    file.as_file().sync_all().map_err(|e| out_err(e.to_string()))?;
-    file.persist(path).map(drop).map_err(|e| out_err(e.error.to_string()))
+    partial.finish(path).map_err(out_err)
 }
 
 /// The lower-case extension of `path`.

@@ -5,6 +5,45 @@
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
+/// A file being written beside `path` under a name of its own (`.NAME.XXXX.partial`), listed while it
+/// is, and renamed over `path` once complete: a failed or cut write leaves the previous file as it was
+/// and nothing else, and two processes writing one output cannot mix their bytes.
+pub struct PartialFile {
+    file: tempfile::NamedTempFile,
+    _listed: Pending,
+}
+
+impl PartialFile {
+    /// A new partial file beside `path`, its folder made if need be; the problem, if it cannot be.
+    pub fn beside(path: &Path) -> Result<Self, String> {
+        let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        std::fs::create_dir_all(dir).map_err(|e| format!("cannot create folder: {e}"))?;
+        let name = path.file_name().map_or("output".into(), |n| n.to_string_lossy().into_owned());
+        let prefix = format!(".{name}.");
+        let mut builder = tempfile::Builder::new();
+        builder.prefix(&prefix).suffix(".partial");
+        // An ordinary file, readable as the umask allows, not the 0600 of a temporary one.
+        #[cfg(unix)]
+        builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
+        let file = builder
+            .tempfile_in(dir)
+            .map_err(|e| format!("cannot create a file in {}: {e}", dir.display()))?;
+        let listed = pending(file.path());
+        Ok(Self { file, _listed: listed })
+    }
+
+    /// Where the bytes go.
+    pub fn file(&mut self) -> &mut std::fs::File {
+        self.file.as_file_mut()
+    }
+
+    /// On disk, then renamed over `path`.
+    pub fn finish(self, path: &Path) -> Result<(), String> {
+        self.file.as_file().sync_all().map_err(|e| e.to_string())?;
+        self.file.persist(path).map(drop).map_err(|e| e.error.to_string())
+    }
+}
+
 static PENDING: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
 
 /// A temporary file being written, listed until this is dropped (the write completed or failed).

@@ -37,8 +37,8 @@ impl Renderer {
         let refuse = |problem: &str| {
             Err(caustica_core::error::Error::Setting { name: "part".into(), problem: problem.into() })
         };
-        if let Some(problem) = &self.share_refusal {
-            return refuse(problem);
+        if let Some(problem) = self.integrator.share_refusal(&self.run) {
+            return refuse(&problem);
         }
         if self.passes > 0 {
             return refuse("the render has started");

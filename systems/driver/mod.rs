@@ -44,8 +44,6 @@ pub struct Renderer {
     pub plan: Plan,
     /// What the integrator is: its unit, whether it splits, what it takes.
     integrator: &'static Integrator,
-    /// Why a share of this render cannot be rendered alone, if it cannot.
-    share_refusal: Option<String>,
     /// The settings it was made with.
     run: RunFile,
     /// The scene as loaded and the nodes a host moved (`Renderer::movable`).
@@ -101,7 +99,6 @@ impl Renderer {
             world,
             plan,
             integrator,
-            share_refusal: integrator.share_refusal(run),
             run: run.clone(),
             moves: None,
             features,

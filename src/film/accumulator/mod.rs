@@ -139,17 +139,7 @@ fn write_accumulator(
     if !path.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
         return Err(out_err("an accumulator (a part or a checkpoint) is an EXR: name it FILE.exr".into()));
     }
-    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    std::fs::create_dir_all(dir).map_err(|e| out_err(format!("cannot create folder: {e}")))?;
-    let mut builder = tempfile::Builder::new();
-    builder.prefix(".caustica-part-").suffix(".partial");
-    // An ordinary file, readable as the umask allows, not the 0600 of a temporary one.
-    #[cfg(unix)]
-    builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
-    let mut file = builder
-        .tempfile_in(dir)
-        .map_err(|e| out_err(format!("cannot create a file in {}: {e}", dir.display())))?;
-    let _pending = super::partial::pending(file.path());
+    let mut partial = super::partial::PartialFile::beside(path).map_err(out_err)?;
     let mut layers = vec![layer];
     if let Some(state) = hit_points {
         let width = film.width as usize * state.points_per_pixel as usize;
@@ -184,10 +174,9 @@ fn write_accumulator(
     )
     .write()
     .non_parallel()
-    .to_buffered(&mut file)
+    .to_buffered(partial.file())
     .map_err(|e| out_err(e.to_string()))?;
-    file.as_file().sync_all().map_err(|e| out_err(e.to_string()))?;
-    file.persist(path).map(drop).map_err(|e| out_err(e.error.to_string()))
+    partial.finish(path).map_err(out_err)
 }
 
 /// What an accumulator's header says it is, and its size, without reading its pixels.
