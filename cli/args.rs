@@ -254,8 +254,9 @@ pub struct RenderArgs {
     /// Progressive photon mapping: first gather radius in scene units; overrides the run file.
     #[arg(long)]
     pub initial_radius: Option<f32>,
-    /// Memory the film, paths, photons and hit points may take, MiB (default: half the RAM); checked
-    /// before anything is allocated; overrides the run file.
+    /// The process's peak resident memory, MiB (default: half the RAM): the scene as built, plus the
+    /// film, paths, photons, hit points, the written image and checkpoints, counted before any is
+    /// allocated; overrides the run file.
     #[arg(long)]
     pub memory_budget_mib: Option<u64>,
     /// Progressive photon mapping: hit points per pixel, a power of two, stratified over the pixel

@@ -30,6 +30,8 @@ pub struct Checkpoints {
     writing: f64,
     fingerprint: String,
     integrator: String,
+    /// The bytes the render is counted to hold at its peak, its checkpoints' snapshot included.
+    pub memory_counted: u64,
 }
 
 /// A checkpoint read for `--resume`, checked against this scene and settings.
@@ -117,6 +119,7 @@ impl Checkpoints {
             writing: 0.0,
             fingerprint,
             integrator,
+            memory_counted: 0,
         })
     }
 
@@ -125,6 +128,7 @@ impl Checkpoints {
         if let Some(problem) = renderer.checkpoint_refusal() {
             anyhow::bail!("--checkpoint: {problem}");
         }
+        self.memory_counted = renderer.check_checkpoint_memory()?;
         renderer.set_whole_passes(true);
         self.last_units = renderer.units_done();
         Ok(())
@@ -172,11 +176,12 @@ impl Checkpoints {
             spp: renderer.target(),
             per_unit: renderer.camera_samples_per_unit(),
         };
-        let (film, hit_points, path) =
-            (renderer.film().clone(), renderer.hit_point_state(), self.path.clone());
+        // The snapshot is the written channels themselves: one copy, not a film and then its channels.
+        let snapshot = accumulator::Snapshot::of(renderer.film(), renderer.hit_point_state());
+        let path = self.path.clone();
         let writer = std::thread::Builder::new().name("checkpoint".into()).spawn(move || {
             let started = Instant::now();
-            accumulator::write_checkpoint(&film, &info, hit_points, &path)?;
+            snapshot.write_checkpoint(&info, &path)?;
             Ok(started.elapsed().as_secs_f64())
         });
         self.writer = Some(writer.context("cannot start the checkpoint's writer thread")?);

@@ -205,6 +205,16 @@ pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>) -> Result<bool
     if let Some(checkpoints) = &checkpoints {
         outln!("checkpoints {}", checkpoints.summary());
     }
+    if let Some(peak) = caustica::memory::peak_resident_bytes() {
+        let counted = checkpoints.as_ref().map_or(renderer.memory_counted(), |c| c.memory_counted);
+        let mib = |b: u64| b.div_ceil(1 << 20);
+        outln!(
+            "memory      peak {} MiB resident; counted {} MiB before rendering, budget {} MiB",
+            mib(peak),
+            mib(counted),
+            mib(renderer.memory_budget())
+        );
+    }
     if let Some(e) = checkpoint_failed {
         anyhow::bail!("the checkpoint was not written: {e:#}");
     }

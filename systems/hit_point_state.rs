@@ -113,12 +113,19 @@ fn layout(world: &World, with_hits: bool) -> Option<Layout> {
     Some(Layout { points, adaptive, chi2, words_per_point })
 }
 
+/// Bytes [`save`] copies out of `world`: every word of every hit point (0 without hit points).
+pub fn saved_bytes(world: &World, with_hits: bool) -> u64 {
+    layout(world, with_hits).map_or(0, |l| (l.points * l.words_per_point * size_of::<u32>()) as u64)
+}
+
 /// The hit points' state, or `None` for an integrator without hit points; `with_hits` for `ppm`,
 /// whose visible points are traced in the render's first pass only.
 pub fn save(world: &World, with_hits: bool) -> Option<HitPointState> {
     let config = *world.get_resource::<ProgressiveConfig>()?;
     let layout = layout(world, with_hits)?;
-    let mut channels = vec![Vec::with_capacity(layout.points); layout.words_per_point];
+    // Not `vec![…; n]`: its clones would drop the capacity and each channel grow by doubling.
+    let mut channels: Vec<Vec<u32>> =
+        (0..layout.words_per_point).map(|_| Vec::with_capacity(layout.points)).collect();
     // One query per component, visiting the hit points' one table in the same order.
     let mut stats = world.try_query::<&AdaptiveStats>().filter(|_| layout.adaptive);
     let mut cells = world.try_query::<&Chi2Cells>().filter(|_| layout.chi2);

@@ -108,7 +108,7 @@ pub mod world;
 // The physics, re-exported so that a host needs one crate: `caustica::scene::load`, `caustica::film::Image`.
 pub use caustica_core::{
     Choice, Error, RenderScene, Result, camera, choice, density, error, files, film, geometry, kernel,
-    lights, materials, photon, render_scene, sampling, scene, test_scenes,
+    lights, materials, memory, photon, render_scene, sampling, scene, test_scenes,
 };
 pub use driver::{Progress, Renderer};
 pub use report::Report;

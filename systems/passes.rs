@@ -184,6 +184,8 @@ pub fn finish_photon_map(
 ) -> impl FnMut(ResMut<PhotonBuffer>, Res<PhotonWork>, ResMut<PhotonMaps>) {
     move |mut buffer, work, mut maps| {
         let map = PhotonMap::build(std::mem::take(&mut buffer.photons));
+        // A pass dropped by a stop and begun again builds its maps again.
+        maps.built.retain(|built| built.kind != kind);
         maps.built.push(PhotonMapSummary {
             kind,
             emitted: work.settings.total,

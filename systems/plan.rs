@@ -59,6 +59,10 @@ pub struct Phase {
     pub when: When,
     /// How often `schedule` runs.
     pub repeat: Repeat,
+    /// A stop while it runs drops the whole pass, as if it never began (its `end` and the later
+    /// phases do not run, the pass does not count): for work that is long, precedes anything the film
+    /// or a checkpoint holds, and is worthless cut short (`pm`'s photon maps).
+    pub dropped_on_stop: bool,
 }
 
 impl Phase {
@@ -71,7 +75,15 @@ impl Phase {
             schedule.set_executor(SingleThreadedExecutor::new());
             schedule
         };
-        Self { name, begin: schedule("begin"), schedule: schedule("run"), end: schedule("end"), when, repeat }
+        Self {
+            name,
+            begin: schedule("begin"),
+            schedule: schedule("run"),
+            end: schedule("end"),
+            when,
+            repeat,
+            dropped_on_stop: false,
+        }
     }
 
     /// A phase that runs `systems` once.
@@ -91,6 +103,12 @@ impl Phase {
         systems: impl IntoScheduleConfigs<bevy_ecs::system::ScheduleSystem, M>,
     ) -> Self {
         self.begin.add_systems(systems);
+        self
+    }
+
+    /// This phase, whose pass a stop drops whole ([`Phase::dropped_on_stop`]).
+    pub fn dropped_on_stop(mut self) -> Self {
+        self.dropped_on_stop = true;
         self
     }
 

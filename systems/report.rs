@@ -71,7 +71,7 @@ pub struct HitPointSummary {
     /// Per pixel.
     pub per_pixel: u32,
     /// Bytes each takes with its camera path.
-    pub bytes_each: usize,
+    pub bytes_each: u64,
     /// Mean gather radius.
     pub mean_radius: f32,
     /// The radius rule's initial radius.

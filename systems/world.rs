@@ -1,8 +1,8 @@
 //! The World every integrator starts from: the scene's resources, sized and checked.
 
 use crate::resources::{
-    AovFilmResource, CameraResource, FilmResource, PassRange, RenderConfig, RenderStats, SceneFeatures,
-    SceneResource,
+    AovFilmResource, CameraResource, FilmResource, MemoryCounted, PassRange, RenderConfig, RenderStats,
+    SceneFeatures, SceneResource,
 };
 use bevy_ecs::prelude::*;
 use caustica_core::camera::Camera;
@@ -95,7 +95,12 @@ pub fn scene_world(scene: Scene, run: &RunFile) -> Result<(World, SceneFeatures)
     let render_scene = RenderScene::from_scene(scene, settings.light_selection);
     let camera = scene_camera(camera_desc, &source, run, &render_scene, width, height)?;
     let features = SceneFeatures::of(&camera, &render_scene);
+    // Once the scene is built (what the process holds counts), before the film is allocated.
+    let integrator = crate::integrators::of_run(run);
+    let need = crate::integrators::memory::render_need(integrator, width as u64 * height as u64, run);
+    let counted = crate::integrators::memory::check(run, need)?;
     let mut world = World::new();
+    world.insert_resource(MemoryCounted(counted));
     world.insert_resource(RenderConfig {
         integrator: settings.integrator,
         seed: settings.seed,

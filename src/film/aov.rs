@@ -89,6 +89,9 @@ impl Clone for AovFilm {
 }
 
 impl AovFilm {
+    /// Bytes a pixel takes: its fixed-point sums and count.
+    pub const BYTES_PER_PIXEL: u64 = size_of::<PixelSums<CHANNELS>>() as u64;
+
     /// An empty film.
     pub fn new(width: u32, height: u32) -> Self {
         let n = width as usize * height as usize;

@@ -36,6 +36,9 @@ impl Clone for Film {
 }
 
 impl Film {
+    /// Bytes a pixel takes: its fixed-point sums and count.
+    pub const BYTES_PER_PIXEL: u64 = size_of::<PixelSums>() as u64;
+
     /// A black film.
     pub fn new(width: u32, height: u32) -> Self {
         let n = width as usize * height as usize;
@@ -65,21 +68,24 @@ impl Film {
         self.sums(pixel).1
     }
 
+    /// The mean radiance of `pixel` (black where it has no samples).
+    pub fn mean(&self, pixel: u32) -> Vec3 {
+        mean_of(&self.pixels[pixel as usize])
+    }
+
     /// The mean radiance per pixel, row-major from the top-left.
     pub fn image(&self) -> Image {
-        let pixels = self
-            .pixels
-            .iter()
-            .map(|p| {
-                let (sums, count) = p.get();
-                if count == 0 {
-                    return Vec3::ZERO;
-                }
-                (DVec3::from_array(sums.map(fixed::from_fixed)) / count as f64).as_vec3()
-            })
-            .collect();
+        let pixels = self.pixels.iter().map(mean_of).collect();
         Image { width: self.width, height: self.height, pixels }
     }
+}
+
+fn mean_of(pixel: &PixelSums) -> Vec3 {
+    let (sums, count) = pixel.get();
+    if count == 0 {
+        return Vec3::ZERO;
+    }
+    (DVec3::from_array(sums.map(fixed::from_fixed)) / count as f64).as_vec3()
 }
 
 /// A linear RGB image.

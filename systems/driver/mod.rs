@@ -87,7 +87,7 @@ impl Renderer {
     /// the run's `render.spp` or `progressive.passes`, by the integrator.
     pub fn new(scene: Scene, run: &RunFile) -> Result<Self> {
         let integrator = integrators::of_run(run);
-        integrator.check(scene_pixels(&scene, run)?, &scene, run)?;
+        integrator.check(&scene, run)?;
         let (mut world, features) = scene_world(scene, run)?;
         let plan = (integrator.plan)(integrator, &mut world, run, features)?;
         crate::aov::equip_paths(&mut world);
@@ -300,6 +300,17 @@ impl Renderer {
                 runs += 1;
                 let Repeat::WhileBusy(busy) = self.plan.phases[i].repeat else { break };
                 if let Some(reason) = self.should_stop(deadline) {
+                    if self.plan.phases[i].dropped_on_stop && busy(&self.world) {
+                        // Nothing of this pass is in the film yet: stop now, not at the phase's end.
+                        self.stopped = true;
+                        self.stopped_by.get_or_insert(reason);
+                        self.phase_times[i].seconds += phase_start.elapsed().as_secs_f64();
+                        self.phase_times[i].runs += runs;
+                        self.at_pass_boundary = true;
+                        self.seconds += pass_start.elapsed().as_secs_f64();
+                        on_step(self);
+                        return;
+                    }
                     if !self.whole_passes {
                         self.world.resource_mut::<PassRange>().stop = true;
                     }
@@ -401,10 +412,4 @@ impl Renderer {
             estimate: caustica_core::film::adaptive::ErrorEstimate::of(film, &adaptive.squares, converged),
         })
     }
-}
-
-/// The number of pixels the run asks for, before anything is allocated.
-fn scene_pixels(scene: &Scene, run: &RunFile) -> Result<u64> {
-    let (w, h) = resolution(scene, run)?;
-    Ok(w as u64 * h as u64)
 }

@@ -33,6 +33,34 @@ impl Renderer {
         })
     }
 
+    /// The memory the render was counted to hold at its peak, checkpoints aside (0 if unknown).
+    pub fn memory_counted(&self) -> u64 {
+        self.world.get_resource::<crate::resources::MemoryCounted>().map_or(0, |m| m.0)
+    }
+
+    /// Refuse checkpoints whose snapshot (the film's channels and the hit points' words, held while
+    /// its thread writes them) would take the render over its memory budget; else the bytes the render
+    /// is counted to hold at its peak with them.
+    pub fn check_checkpoint_memory(&self) -> Result<u64> {
+        use crate::integrators::memory;
+        let counted = self.memory_counted();
+        let film = self.film();
+        let hit_points = if self.film_is_the_state() {
+            0
+        } else {
+            crate::hit_point_state::saved_bytes(&self.world, self.traces_visible_points_once())
+        };
+        let snapshot = memory::checkpoint_need(film.width as u64 * film.height as u64, hit_points);
+        let with_snapshot = counted + snapshot.bytes;
+        memory::check_checkpoints(&self.run, counted, snapshot)?;
+        Ok(with_snapshot)
+    }
+
+    /// The memory budget this render is checked against, bytes.
+    pub fn memory_budget(&self) -> u64 {
+        crate::integrators::memory::budget(&self.run)
+    }
+
     /// The hit points' state, for a checkpoint (`None` without hit points).
     pub fn hit_point_state(&self) -> Option<caustica_core::film::accumulator::HitPointState> {
         if self.film_is_the_state() {

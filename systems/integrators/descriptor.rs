@@ -178,12 +178,10 @@ impl Integrator {
     }
 
     /// Check `run`'s settings for this integrator, before anything is built: what it takes, then its
-    /// own checks, then the memory a `pixels`-pixel run needs against the budget.
-    pub fn check(&self, pixels: u64, scene: &Scene, run: &RunFile) -> Result<()> {
+    /// own checks. (The memory a run needs is checked once the scene is built: `memory::check`.)
+    pub fn check(&self, scene: &Scene, run: &RunFile) -> Result<()> {
         self.check_settings(run)?;
-        (self.check)(scene, run)?;
-        let need = (self.memory)(self, pixels, run);
-        super::check_memory(run, need.bytes, || need.what)
+        (self.check)(scene, run)
     }
 
     /// The settings only some integrators take, and light sampling, against this one.

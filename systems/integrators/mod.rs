@@ -6,6 +6,7 @@
 pub mod appm;
 pub mod cppm;
 pub mod descriptor;
+pub mod memory;
 pub mod path;
 pub mod photon_map;
 pub mod ppm;
@@ -17,7 +18,6 @@ use crate::PassSystems;
 use crate::resources::SceneFeatures;
 use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::IntoScheduleConfigs;
-use caustica_core::error::{Error, Result};
 use caustica_core::scene::schedule::{CYCLE, Stage};
 use caustica_core::scene::{IntegratorKind, RunFile};
 pub use descriptor::{Integrator, LightSampling, MemoryNeed, Setting};
@@ -51,25 +51,6 @@ pub static ALL: [&Integrator; 8] = [
 /// The descriptor of the integrator `run` asks for.
 pub fn of_run(run: &RunFile) -> &'static Integrator {
     of(run.render.integrator)
-}
-
-/// Refuse a render whose `needed` bytes exceed the memory budget (the run's, else half the machine's),
-/// before anything is allocated; `what` says what needs them.
-pub fn check_memory(run: &RunFile, needed: u64, what: impl FnOnce() -> String) -> Result<()> {
-    let budget = run.memory_budget_bytes(crate::world::physical_memory_bytes() / 2);
-    if needed > budget {
-        return Err(Error::Setting {
-            name: "render.memory_budget_mib".into(),
-            problem: format!(
-                "{} need {} MiB, over the budget of {} MiB: lower the resolution or the photon counts, or raise \
-                 the budget (--memory-budget-mib)",
-                what(),
-                needed >> 20,
-                budget >> 20
-            ),
-        });
-    }
-    Ok(())
 }
 
 /// The stage set of a run-file stage name.

@@ -51,19 +51,25 @@ const PATH_TRACER: Integrator = Integrator {
     takes: &[Setting::NoiseThreshold],
     default_hit_points_per_pixel: 0,
     camera_samples_per_unit: one_sample_per_unit,
-    memory: |_, pixels, _| film_and_paths(pixels),
+    memory: |_, pixels, run| paths(pixels, run),
     check: no_checks,
     plan,
 };
 
-/// What a sample integrator's film (f64 sums and counts per pixel) and wavefront of paths need.
-pub fn film_and_paths(pixels: u64) -> MemoryNeed {
-    use crate::components::{PathHit, PathRay, PathState, ShadowRay};
-    let film = pixels * (size_of::<glam::DVec3>() + size_of::<u32>()) as u64;
-    let path = (size_of::<PathRay>() + size_of::<PathHit>() + size_of::<PathState>() + size_of::<ShadowRay>())
-        as u64;
-    let paths = pixels.min(crate::world::MAX_WAVEFRONT as u64) * path;
-    MemoryNeed { bytes: film + paths, what: format!("a {pixels}-pixel film and its paths") }
+/// What a sample integrator's wavefront of paths needs, with adaptive sampling's state per pixel (the
+/// samples' squares and the order of the pixels still sampled).
+pub fn paths(pixels: u64, run: &RunFile) -> MemoryNeed {
+    use crate::components::{PathAov, PathHit, PathRay, PathState, ShadowRay};
+    let mut components =
+        vec![size_of::<PathRay>(), size_of::<PathHit>(), size_of::<PathState>(), size_of::<ShadowRay>()];
+    if !run.film.aovs.is_empty() {
+        components.push(size_of::<PathAov>());
+    }
+    let paths = pixels.min(crate::world::MAX_WAVEFRONT as u64) * super::memory::entity_bytes(&components);
+    const ADAPTIVE_BYTES_PER_PIXEL: u64 =
+        caustica_core::film::Film::BYTES_PER_PIXEL + 2 * size_of::<u32>() as u64;
+    let adaptive = if run.is_adaptive() { pixels * ADAPTIVE_BYTES_PER_PIXEL } else { 0 };
+    MemoryNeed { bytes: paths + adaptive, what: format!("a {pixels}-pixel film and its paths") }
 }
 
 /// The plan of `pt` or `pt-naive` for the scene in `world`.

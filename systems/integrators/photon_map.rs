@@ -52,18 +52,25 @@ pub static PM: Integrator = Integrator {
     plan,
 };
 
-/// The film and paths of the path tracers, and the photon maps (each stored photon twice while its
-/// kd-tree is built; a photon is stored about 1/(1 − albedo) times, counted as 4).
+/// The paths of the path tracers, the photons in flight, and the photon maps (each stored photon
+/// twice while its kd-tree is built; a photon is stored about 1/(1 − albedo) times, counted as 4).
 fn memory(_: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
+    use crate::components::{PhotonHit, PhotonRay, PhotonState};
     const STORES_PER_PHOTON: u64 = 4;
     let (photons, caustic) = (run.photons.photons, run.photons.caustic_photons);
-    let paths = super::path::film_and_paths(pixels);
+    let paths = super::path::paths(pixels, run);
+    let in_flight = photons.max(caustic).min(MAX_WAVEFRONT) as u64
+        * super::memory::entity_bytes(&[
+            size_of::<PhotonRay>(),
+            size_of::<PhotonHit>(),
+            size_of::<PhotonState>(),
+        ]);
     let maps = (photons as u64 + caustic as u64)
         * STORES_PER_PHOTON
         * 2
         * size_of::<caustica_core::photon::Photon>() as u64;
     MemoryNeed {
-        bytes: paths.bytes + maps,
+        bytes: paths.bytes + in_flight + maps,
         what: format!("a {pixels}-pixel film, its paths and the maps of {photons} + {caustic} photons"),
     }
 }
@@ -128,7 +135,8 @@ fn plan(this: &Integrator, world: &mut World, run: &RunFile, features: SceneFeat
     for (kind, count) in maps {
         let mut photons = Phase::new("photons", When::FirstPassOfProcess, Repeat::WhileBusy(photons_busy))
             .with_begin((begin_photon_map(kind, count), begin_photon_pass).chain())
-            .with_end(finish_photon_map(kind));
+            .with_end(finish_photon_map(kind))
+            .dropped_on_stop();
         add_photon_systems(&mut photons.schedule, order);
         phases.push(photons);
     }

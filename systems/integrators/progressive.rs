@@ -43,13 +43,6 @@ use caustica_core::scene::{IntegratorKind, RunFile, Scene};
 use glam::Vec3;
 use std::sync::atomic::Ordering;
 
-/// Bytes a hit point costs: its statistics and the camera-path state that re-traces it.
-pub const BYTES_PER_HIT_POINT: usize = size_of::<HitPoint>()
-    + size_of::<PathRay>()
-    + size_of::<PathHit>()
-    + size_of::<PathState>()
-    + size_of::<ShadowRay>()
-    + size_of::<Chi2Cells>();
 /// Bytes a photon of one pass costs: its deposit in the buffer and in the pass's kd-tree.
 pub const BYTES_PER_PHOTON: usize = 2 * size_of::<caustica_core::photon::Photon>();
 
@@ -97,20 +90,40 @@ fn check(scene: &Scene, run: &RunFile) -> Result<()> {
     Ok(())
 }
 
-/// Hit points for every pixel plus one pass of photons.
+/// Hit points for every pixel (entities: their statistics, the camera path that re-traces them, and
+/// the adaptive or χ² statistics of the variants that keep them) plus one pass of photons.
 fn memory(this: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
+    use super::memory::entity_bytes;
     let settings = run.progressive;
     let hit_points = pixels * this.hit_points_per_pixel(run) as u64;
     let photon_wavefront = settings.photons_per_pass.min(MAX_WAVEFRONT);
-    let needed = hit_points * BYTES_PER_HIT_POINT as u64
+    let per_hit_point = bytes_per_hit_point(!run.film.aovs.is_empty());
+    let needed = hit_points * per_hit_point
         + settings.photons_per_pass as u64 * BYTES_PER_PHOTON as u64
         + photon_wavefront as u64
-            * (size_of::<PhotonState>() + size_of::<PhotonRay>() + size_of::<PhotonHit>()) as u64;
+            * entity_bytes(&[size_of::<PhotonState>(), size_of::<PhotonRay>(), size_of::<PhotonHit>()]);
     let what = format!(
-        "{hit_points} hit points ({BYTES_PER_HIT_POINT} bytes each, see hit_points_per_pixel) and {} photons per pass",
+        "{hit_points} hit points ({per_hit_point} bytes each, see hit_points_per_pixel) and {} photons per pass",
         settings.photons_per_pass
     );
     MemoryNeed { bytes: needed, what }
+}
+
+/// Bytes a hit point's entity costs: its statistics, the camera path that re-traces it, the adaptive
+/// or χ² statistics of the variants that keep them, and with `aovs` its first surface.
+fn bytes_per_hit_point(aovs: bool) -> u64 {
+    let mut components = vec![
+        size_of::<HitPoint>(),
+        size_of::<PathRay>(),
+        size_of::<PathHit>(),
+        size_of::<PathState>(),
+        size_of::<ShadowRay>(),
+        size_of::<Chi2Cells>().max(size_of::<AdaptiveStats>()),
+    ];
+    if aovs {
+        components.push(size_of::<crate::components::PathAov>());
+    }
+    super::memory::entity_bytes(&components)
 }
 
 /// The plan of a progressive integrator for the scene in `world`.
@@ -261,7 +274,7 @@ fn report(world: &World, report: &mut Report) {
     report.hit_points = Some(HitPointSummary {
         count,
         per_pixel: config.hit_points_per_pixel,
-        bytes_each: BYTES_PER_HIT_POINT,
+        bytes_each: bytes_per_hit_point(world.contains_resource::<crate::resources::AovFilmResource>()),
         mean_radius: (sum / count.max(1) as f64) as f32,
         initial_radius: config.r0,
     });

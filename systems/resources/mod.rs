@@ -75,6 +75,11 @@ pub struct RenderConfig {
 
 pub use crate::workload::{PixelOrder, Workload};
 
+/// The bytes the render was counted to hold at its peak when it was checked against the memory
+/// budget (`integrators::memory`): what checkpoints are counted beside.
+#[derive(Resource, Clone, Copy, Debug)]
+pub struct MemoryCounted(pub u64);
+
 /// What the driver tells the systems about the pass that is running.
 #[derive(Resource, Clone, Copy, Debug, Default)]
 pub struct PassRange {

@@ -1,7 +1,7 @@
 //! What a checkpoint adds to an accumulator: a progressive mapper's hit points, written uncompressed
 //! (a checkpoint is written often, during the render, and read at most once).
 
-use super::{PartInfo, write_accumulator};
+use super::{PartInfo, Snapshot};
 use crate::error::Result;
 use crate::film::Film;
 use std::path::Path;
@@ -36,5 +36,12 @@ pub fn write_checkpoint(
     hit_points: Option<HitPointState>,
     path: &Path,
 ) -> Result<()> {
-    write_accumulator(film, info, hit_points, path, exr::prelude::Encoding::UNCOMPRESSED)
+    Snapshot::of(film, hit_points).write_checkpoint(info, path)
+}
+
+impl Snapshot {
+    /// Write it as a checkpoint: uncompressed, as [`write_checkpoint`] does.
+    pub fn write_checkpoint(self, info: &PartInfo, path: &Path) -> Result<()> {
+        self.write(info, path, exr::prelude::Encoding::UNCOMPRESSED)
+    }
 }

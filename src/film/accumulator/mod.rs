@@ -94,89 +94,127 @@ const CHANNELS: [&str; 3] = ["R", "G", "B"];
 /// Write `film` with `info` to `path` (a temporary file beside it, renamed over it once complete),
 /// ZIP-compressed: a part travels between machines.
 pub fn write_part(film: &Film, info: &PartInfo, path: &Path) -> Result<()> {
-    write_accumulator(film, info, None, path, exr::prelude::Encoding::SMALL_LOSSLESS)
+    Snapshot::of(film, None).write(info, path, exr::prelude::Encoding::SMALL_LOSSLESS)
 }
 
-fn write_accumulator(
-    film: &Film,
-    info: &PartInfo,
+/// An accumulator's channels copied out of a film (and a progressive mapper's hit points) between
+/// passes, as they will be written: the one copy a checkpoint makes, so its writer thread encodes
+/// it while the render goes on and needs nothing more ([`Snapshot::BYTES_PER_PIXEL`] a pixel plus
+/// the hit points' words).
+pub struct Snapshot {
+    width: u32,
+    height: u32,
+    /// `R`, `G`, `B`, then each channel's three sum words, then `count`: [`CHANNELS`]' order.
+    channels: Vec<(String, exr::prelude::FlatSamples)>,
+    checksum: u32,
     hit_points: Option<HitPointState>,
-    path: &Path,
-    encoding: exr::prelude::Encoding,
-) -> Result<()> {
-    use exr::prelude::*;
-    let out_err = |message: String| crate::error::Error::Output { path: path.to_path_buf(), message };
-    let n = film.width as usize * film.height as usize;
-    let image = film.image();
-    let mut channels = Vec::new();
-    for (c, name) in CHANNELS.iter().enumerate() {
-        channels.push(AnyChannel::new(*name, FlatSamples::F32(image.pixels.iter().map(|p| p[c]).collect())));
-        for word in 0..3 {
-            let words = (0..n as u32).map(|i| (film.sums(i).0[c] as u128 >> (32 * word)) as u32).collect();
-            channels.push(AnyChannel::new(format!("sum.{name}.{word}").as_str(), FlatSamples::U32(words)));
+}
+
+impl Snapshot {
+    /// Bytes a pixel's channels take: three f32 colours, nine words of sums and a count.
+    pub const BYTES_PER_PIXEL: u64 = 52;
+
+    /// Copy `film` and `hit_points` as they are now.
+    pub fn of(film: &Film, hit_points: Option<HitPointState>) -> Self {
+        use exr::prelude::FlatSamples;
+        let n = film.width as usize * film.height as usize;
+        let mut colour = [(); 3].map(|_| Vec::with_capacity(n));
+        let mut words = [(); 9].map(|_| Vec::with_capacity(n));
+        let mut count = Vec::with_capacity(n);
+        for pixel in 0..n as u32 {
+            let (sums, samples) = film.sums(pixel);
+            let mean = film.mean(pixel);
+            for c in 0..3 {
+                colour[c].push(mean[c]);
+                for word in 0..3 {
+                    words[3 * c + word].push((sums[c] as u128 >> (32 * word)) as u32);
+                }
+            }
+            count.push(samples);
         }
-    }
-    channels
-        .push(AnyChannel::new("count", FlatSamples::U32((0..n as u32).map(|i| film.samples(i)).collect())));
-    let mut attributes = LayerAttributes::named("accumulator");
-    attributes.other = entries_attribute(&[
-        ("checksum", format!("{:08x}", checksum(film, hit_points.as_ref()))),
-        ("format", FORMAT_VERSION.to_string()),
-        ("fingerprint", info.fingerprint.clone()),
-        ("integrator", info.integrator.clone()),
-        ("part", format!("{}/{}", info.part, info.parts)),
-        ("samples", format!("{}..{}", info.samples.start, info.samples.end)),
-        ("spp", info.spp.to_string()),
-        ("per_unit", info.per_unit.to_string()),
-    ]);
-    let layer = Layer::new(
-        (film.width as usize, film.height as usize),
-        attributes,
-        encoding,
-        AnyChannels::sort(SmallVec::from_vec(channels)),
-    );
-    // An accumulator is an EXR: under another name it would be an EXR that viewers misread.
-    if !path.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
-        return Err(out_err("an accumulator (a part or a checkpoint) is an EXR: name it FILE.exr".into()));
-    }
-    let mut partial = super::partial::PartialFile::beside(path).map_err(out_err)?;
-    let mut layers = vec![layer];
-    if let Some(state) = hit_points {
-        let width = film.width as usize * state.points_per_pixel as usize;
-        let points = width * film.height as usize;
-        if state.channels.is_empty() || state.channels.iter().any(|c| c.len() != points) {
-            return Err(out_err(format!("hit-point channels do not fill {width}x{}", film.height)));
+        let mut channels = Vec::with_capacity(13);
+        let mut words = words.into_iter();
+        for (name, colour) in CHANNELS.iter().zip(colour) {
+            channels.push((name.to_string(), FlatSamples::F32(colour)));
+            for word in 0..3 {
+                channels
+                    .push((format!("sum.{name}.{word}"), FlatSamples::U32(words.next().unwrap_or_default())));
+            }
         }
-        let (words_per_point, points_per_pixel, r0) =
-            (state.channels.len(), state.points_per_pixel, state.r0);
-        let channels: Vec<_> = state
+        channels.push(("count".into(), FlatSamples::U32(count)));
+        let checksum = checksum(film, hit_points.as_ref());
+        Self { width: film.width, height: film.height, channels, checksum, hit_points }
+    }
+
+    /// Write it with `info` to `path` (a temporary file beside it, renamed over it once complete).
+    pub fn write(self, info: &PartInfo, path: &Path, encoding: exr::prelude::Encoding) -> Result<()> {
+        use exr::prelude::*;
+        let out_err = |message: String| crate::error::Error::Output { path: path.to_path_buf(), message };
+        // An accumulator is an EXR: under another name it would be an EXR that viewers misread.
+        if !path.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
+            return Err(out_err(
+                "an accumulator (a part or a checkpoint) is an EXR: name it FILE.exr".into(),
+            ));
+        }
+        let (width, height) = (self.width as usize, self.height as usize);
+        let channels = self
             .channels
             .into_iter()
-            .enumerate()
-            .map(|(w, words)| AnyChannel::new(format!("w.{w:03}").as_str(), FlatSamples::U32(words)))
+            .map(|(name, samples)| AnyChannel::new(name.as_str(), samples))
             .collect();
-        let mut attributes = LayerAttributes::named("hit_points");
+        let mut attributes = LayerAttributes::named("accumulator");
         attributes.other = entries_attribute(&[
-            ("words_per_point", words_per_point.to_string()),
-            ("points_per_pixel", points_per_pixel.to_string()),
-            ("r0", r0.to_bits().to_string()),
+            ("checksum", format!("{:08x}", self.checksum)),
+            ("format", FORMAT_VERSION.to_string()),
+            ("fingerprint", info.fingerprint.clone()),
+            ("integrator", info.integrator.clone()),
+            ("part", format!("{}/{}", info.part, info.parts)),
+            ("samples", format!("{}..{}", info.samples.start, info.samples.end)),
+            ("spp", info.spp.to_string()),
+            ("per_unit", info.per_unit.to_string()),
         ]);
-        layers.push(Layer::new(
-            (width, film.height as usize),
+        let layer = Layer::new(
+            (width, height),
             attributes,
             encoding,
             AnyChannels::sort(SmallVec::from_vec(channels)),
-        ));
+        );
+        let mut partial = super::partial::PartialFile::beside(path).map_err(out_err)?;
+        let mut layers = vec![layer];
+        if let Some(state) = self.hit_points {
+            let width = width * state.points_per_pixel as usize;
+            let points = width * height;
+            if state.channels.is_empty() || state.channels.iter().any(|c| c.len() != points) {
+                return Err(out_err(format!("hit-point channels do not fill {width}x{height}")));
+            }
+            let (words_per_point, points_per_pixel, r0) =
+                (state.channels.len(), state.points_per_pixel, state.r0);
+            let channels: Vec<_> = state
+                .channels
+                .into_iter()
+                .enumerate()
+                .map(|(w, words)| AnyChannel::new(format!("w.{w:03}").as_str(), FlatSamples::U32(words)))
+                .collect();
+            let mut attributes = LayerAttributes::named("hit_points");
+            attributes.other = entries_attribute(&[
+                ("words_per_point", words_per_point.to_string()),
+                ("points_per_pixel", points_per_pixel.to_string()),
+                ("r0", r0.to_bits().to_string()),
+            ]);
+            layers.push(Layer::new(
+                (width, height),
+                attributes,
+                encoding,
+                AnyChannels::sort(SmallVec::from_vec(channels)),
+            ));
+        }
+        Image::from_layers(ImageAttributes::new(IntegerBounds::from_dimensions((width, height))), layers)
+            .write()
+            .non_parallel()
+            .to_buffered(partial.file())
+            .map_err(|e| out_err(e.to_string()))?;
+        partial.finish(path).map_err(out_err)
     }
-    Image::from_layers(
-        ImageAttributes::new(IntegerBounds::from_dimensions((film.width as usize, film.height as usize))),
-        layers,
-    )
-    .write()
-    .non_parallel()
-    .to_buffered(partial.file())
-    .map_err(|e| out_err(e.to_string()))?;
-    partial.finish(path).map_err(out_err)
 }
 
 /// What an accumulator's header says it is, and its size, without reading its pixels.
@@ -192,23 +230,42 @@ pub fn read_info(path: &Path) -> Result<(PartInfo, (u32, u32))> {
         })?;
     let info = info_from(&header.own_attributes, path)?;
     let (width, height) = (header.layer_size.width(), header.layer_size.height());
-    check_claimed_size(path, width as u64 * height as u64)?;
+    let pixels = width as u64 * height as u64;
+    // A checkpoint's hit points are read whole too: every word of every point counts.
+    let hit_point_bytes = meta
+        .headers
+        .iter()
+        .filter(|h| h.own_attributes.layer_name.as_ref().is_some_and(|n| *n == *"hit_points"))
+        .map(|h| {
+            let words = h.channels.list.len() as u64;
+            (h.layer_size.width() as u64 * h.layer_size.height() as u64)
+                .saturating_mul(words)
+                .saturating_mul(4)
+        })
+        .fold(0u64, u64::saturating_add);
+    check_claimed_size(path, pixels, hit_point_bytes)?;
     Ok((info, (width as u32, height as u32)))
 }
 
-/// Refuse an accumulator whose header claims more pixels than its file can hold, before anything of
-/// that size is allocated: every pixel is 52 bytes of channels, which zlib (EXR's ZIP) packs at
-/// most 1032 to 1, so a file holds at most 1100 × its length of pixel bytes.
-fn check_claimed_size(path: &Path, pixels: u64) -> Result<()> {
-    const BYTES_PER_PIXEL: u64 = 52;
+/// Refuse an accumulator whose header claims more than its file can hold, before anything of that
+/// size is allocated: every pixel is [`Snapshot::BYTES_PER_PIXEL`] bytes of channels, a checkpoint
+/// adds `hit_point_bytes`, and zlib (EXR's ZIP) packs at most 1032 to 1, so a file holds at most
+/// 1100 × its length.
+fn check_claimed_size(path: &Path, pixels: u64, hit_point_bytes: u64) -> Result<()> {
     const MAX_RATIO: u64 = 1100;
     let length = std::fs::metadata(path).map_err(|e| bad(path, e.to_string()))?.len();
-    let claimed = pixels.saturating_mul(BYTES_PER_PIXEL);
+    let sums = pixels.saturating_mul(Snapshot::BYTES_PER_PIXEL);
+    let claimed = sums.saturating_add(hit_point_bytes);
     if claimed > length.saturating_mul(MAX_RATIO) {
+        let hit_points = if hit_point_bytes > 0 {
+            format!(" and {hit_point_bytes} bytes of hit points")
+        } else {
+            String::new()
+        };
         return Err(bad(
             path,
             format!(
-                "its header claims {pixels} pixels ({claimed} bytes of sums), more than a file of {length} bytes can hold"
+                "its header claims {pixels} pixels ({sums} bytes of sums){hit_points}, more than a file of {length} bytes can hold"
             ),
         ));
     }

@@ -38,8 +38,9 @@ pub struct RenderSettings {
     pub noise_threshold: f64,
     /// Samples every pixel takes before adaptive sampling may stop it.
     pub min_spp: u32,
-    /// Memory the film, the paths, photons and hit points may take, in MiB; `None` is half the
-    /// machine's memory. Checked before anything is allocated.
+    /// The process's peak resident memory in MiB (`None`: half the machine's): what it holds once
+    /// the scene is built, plus the film, paths, photons, hit points, the written image and
+    /// checkpoints, counted before any of them is allocated.
     pub memory_budget_mib: Option<u64>,
 }
 
