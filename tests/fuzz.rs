@@ -347,6 +347,106 @@ fn random_bytes_as_a_run_file_fail_cleanly() {
 }
 
 // ---------------------------------------------------------------------------------------------
+// --set (the command's and Python's run-file overrides)
+// ---------------------------------------------------------------------------------------------
+
+/// The run file `--set` writes into: a glTF, and the tables it may or may not already have.
+const SET_BASE: &str = "gltf = \"cornell-box.gltf\"\n[render]\nspp = 1\n";
+
+/// Key segments: the real tables and keys, and what breaks a dotted key (empty parts, spaces,
+/// quotes, brackets, `=`, non-ASCII).
+const SEGMENTS: &[&str] = &[
+    "render",
+    "film",
+    "photons",
+    "progressive",
+    "camera",
+    "environment",
+    "sphere",
+    "light",
+    "schedule",
+    "spp",
+    "width",
+    "k",
+    "passes",
+    "eye",
+    "",
+    " ",
+    "\"",
+    "[",
+    "]",
+    "=",
+    "#",
+    "ü",
+    "a b",
+    "0",
+    "-1",
+];
+
+/// `--set` assignments as a string list, applied to [`SET_BASE`], loaded and rendered (tiny): an
+/// image of finite pixels, or an error that names the assignment (`--set …`), the run file or a
+/// setting.
+fn set_case(sets: &[String]) -> Result<(), TestCaseError> {
+    let path = common::data("fuzz-set.toml");
+    let start = Instant::now();
+    let outcome = (|| -> Result<Image, String> {
+        let mut run = RunFile::parse_with_sets(SET_BASE, sets)?;
+        let mut scene = run.load_scene(&path).map_err(|e| e.to_string())?;
+        validate(&mut scene, &path).map_err(|e| e.to_string())?;
+        bound_settings(&mut run);
+        common::try_render(scene, &run)
+    })();
+    let seconds = start.elapsed().as_secs_f64();
+    count(&outcome);
+    prop_assert!(seconds < MAX_SECONDS, "took {} s: {:?}", seconds, sets);
+    match outcome {
+        Ok(image) => check_image(&image, "--set"),
+        Err(message) if message.starts_with("--set ") || message.contains("(after --set") => Ok(()),
+        Err(message) => check_error(&message, &[&path, Path::new("cornell-box.gltf")]),
+    }
+}
+
+/// Every key of every single table, alone, with every number that breaks things and a value of each
+/// wrong type.
+#[test]
+fn every_set_key_with_every_hostile_value_renders_or_names_the_assignment() {
+    let start = Instant::now();
+    let wrong_types = ["\"text\"", "true", "[]", "{ a = 1 }", "", "[1, [2]]", "\"\u{0}\""];
+    let mut cases = 0;
+    for (table, keys) in KEYS.iter().filter(|(t, _)| !t.starts_with('[')) {
+        for (key, _) in keys.iter() {
+            for value in NUMBERS.iter().chain(&wrong_types) {
+                set_case(&[format!("{table}.{key}={value}")])
+                    .unwrap_or_else(|e| panic!("{table}.{key}={value}: {e}"));
+                cases += 1;
+            }
+        }
+    }
+    eprintln!("--set sweep: {cases} cases in {:.1} s", start.elapsed().as_secs_f64());
+}
+
+/// Random keys of one to seven segments (real names and breaking ones) with values of the keys'
+/// kinds and junk, one to four assignments a case.
+#[test]
+fn random_set_keys_and_values_render_or_name_the_assignment() {
+    let start = Instant::now();
+    let segment = (0..SEGMENTS.len()).prop_map(|i| SEGMENTS[i].to_owned());
+    let key = proptest::collection::vec(segment, 1..8).prop_map(|parts| parts.join("."));
+    let value = prop_oneof![
+        (0..NUMBERS.len()).prop_map(|i| NUMBERS[i].to_owned()),
+        any::<[u16; 4]>().prop_map(|c| value(Kind::Vec3, &c)),
+        "[ -~]{0,12}",
+    ];
+    let set = (key, value, any::<bool>()).prop_map(|(k, v, eq)| if eq { format!("{k}={v}") } else { k + &v });
+    let mut runner = runner();
+    let result = runner.run(&proptest::collection::vec(set, 1..5), |sets| set_case(&sets));
+    eprintln!("--set random: {} cases in {:.1} s", runner.config().cases, start.elapsed().as_secs_f64());
+    if let Err(e) = result {
+        panic!("{e}");
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
 // glTF
 // ---------------------------------------------------------------------------------------------
 

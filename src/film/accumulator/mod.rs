@@ -106,7 +106,7 @@ pub struct Snapshot {
     height: u32,
     /// `R`, `G`, `B`, then each channel's three sum words, then `count`: [`CHANNELS`]' order.
     channels: Vec<(String, exr::prelude::FlatSamples)>,
-    checksum: u32,
+    data_crc: crc32fast::Hasher,
     hit_points: Option<HitPointState>,
 }
 
@@ -142,8 +142,8 @@ impl Snapshot {
             }
         }
         channels.push(("count".into(), FlatSamples::U32(count)));
-        let checksum = checksum(film, hit_points.as_ref());
-        Self { width: film.width, height: film.height, channels, checksum, hit_points }
+        let data_crc = data_crc(film, hit_points.as_ref());
+        Self { width: film.width, height: film.height, channels, data_crc, hit_points }
     }
 
     /// Write it with `info` to `path` (a temporary file beside it, renamed over it once complete).
@@ -164,7 +164,7 @@ impl Snapshot {
             .collect();
         let mut attributes = LayerAttributes::named("accumulator");
         attributes.other = entries_attribute(&[
-            ("checksum", format!("{:08x}", self.checksum)),
+            ("crc", crc(&self.data_crc, info, self.hit_points.as_ref())),
             ("format", FORMAT_VERSION.to_string()),
             ("fingerprint", info.fingerprint.clone()),
             ("integrator", info.integrator.clone()),
@@ -276,9 +276,10 @@ fn bad(path: &Path, message: String) -> Error {
     Error::Accumulator { path: path.to_path_buf(), message }
 }
 
-/// CRC-32 of everything a resumed render or a merge takes from an accumulator: every pixel's sums
-/// and count, and the hit points' words.
-fn checksum(film: &Film, hit_points: Option<&HitPointState>) -> u32 {
+/// CRC-32 of everything a resumed render or a merge takes from an accumulator's pixels: every
+/// pixel's sums and count, and the hit points' words (the `checksum` entry of files written before
+/// the header was covered too; [`crc`] goes on from here).
+fn data_crc(film: &Film, hit_points: Option<&HitPointState>) -> crc32fast::Hasher {
     let mut crc = crc32fast::Hasher::new();
     let mut bytes = Vec::with_capacity(28 * film.width as usize);
     for pixel in 0..film.width * film.height {
@@ -296,7 +297,37 @@ fn checksum(film: &Film, hit_points: Option<&HitPointState>) -> u32 {
         bytes.clear();
     }
     crc.update(&bytes);
-    crc.finalize()
+    crc
+}
+
+/// The `crc` entry: [`data_crc`] followed by what the header says the sums are (the share, its
+/// samples, the render's units, the fingerprint, the hit points' layout and radius), in canonical
+/// form, so that an edited `samples=0..1` is damage like a flipped bit in the sums: resumed, it would
+/// take one pass for two and make another image.
+fn crc(data: &crc32fast::Hasher, info: &PartInfo, hit_points: Option<&HitPointState>) -> String {
+    let mut crc = data.clone();
+    let header = format!(
+        "format={FORMAT_VERSION}\nfingerprint={}\nintegrator={}\npart={}/{}\nsamples={}..{}\nspp={}\nper_unit={}\n",
+        info.fingerprint,
+        info.integrator,
+        info.part,
+        info.parts,
+        info.samples.start,
+        info.samples.end,
+        info.spp,
+        info.per_unit
+    );
+    crc.update(header.as_bytes());
+    if let Some(state) = hit_points {
+        let hit = format!(
+            "words_per_point={}\npoints_per_pixel={}\nr0={}\n",
+            state.channels.len(),
+            state.points_per_pixel,
+            state.r0.to_bits()
+        );
+        crc.update(hit.as_bytes());
+    }
+    format!("{:08x}", crc.finalize())
 }
 
 /// The attribute that holds a layer's `key=value` entries, in their order. One attribute, because
@@ -460,12 +491,20 @@ pub fn read_checkpoint(path: &Path) -> Result<(Film, PartInfo, Option<HitPointSt
             })
         }
     };
-    // Files of the per-key form came before the checksum.
-    if let Some(written) = entry(&entries(&layer.attributes), "checksum") {
-        let read = format!("{:08x}", checksum(&film, hit_points.as_ref()));
-        if written != read {
-            return Err(bad(path, format!("checksum {read}, written {written}: the file is damaged")));
+    // Files of the per-key form came before any checksum, and `checksum` (the pixels alone) before
+    // `crc` (the pixels and the header).
+    let entries = entries(&layer.attributes);
+    let (written, read) = match (entry(&entries, "crc"), entry(&entries, "checksum")) {
+        (Some(written), _) => {
+            (written, crc(&data_crc(&film, hit_points.as_ref()), &info, hit_points.as_ref()))
         }
+        (None, Some(written)) => {
+            (written, format!("{:08x}", data_crc(&film, hit_points.as_ref()).finalize()))
+        }
+        (None, None) => return Ok((film, info, hit_points)),
+    };
+    if written != read {
+        return Err(bad(path, format!("checksum {read}, written {written}: the file is damaged")));
     }
     Ok((film, info, hit_points))
 }
