@@ -22,6 +22,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 from typing import Any, Union
 
 from ._caustica import (
@@ -55,6 +56,12 @@ _SECTION = {
 }
 
 
+_KEY = re.compile(r"[A-Za-z0-9_-]+(\.[A-Za-z0-9_-]+)*")
+
+# Far more than any run-file list (a colour, a point, a shutter interval) holds.
+_MOST_VALUES = 1 << 16
+
+
 def _toml(value: Any, key: str) -> str:
     """A Python value as a TOML value, for a run-file assignment."""
     if isinstance(value, bool):
@@ -70,6 +77,9 @@ def _toml(value: Any, key: str) -> str:
     if isinstance(value, (list, tuple)):
         return "[" + ", ".join(_toml(v, key) for v in value) + "]"
     if hasattr(value, "tolist"):  # numpy arrays and scalars
+        # An array may claim a size it does not hold (zero strides): its list would never end.
+        if getattr(value, "size", 1) > _MOST_VALUES:
+            raise ValueError(f"{key}: an array of {value.size} values; a run-file value has at most {_MOST_VALUES}")
         return _toml(value.tolist(), key)
     raise TypeError(f"{key} = {value!r}: a run-file value is a bool, number, string or list")
 
@@ -79,6 +89,11 @@ def _override_sets(overrides: dict[str, Any]) -> list[str]:
     ``Scene.render(**overrides)`` and ``Scene.session(**overrides)`` use."""
     sets = []
     for key, value in overrides.items():
+        # The assignment is text the core splits at its first "=": a key holding "=" or a newline
+        # would set another key than the one named (`**{"film.width = 9\nx": 0}` set width 9).
+        if not _KEY.fullmatch(key):
+            shown = key if len(key) <= 40 else key[:40] + "..."
+            raise ValueError(f"{shown!r}: a run-file key is names (letters, digits, _ and -) joined by dots")
         dotted = key if "." in key else f"{_SECTION.get(key, 'render')}.{key}"
         sets.append(f"{dotted}={_toml(value, key)}")
     return sets

@@ -32,9 +32,17 @@ _MESH_KEYS = {"name", "positions", "indices", "normals", "material"}
 
 
 def _array(value: Any, what: str, dtype, columns: int) -> np.ndarray:
-    array = np.ascontiguousarray(value, dtype=dtype)
-    if array.ndim != 2 or array.shape[1] != columns or array.shape[0] == 0:
-        raise ValueError(f"{what}: an array of shape (n, {columns}) with n >= 1, not {np.shape(value)}")
+    # The shape first: an array of zero strides can claim billions of values it does not hold, and
+    # anything done to each of them would make them.
+    given = np.asarray(value)
+    if given.ndim != 2 or given.shape[1] != columns or given.shape[0] == 0:
+        raise ValueError(f"{what}: an array of shape (n, {columns}) with n >= 1, not {given.shape}")
+    # A cast to integers truncates: 0.5 would be vertex 0, NaN any vertex at all.
+    if dtype != np.float32 and given.dtype.kind not in "iu" and not (
+        given.dtype.kind == "f" and np.isfinite(given).all() and (given == np.round(given)).all()
+    ):
+        raise ValueError(f"{what}: not whole numbers ({given.dtype})")
+    array = np.ascontiguousarray(given, dtype=dtype)
     if dtype == np.float32 and not np.isfinite(array).all():
         raise ValueError(f"{what}: not every value is finite")
     return array
@@ -45,8 +53,8 @@ def _material(name: str, spec: dict) -> dict:
     if unknown:
         raise ValueError(f"material {name!r}: unknown keys {sorted(unknown)}; known: {sorted(_MATERIAL_KEYS)}")
     base = [float(c) for c in spec.get("base_color", [0.8, 0.8, 0.8])]
-    if len(base) != 3:
-        raise ValueError(f"material {name!r}: base_color is three numbers")
+    if len(base) != 3 or not all(0.0 <= c <= 1.0 for c in base):
+        raise ValueError(f"material {name!r}: base_color is three numbers in [0, 1], not {base}")
     material = {
         "name": name,
         "pbrMetallicRoughness": {
@@ -58,6 +66,8 @@ def _material(name: str, spec: dict) -> dict:
     }
     extensions = {}
     emission = [float(c) for c in spec.get("emission", [0.0, 0.0, 0.0])]
+    if len(emission) != 3 or not all(0.0 <= c < math.inf for c in emission):
+        raise ValueError(f"material {name!r}: emission is three finite radiances, at least 0, not {emission}")
     strength = max(emission)
     if strength > 0.0:
         # glTF's emissive factor is at most 1: the rest is the emissive-strength extension.
@@ -72,12 +82,17 @@ def _material(name: str, spec: dict) -> dict:
         extensions["KHR_materials_ior"] = {"ior": float(spec["ior"])}
     if extensions:
         material["extensions"] = extensions
+    for key in ("metallic", "roughness", "specular", "transmission", "ior"):
+        if key in spec and not math.isfinite(float(spec[key])):
+            raise ValueError(f"material {name!r}: {key} is {spec[key]}, not a finite number")
     return material
 
 
 def _look_at(eye, target, up) -> list:
     """The camera node's column-major matrix: looking down its -z from ``eye`` towards ``target``."""
     eye, target, up = (np.asarray(v, dtype=np.float64) for v in (eye, target, up))
+    if not all(v.shape == (3,) and np.isfinite(v).all() for v in (eye, target, up)):
+        raise ValueError("camera: eye, target and up are three finite numbers each")
     back = eye - target
     if not np.linalg.norm(back) > 0:
         raise ValueError("camera: eye and target must differ")
@@ -158,6 +173,8 @@ def to_gltf(scene: dict) -> dict:
         if unknown:
             raise ValueError(f"camera: unknown keys {sorted(unknown)}; known: eye, target, up, yfov_degrees")
         yfov = math.radians(float(camera.get("yfov_degrees", 39.3)))
+        if not math.isfinite(yfov):
+            raise ValueError(f"camera: yfov_degrees is {camera['yfov_degrees']}, not a finite number")
         gltf["cameras"] = [{"type": "perspective", "perspective": {"yfov": yfov, "znear": 0.001}}]
         matrix = _look_at(camera["eye"], camera["target"], camera.get("up", [0.0, 1.0, 0.0]))
         nodes.append({"name": "camera", "camera": 0, "matrix": matrix})
@@ -171,7 +188,9 @@ def from_dict(scene: dict, **overrides: Any):
     overrides, as ``caustica.load`` takes them."""
     from . import load
 
-    document = json.dumps(to_gltf(scene))
+    # NaN or infinity would be written as JSON the loader cannot read, reported against a
+    # temporary file: refused here, by Python, instead.
+    document = json.dumps(to_gltf(scene), allow_nan=False)
     with tempfile.TemporaryDirectory(prefix="caustica-dict-") as folder:
         path = os.path.join(folder, "scene-from-dict.gltf")
         with open(path, "w") as f:

@@ -4,7 +4,7 @@ use caustica::Choice;
 use caustica::film::aov::{Aov, AovImages};
 use caustica::report::Unit;
 use numpy::{PyArray1, PyArrayMethods};
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyMemoryError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -68,6 +68,23 @@ pub(crate) fn image_of(color: &numpy::PyReadonlyArray3<'_, f32>) -> PyResult<cau
     if shape[2] != 3 {
         return Err(PyValueError::new_err(format!("an image is height x width x 3, not {shape:?}")));
     }
-    let pixels = array.rows().into_iter().map(|p| glam::Vec3::new(p[0], p[1], p[2])).collect();
-    Ok(caustica::film::Image { width: shape[1] as u32, height: shape[0] as u32, pixels })
+    let (Ok(width), Ok(height)) = (u32::try_from(shape[1]), u32::try_from(shape[0])) else {
+        return Err(PyValueError::new_err(format!(
+            "an image is at most 2^32 - 1 pixels a side, not {shape:?}"
+        )));
+    };
+    if width == 0 || height == 0 {
+        return Err(PyValueError::new_err(format!("an image has at least one pixel, not {shape:?}")));
+    }
+    // An array can claim a shape it does not hold (numpy's zero strides): its copy as pixels is
+    // refused when it cannot fit, where allocating it would abort the interpreter.
+    let bytes = (width as u64 * height as u64).saturating_mul(size_of::<glam::Vec3>() as u64);
+    let mut pixels = Vec::new();
+    if bytes > caustica::memory::physical_bytes() || pixels.try_reserve_exact(shape[0] * shape[1]).is_err() {
+        return Err(PyMemoryError::new_err(format!(
+            "an image of {shape:?} takes {bytes} bytes as pixels, more than this machine has"
+        )));
+    }
+    pixels.extend(array.rows().into_iter().map(|p| glam::Vec3::new(p[0], p[1], p[2])));
+    Ok(caustica::film::Image { width, height, pixels })
 }
