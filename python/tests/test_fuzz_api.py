@@ -666,17 +666,12 @@ def test_from_dict_refuses_fractional_indices_and_numbers_it_cannot_write(world)
                       caustica.Scene)
 
 
-@pytest.mark.xfail(strict=True, reason="core: src/film/flip.rs to_srgb8 turns NaN into black, so FLIP "
-                   "scores an all-NaN image against black as identical (0.0)")
 def test_flip_of_an_image_with_nan_is_not_a_perfect_match():
     nan_image = np.full((SIDE, SIDE, 3), np.nan, np.float32)
     metrics = caustica.compare(nan_image, np.zeros((SIDE, SIDE, 3), np.float32))
     assert not metrics["flip"] == 0.0
 
 
-@pytest.mark.xfail(strict=True, reason="core: systems/integrators/memory.rs:48 checks the process's lifetime "
-                   "peak (VmHWM) against the budget, so once a host has held more than the budget, even "
-                   "briefly and for its own arrays, every later render is refused")
 def test_a_host_that_once_held_much_memory_can_still_render():
     # In a process of its own: the peak it raises would refuse this file's later renders.
     script = (
@@ -687,9 +682,6 @@ def test_a_host_that_once_held_much_memory_can_still_render():
     subprocess.run([sys.executable, "-c", script], check=True, capture_output=True)
 
 
-@pytest.mark.xfail(strict=True, reason="core: src/film/output.rs:58 makes the output's folder and its partial "
-                   "file before the extension is checked (lines 60-66), so a refused name leaves folders "
-                   "behind (and /dev/null, as root, gets a /dev/.null.XXXX.partial for a moment)")
 def test_a_refused_output_name_leaves_no_folder_behind(world):
     with pytest.raises(caustica.CausticaError, match="unknown image format"):
         caustica.write_image("new/folder/out.jpg", np.zeros((2, 2, 3), np.float32))

@@ -36,7 +36,12 @@ pub fn flip(image: &Image, reference: &Image) -> Option<Flip> {
     let (width, height) = (image.width, image.height);
     let as_flip = |i: &Image| nv_flip::FlipImageRgb8::with_data(width, height, &to_srgb8(i, 0.0));
     let map = nv_flip::flip(as_flip(reference), as_flip(image), nv_flip::DEFAULT_PIXELS_PER_DEGREE);
-    let mean = nv_flip::FlipPool::from_image(&map).mean() as f64;
+    let mut mean = nv_flip::FlipPool::from_image(&map).mean() as f64;
+    // The tone map turns NaN into black, which would score an image of NaN as black's twin: a
+    // difference that cannot be measured is NaN, as RMSE and relMSE say.
+    if !image.pixels.iter().chain(&reference.pixels).all(|p| p.is_finite()) {
+        mean = f64::NAN;
+    }
     Some(Flip { mean, map: map.to_vec(), width, height })
 }
 
@@ -55,6 +60,8 @@ mod tests {
     fn flip_orders_differences_as_a_viewer_would() {
         let grey = flat(64, 64, |_, _| Vec3::splat(0.2));
         assert_eq!(flip(&grey, &grey).unwrap().mean, 0.0);
+        let nan = flat(64, 64, |x, _| if x == 3 { Vec3::NAN } else { Vec3::ZERO });
+        assert!(flip(&nan, &flat(64, 64, |_, _| Vec3::ZERO)).unwrap().mean.is_nan());
         let (black, white) = (flat(64, 64, |_, _| Vec3::ZERO), flat(64, 64, |_, _| Vec3::ONE));
         let extreme = flip(&black, &white).unwrap();
         assert!(extreme.mean > 0.9, "black against white: {}", extreme.mean);

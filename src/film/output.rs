@@ -55,6 +55,10 @@ pub fn write_image_with_aovs(
             "exposure {exposure} stops: it must be a finite number of stops within ±{MAX_EXPOSURE_STOPS}"
         )));
     }
+    // The name first: a refused one leaves no folder or partial file behind.
+    if !matches!(extension(path).as_deref(), Some("exr" | "png")) {
+        return Err(out_err("unknown image format: use .exr or .png".into()));
+    }
     let mut partial = super::partial::PartialFile::beside(path).map_err(out_err)?;
     let file = partial.file();
     match extension(path).as_deref() {

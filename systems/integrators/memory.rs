@@ -43,31 +43,23 @@ pub fn render_need(integrator: &Integrator, pixels: u64, run: &RunFile) -> Memor
 /// with what the process holds now, before anything of it is allocated. The bytes the process will
 /// hold at its peak, as counted.
 pub fn check(run: &RunFile, need: MemoryNeed) -> Result<u64> {
+    // What is held now, not the lifetime peak: a host (Python) that once held more for its own
+    // arrays would otherwise be refused every render after. A scene's build that peaked above the
+    // budget has peaked already; what the budget can still bound is what the render adds.
     let held = caustica_core::memory::resident_bytes().unwrap_or(0);
-    // The scene's build (the BVH's) may have peaked higher than what is held now.
-    let peak = caustica_core::memory::peak_resident_bytes().unwrap_or(0);
     let budget = budget(run);
     let total = held + need.bytes;
-    if total.max(peak) > budget {
+    if total > budget {
         let mib = |b: u64| b.div_ceil(1 << 20);
-        let problem = if peak > budget && need.bytes + held <= budget {
-            format!(
-                "loading the scene took {} MiB at its peak, over the budget of {} MiB: raise the budget \
-                 (--memory-budget-mib) or simplify the scene",
-                mib(peak),
-                mib(budget)
-            )
-        } else {
-            format!(
-                "{} need {} MiB beside the {} MiB this process holds (the program and the scene), over the \
-                 budget of {} MiB: lower the resolution or the photon counts, or raise the budget \
-                 (--memory-budget-mib)",
-                need.what,
-                mib(need.bytes),
-                mib(held),
-                mib(budget)
-            )
-        };
+        let problem = format!(
+            "{} need {} MiB beside the {} MiB this process holds (the program and the scene), over the \
+             budget of {} MiB: lower the resolution or the photon counts, or raise the budget \
+             (--memory-budget-mib)",
+            need.what,
+            mib(need.bytes),
+            mib(held),
+            mib(budget)
+        );
         return Err(Error::Setting { name: "render.memory_budget_mib".into(), problem });
     }
     Ok(total)

@@ -17,6 +17,10 @@ impl RunFile {
             return Err("film.width and film.height must be at least 1".to_owned());
         }
         finite("film.exposure", &[self.film.exposure])?;
+        let stops = crate::film::output::MAX_EXPOSURE_STOPS;
+        if self.film.exposure.abs() > stops {
+            return Err(format!("film.exposure is {} stops, must be within ±{stops}", self.film.exposure));
+        }
         let camera = &self.camera;
         for (key, value) in
             [("camera.eye", camera.eye), ("camera.target", camera.target), ("camera.up", camera.up)]

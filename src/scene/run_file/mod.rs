@@ -333,10 +333,16 @@ impl RunFile {
                 .ok_or_else(|| format!("--set {set}: needs KEY=VALUE, as render.spp=16"))?;
             let (key, value) = (key.trim(), value.trim());
             // A TOML value as written (16, true, [0, 1, 3], "pt"), else the text as a string (pt).
-            let value = toml::from_str::<toml::Table>(&format!("v = {value}"))
-                .ok()
-                .and_then(|mut t| t.remove("v"))
-                .unwrap_or_else(|| toml::Value::String(value.to_owned()));
+            // A value that parses into more than `v` (a newline and another assignment) is no one value.
+            let value = match toml::from_str::<toml::Table>(&format!("v = {value}")) {
+                Ok(mut t) if t.len() == 1 => {
+                    t.remove("v").unwrap_or_else(|| toml::Value::String(value.to_owned()))
+                }
+                Ok(_) => {
+                    return Err(format!("--set {key}: the value holds more than one value (a line break?)"));
+                }
+                Err(_) => toml::Value::String(value.to_owned()),
+            };
             let mut parts: Vec<&str> = key.split('.').collect();
             // A run file's keys are a table and a key (`render.spp`, `camera.eye`); a deeper one names
             // nothing, and a very deep one would nest tables deeper than reading them back can recurse.
@@ -403,5 +409,16 @@ mod tests {
         let deep_value = format!("render.spp={}{}", "[".repeat(20_000), "]".repeat(20_000));
         assert!(RunFile::parse_with_sets("", &[deep_value]).is_err());
         assert_eq!(RunFile::parse_with_sets("", &["render.spp=3".into()]).unwrap().render.spp, 3);
+    }
+
+    /// A value with a line break and another assignment was one TOML table whose extra key was
+    /// dropped silently; an exposure the writer refuses was refused only after the whole render.
+    #[test]
+    fn a_set_value_is_one_value_and_an_unwritable_exposure_is_refused_before_rendering() {
+        let message = RunFile::parse_with_sets("", &["render.spp=3\nfilm.width=500".into()]).unwrap_err();
+        assert!(message.contains("more than one value"), "{message}");
+        let message = RunFile::parse_with_sets("", &["film.exposure=1e30".into()]).unwrap_err();
+        assert!(message.contains("film.exposure") && message.contains("±64"), "{message}");
+        assert_eq!(RunFile::parse_with_sets("", &["film.exposure=-3".into()]).unwrap().film.exposure, -3.0);
     }
 }
