@@ -297,7 +297,7 @@ pub struct RenderArgs {
     #[arg(long, value_name = "I/K", value_parser = parse_part)]
     pub part: Option<(u32, u32)>,
     /// Write a checkpoint (an accumulator EXR of the whole passes so far) to FILE every
-    /// --checkpoint-every seconds, on SIGINT or SIGTERM, and at the end (pt, pt-naive, pm, pppm).
+    /// --checkpoint-every seconds, on SIGINT or SIGTERM, and at the end (every integrator).
     #[arg(long, value_name = "FILE.exr")]
     pub checkpoint: Option<PathBuf>,
     /// Seconds between checkpoints.

@@ -92,6 +92,9 @@ pub fn print_report(scene: &Path, report: &Report, total_seconds: f64) {
             );
         }
     }
+    for (label, text) in &report.notes {
+        outln!("{label:<11} {text}");
+    }
     if let Some(hp) = &report.hit_points {
         outln!(
             "hit points  {} ({} per pixel, {} bytes each with their camera path), mean radius {:.4e} (initial {:.4e})",

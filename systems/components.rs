@@ -149,6 +149,10 @@ pub struct PhotonState {
     pub roulette_kills: u32,
 }
 
+/// A light subpath's vertex connected to the camera (`lt`), waiting for its segment to be traced.
+#[derive(Component, Clone, Copy, Debug, Default)]
+pub struct CameraSplat(pub Option<caustica_core::kernel::light_path::CameraConnection>);
+
 /// A measurement point of progressive photon mapping: where a camera path first met a non-specular
 /// surface, and the photon statistics gathered there (Hachisuka, Ogaki & Jensen 2008, §4).
 ///

@@ -95,6 +95,7 @@ pub mod emit;
 pub mod gather;
 pub mod hit_point_state;
 pub mod integrators;
+pub mod light_paths;
 pub mod passes;
 pub mod plan;
 pub mod report;

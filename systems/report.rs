@@ -111,6 +111,8 @@ pub struct Report {
     pub stopped_by: Option<StopReason>,
     /// Adaptive sampling's outcome, when it was on.
     pub adaptive: Option<AdaptiveSummary>,
+    /// Lines of the integrator's own (`lt`'s connections), each `(label, text)`.
+    pub notes: Vec<(&'static str, String)>,
 }
 
 /// Where adaptive sampling sent the samples, and the error it estimates.

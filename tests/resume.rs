@@ -85,6 +85,11 @@ fn pppm_stopped_by_a_signal_and_resumed_is_the_uninterrupted_render() {
     ]);
 }
 
+#[test]
+fn lt_stopped_by_a_signal_and_resumed_is_the_uninterrupted_render() {
+    interrupted_and_resumed_equals_uninterrupted(&["--integrator", "lt", "--spp", "256"]);
+}
+
 fn progressive(kind: &'static str) -> [&'static str; 6] {
     ["--integrator", kind, "--passes", "40", "--photons-per-pass", "20000"]
 }

@@ -72,7 +72,7 @@ class Scene:
         (``integrator="sppm"``, as in ``load``; not ``camera.name`` or ``environment.*``, which
         change what is loaded)."""
     def splits(self) -> bool:
-        """Whether these settings split into parts that merge exactly: pt, pt-naive, pm and pppm,
+        """Whether these settings split into parts that merge exactly: pt, pt-naive, pm, lt and pppm,
         unless light selection is visibility-aware."""
     def render_part(
         self,

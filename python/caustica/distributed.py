@@ -4,7 +4,7 @@
     result = caustica.distributed.render("scenes/cornell-spheres.toml", spp=1024, parts=16)
     result.color      # float32, height x width x 3: bit for bit what one process renders
 
-Each of the ``parts`` shares of the samples (``pt``, ``pt-naive``, ``pm``) or passes (``pppm``) is a
+Each of the ``parts`` shares of the samples (``pt``, ``pt-naive``, ``pm``, ``lt``) or passes (``pppm``) is a
 Ray task that renders its accumulator (the file of ``caustica render --part``); the driver gathers
 them, one per part whatever Ray retried, and merges them exactly. ``address=None`` starts (or joins)
 a local Ray; a cluster's address (``ray://head:10001``, or ``auto`` on a node of one) spreads the
@@ -108,7 +108,7 @@ def render(
     if not scene.splits():
         raise ValueError(
             f"{path}: {scene.integrator} (or visibility-aware light selection) does not split into parts;"
-            " pt, pt-naive, pm and pppm do"
+            " pt, pt-naive, pm, lt and pppm do"
         )
     if not ray.is_initialized():
         ray.init(address=address)

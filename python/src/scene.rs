@@ -171,7 +171,7 @@ impl Scene {
     /// Render share `part` (from 1) of `parts` of the render of `spp` samples per pixel or `passes`
     /// (the settings' when not given) and write its accumulator to `path` (.exr): the shares of
     /// every part, merged by `merge`, are the bits of one render of the whole. `pt`, `pt-naive`,
-    /// `pm` and `pppm` split; the others refuse.
+    /// `pm`, `lt` and `pppm` split; the others refuse.
     #[pyo3(signature = (part, parts, path, spp=None, passes=None))]
     fn render_part(
         &self,

@@ -53,6 +53,15 @@ impl Film {
             .add([fixed::to_fixed(l.x), fixed::to_fixed(l.y), fixed::to_fixed(l.z)], 1);
     }
 
+    /// Add radiance `l` to pixel index `pixel` without counting a sample: a light path's splat, which
+    /// the pass's camera samples count (`l` must pass [`fixed::accepts`]).
+    #[inline]
+    pub fn splat(&self, pixel: u32, l: Vec3) {
+        debug_assert!(fixed::accepts(l), "film splat {l} out of range");
+        self.pixels[pixel as usize]
+            .add([fixed::to_fixed(l.x), fixed::to_fixed(l.y), fixed::to_fixed(l.z)], 0);
+    }
+
     /// Add another film's sums and counts for one pixel (merging partial renders).
     pub fn add_sums(&self, pixel: u32, sums: [i128; 3], count: u32) {
         self.pixels[pixel as usize].add(sums, count);

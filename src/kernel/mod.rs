@@ -20,6 +20,7 @@ pub mod continuation;
 pub mod dimensions;
 pub mod direct;
 pub mod emission;
+pub mod light_path;
 pub mod media;
 pub mod mis;
 pub mod photon;

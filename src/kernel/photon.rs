@@ -135,8 +135,23 @@ pub fn scatter_photon(
             return bounce;
         }
     }
+    (bounce.next, bounce.roulette_kill) = continue_photon(settings, path, &v, ray, sampler);
+    bounce
+}
+
+/// Continue a photon (or a light subpath) from vertex `v` by BSDF sampling, or end it by Russian
+/// roulette on reflectivity: the next ray, if any, and whether roulette ended it.
+#[inline]
+pub fn continue_photon(
+    settings: &PhotonPassSettings,
+    path: &mut PhotonPath,
+    v: &Vertex,
+    ray: &Ray,
+    sampler: &Sampler,
+) -> (Option<Ray>, bool) {
+    let (si, bsdf) = (&v.si, &v.bsdf);
     if path.depth + 1 >= settings.max_depth {
-        return bounce;
+        return (None, false);
     }
     let base = super::dimensions::photon_bounce_dimension(path.depth);
     let Some(bs) = bsdf.sample(
@@ -145,35 +160,34 @@ pub fn scatter_photon(
         sampler.get2d(base + dim::BSDF),
         TransportMode::Importance,
     ) else {
-        return bounce;
+        return (None, false);
     };
     // Survive with the surface's reflectivity (capped after rr_depth so lossless loops end).
     let reflectivity = bsdf.albedo_hint().max_element();
     let survive =
         if path.depth >= settings.rr_depth { reflectivity.min(MAX_SURVIVAL) } else { reflectivity.min(1.0) };
     if sampler.get1d(base + dim::ROULETTE) >= survive {
-        bounce.roulette_kill = true;
-        return bounce;
+        return (None, true);
     }
     let power = path.power * bs.f * (bs.wi.z.abs() / (bs.pdf * survive));
     if !power.is_finite() || power.max_element() <= 0.0 {
-        return bounce;
+        return (None, false);
     }
     path.power = power;
     path.specular_only &= bs.is_specular;
     path.depth += 1;
     let wi_world = v.frame.to_world(bs.wi);
-    if super::continuation::crosses_inconsistently(&v, wi_world, bs.wi) {
-        return bounce;
+    if super::continuation::crosses_inconsistently(v, wi_world, bs.wi) {
+        return (None, false);
     }
     if bs.is_transmission && v.volume {
         path.media.cross_volume(si.material, wi_world.dot(si.ng) < 0.0);
     }
-    bounce.next = Some(Ray {
+    let next = Ray {
         o: offset_ray_origin(si.p, si.p_error, si.ng, wi_world),
         d: wi_world,
         t_max: f32::INFINITY,
         time: ray.time,
-    });
-    bounce
+    };
+    (Some(next), false)
 }

@@ -299,6 +299,7 @@ impl Renderer {
                 self.plan.phases[i].schedule.run(&mut self.world);
                 runs += 1;
                 let Repeat::WhileBusy(busy) = self.plan.phases[i].repeat else { break };
+                let whole_passes = self.whole_passes || self.integrator.whole_passes;
                 if let Some(reason) = self.should_stop(deadline) {
                     if self.plan.phases[i].dropped_on_stop && busy(&self.world) {
                         // Nothing of this pass is in the film yet: stop now, not at the phase's end.
@@ -311,7 +312,7 @@ impl Renderer {
                         on_step(self);
                         return;
                     }
-                    if !self.whole_passes {
+                    if !whole_passes {
                         self.world.resource_mut::<PassRange>().stop = true;
                     }
                     self.stopped = true;
@@ -319,6 +320,7 @@ impl Renderer {
                 }
                 let end_requested = self.pass_end_requested.swap(false, Ordering::Relaxed);
                 if self.whole_passes
+                    && !self.integrator.whole_passes
                     && self.integrator.unit == Unit::Samples
                     && !cut
                     && (self.stopped || end_requested)
@@ -388,6 +390,7 @@ impl Renderer {
             hit_points: None,
             stopped_by: self.stopped_by,
             adaptive: self.adaptive_summary(),
+            notes: Vec::new(),
         };
         (self.plan.report)(&self.world, &mut report);
         report

@@ -72,6 +72,10 @@ pub struct Integrator {
     /// merges with the others' into the bits of one run (partial renders), and a checkpoint holds the
     /// film only. False when each pass builds on the statistics of the one before.
     pub film_is_the_state: bool,
+    /// Whether a stop waits for the pass's end instead of cutting its camera samples short: the pass
+    /// is one estimate whose parts must all be there (`lt`: its camera samples count the light
+    /// subpaths' splats), and short.
+    pub whole_passes: bool,
     /// Light sampling at camera vertices.
     pub light_sampling: LightSampling,
     /// The settings of [`Setting`] it takes; the others are refused naming the integrators that do.

@@ -6,6 +6,7 @@
 pub mod appm;
 pub mod cppm;
 pub mod descriptor;
+pub mod light_tracing;
 pub mod memory;
 pub mod path;
 pub mod photon_map;
@@ -33,11 +34,12 @@ pub fn of(kind: IntegratorKind) -> &'static Integrator {
         IntegratorKind::Appm => &appm::APPM,
         IntegratorKind::Cppm => &cppm::CPPM,
         IntegratorKind::Pppm => &pppm::PPPM,
+        IntegratorKind::Lt => &light_tracing::LT,
     }
 }
 
 /// Every integrator's descriptor, in `IntegratorKind::ALL`'s order.
-pub static ALL: [&Integrator; 8] = [
+pub static ALL: [&Integrator; 9] = [
     &path::PT,
     &path::PT_NAIVE,
     &photon_map::PM,
@@ -46,6 +48,7 @@ pub static ALL: [&Integrator; 8] = [
     &appm::APPM,
     &cppm::CPPM,
     &pppm::PPPM,
+    &light_tracing::LT,
 ];
 
 /// The descriptor of the integrator `run` asks for.

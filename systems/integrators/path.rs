@@ -47,6 +47,7 @@ const PATH_TRACER: Integrator = Integrator {
     kind: IntegratorKind::Pt,
     unit: Unit::Samples,
     film_is_the_state: true,
+    whole_passes: false,
     light_sampling: LightSampling::On,
     takes: &[Setting::NoiseThreshold],
     default_hit_points_per_pixel: 0,

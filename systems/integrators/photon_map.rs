@@ -42,6 +42,7 @@ pub static PM: Integrator = Integrator {
     unit: Unit::Samples,
     // The maps are rebuilt by every process from the same seeds: a share's film is all it adds.
     film_is_the_state: true,
+    whole_passes: false,
     light_sampling: LightSampling::Always("its direct light always comes from light sampling"),
     takes: &[Setting::CausticMap],
     default_hit_points_per_pixel: 0,

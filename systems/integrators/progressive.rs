@@ -54,6 +54,7 @@ pub const fn descriptor(kind: IntegratorKind, plan: PlanFn) -> Integrator {
         kind,
         unit: Unit::Passes,
         film_is_the_state: false,
+        whole_passes: false,
         light_sampling: LightSampling::On,
         takes: &[Setting::PassOrder],
         default_hit_points_per_pixel: 1,

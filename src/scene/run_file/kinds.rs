@@ -28,12 +28,24 @@ pub enum IntegratorKind {
     /// Probabilistic PPM (Knaus & Zwicker 2011): every pass an independent estimate at a global
     /// radius sequence, averaged; no pass depends on another, so passes split across machines.
     Pppm,
+    /// Light tracing (Veach's t = 1): light subpaths whose vertices connect to the camera and add
+    /// to the film where they land; camera rays add only the emission they see directly.
+    Lt,
 }
 
 impl IntegratorKind {
     /// Every integrator.
-    pub const ALL: [IntegratorKind; 8] =
-        [Self::Pt, Self::PtNaive, Self::Pm, Self::Ppm, Self::Sppm, Self::Appm, Self::Cppm, Self::Pppm];
+    pub const ALL: [IntegratorKind; 9] = [
+        Self::Pt,
+        Self::PtNaive,
+        Self::Pm,
+        Self::Ppm,
+        Self::Sppm,
+        Self::Appm,
+        Self::Cppm,
+        Self::Pppm,
+        Self::Lt,
+    ];
 }
 
 /// How next-event estimation picks a light.
@@ -80,6 +92,7 @@ impl Choice for IntegratorKind {
             "pppm",
             "probabilistic PPM: independent passes at a global radius, averaged (splits by pass)",
         ),
+        (Self::Lt, "lt", "light tracing: light subpaths connected to the camera (point-light caustics)"),
     ];
 }
 

@@ -1,0 +1,157 @@
+//! Light tracing, `lt` (Veach's t = 1 strategy; pbrt-v4's `LightPathIntegrator`, Mitsuba's
+//! `ptracer`): light subpaths leave the lights in proportion to their power, and every vertex the
+//! camera can see sends it what it reflects there, added to the film where it lands. It finds what
+//! camera paths cannot: a point light's caustic on a diffuse floor, seen directly.
+//!
+//! | parameter | type | default | meaning |
+//! |---|---|---|---|
+//! | `integrator` | `lt` | | light tracing |
+//! | `spp` | u32 | 64 | light subpaths per pixel (one per pixel a unit), and camera rays per pixel |
+//! | `max_depth` | u32 or none | none | maximum bounces of a light subpath |
+//! | `rr_depth` | u32 | 5 | first bounce at which Russian roulette may end a subpath |
+//! | `seed`, `sampler` | | | as `pt` |
+//!
+//! A unit is a camera ray per pixel that follows delta bounces only and adds the emission it meets on
+//! the way (lights and sky seen directly, in a mirror or through glass), and as many light subpaths
+//! as pixels; a pass groups units to about a million subpaths and is never cut short (a stop waits
+//! for its end: its camera samples count its splats).
+//!
+//! | phase | stages |
+//! |---|---|
+//! | camera | `emit_camera_paths` → `trace_paths` → `scatter_to_seen_emission` → `splat_paths_to_film` |
+//! | photons (the light subpaths) | `emit_photons` → `trace_photons` → `scatter_light_paths` → `splat_camera_connections` → `store_photons` |
+//!
+//! The camera rays count the pass's samples, one a pixel, and the subpaths' splats add to the sums
+//! uncounted, so a pixel holds (emission seen + splats) / units, as pbrt-v4 scales its splats by
+//! 1/spp. Each unit's subpaths draw their numbers from its index, so the film alone is the state: `--part` and checkpoints work as for `pt`. What no strategy here finds: a diffuse surface
+//! seen in a mirror or through glass (L…D S+ E: the connection cannot pass the delta bounce, the
+//! camera path stops at the diffuse surface; `pt` or `bdpt` find it), and a point light seen
+//! directly (a point of no size, as in `pt`).
+
+use super::descriptor::{Integrator, LightSampling, MemoryNeed, no_checks, one_sample_per_unit};
+use super::{configure_stages, film_image, paths_busy, photons_busy, stage_order};
+use crate::PassSystems;
+use crate::components::{CameraSplat, PathStatus, PhotonHit, PhotonRay, PhotonState};
+use crate::emit::emit_camera_paths_for;
+use crate::gather::{splat_paths_to_film, store_photons};
+use crate::light_paths::{
+    LightPaths, emit_light_paths, scatter_light_paths, scatter_to_seen_emission, splat_camera_connections,
+};
+use crate::passes::{begin_photon_pass, hand_out_samples};
+use crate::plan::{Phase, Plan, Repeat, Unit, When};
+use crate::report::Report;
+use crate::resources::{
+    FilmResource, PassRange, PhotonBuffer, PhotonStats, PhotonWork, RenderConfig, SceneFeatures,
+};
+use crate::trace::{trace_paths, trace_photons};
+use crate::world::MAX_WAVEFRONT;
+use bevy_ecs::prelude::*;
+use caustica_core::error::Result;
+use caustica_core::photon::PhotonMapKind;
+use caustica_core::scene::{IntegratorKind, RunFile};
+use std::sync::atomic::Ordering;
+
+/// Light subpaths a pass aims at: enough to amortise a pass's fixed cost, few enough that a stop
+/// (which waits for the pass's end) is prompt.
+const SUBPATHS_PER_PASS: u32 = 1 << 20;
+
+/// `lt`: light subpaths connected to the camera.
+pub static LT: Integrator = Integrator {
+    kind: IntegratorKind::Lt,
+    unit: Unit::Samples,
+    film_is_the_state: true,
+    whole_passes: true,
+    light_sampling: LightSampling::Never,
+    takes: &[],
+    default_hit_points_per_pixel: 0,
+    camera_samples_per_unit: one_sample_per_unit,
+    memory,
+    check: no_checks,
+    plan,
+};
+
+/// The camera paths of a sample integrator, and a wavefront of light subpaths with their pending
+/// connections.
+fn memory(_: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
+    let paths = super::path::paths(pixels, run);
+    let subpaths = pixels.min(MAX_WAVEFRONT as u64)
+        * super::memory::entity_bytes(&[
+            size_of::<PhotonRay>(),
+            size_of::<PhotonHit>(),
+            size_of::<PhotonState>(),
+            size_of::<CameraSplat>(),
+        ]);
+    MemoryNeed {
+        bytes: paths.bytes + subpaths,
+        what: format!("a {pixels}-pixel film, its paths and light subpaths"),
+    }
+}
+
+fn plan(_: &Integrator, world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
+    let features = super::without_visibility_learning(world, features, "light tracing picks lights by power");
+    let order = stage_order(run);
+    let pixels = {
+        let film = world.resource::<FilmResource>();
+        film.width * film.height
+    };
+    let config = world.resource::<RenderConfig>().clone();
+    world.insert_resource(PhotonWork::new(PhotonMapKind::Global, pixels, &config, features.motion));
+    world.insert_resource(PhotonBuffer::default());
+    world.insert_resource(PhotonStats::default());
+    world.insert_resource(LightPaths { per_unit: pixels, ..Default::default() });
+    super::spawn_path_wavefront(world);
+    world.spawn_batch((0..pixels.min(MAX_WAVEFRONT)).map(|index| {
+        let state = PhotonState { index, status: PathStatus::Idle, ..Default::default() };
+        (PhotonRay::default(), PhotonHit::default(), state, CameraSplat::default())
+    }));
+
+    let units_per_pass = (SUBPATHS_PER_PASS / pixels.max(1)).max(1);
+    let mut camera =
+        Phase::new("camera", When::EveryPass, Repeat::WhileBusy(paths_busy)).with_begin(hand_out_samples(1));
+    configure_stages(&mut camera.schedule, order);
+    camera.schedule.add_systems(emit_camera_paths_for(features).in_set(PassSystems::Emit));
+    camera.schedule.add_systems(trace_paths.in_set(PassSystems::Trace));
+    camera.schedule.add_systems(scatter_to_seen_emission.in_set(PassSystems::Scatter));
+    camera.schedule.add_systems(splat_paths_to_film.in_set(PassSystems::Gather));
+    let mut light = Phase::new("photons", When::EveryPass, Repeat::WhileBusy(photons_busy))
+        .with_begin((begin_light_pass(pixels), begin_photon_pass).chain());
+    configure_stages(&mut light.schedule, order);
+    light.schedule.add_systems(emit_light_paths.in_set(PassSystems::Emit));
+    light.schedule.add_systems(trace_photons.in_set(PassSystems::Trace));
+    light.schedule.add_systems(scatter_light_paths.in_set(PassSystems::Scatter));
+    light.schedule.add_systems(splat_camera_connections.in_set(PassSystems::Shadow));
+    light.schedule.add_systems(store_photons.in_set(PassSystems::Gather));
+    Ok(Plan {
+        phases: vec![camera, light],
+        // Units enough for about a million subpaths a pass (a stop waits for the pass's end);
+        // each unit's subpaths have its own numbers, however the units are grouped into passes.
+        pass_end: Box::new(move |done, target| (done + units_per_pass).min(target)),
+        image: film_image,
+        report,
+        reset: |_| {},
+    })
+}
+
+/// A system that sets up the pass's light subpaths: as many as the pass has camera samples, with
+/// the random numbers of its unit index.
+fn begin_light_pass(pixels: u32) -> impl FnMut(Res<PassRange>, ResMut<PhotonWork>) {
+    move |range, mut work| {
+        work.pass = range.begin;
+        work.settings.total = pixels.saturating_mul(range.end - range.begin);
+    }
+}
+
+/// The subpaths and their connections.
+fn report(world: &World, report: &mut Report) {
+    report.photons = Some(super::photon_summary(world, (0, None), Vec::new()));
+    let stats = world.resource::<LightPaths>();
+    let (connections, splatted, dropped) = (
+        stats.connections.load(Ordering::Relaxed),
+        stats.splatted.load(Ordering::Relaxed),
+        stats.dropped.load(Ordering::Relaxed),
+    );
+    report.notes.push((
+        "camera",
+        format!("{connections} connections from light vertices, {splatted} seen, {dropped} splats out of range dropped"),
+    ));
+}

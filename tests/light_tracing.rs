@@ -1,0 +1,93 @@
+//! Light tracing (`lt`) against an independent renderer: the Mitsuba 3 references of the test
+//! scenes, wherever lt finds every path: everywhere in the cornell box; in cornell-spheres (a glass
+//! and a mirror sphere, whose caustics lt finds at once) everywhere but the spheres, in which
+//! diffuse surfaces are seen through a delta bounce (L…D S E), which neither a connection nor lt's
+//! camera rays can make (`bdpt` will). Not cornell-point-rough: its point light's reflection off the
+//! mirror sphere onto the walls (L S D E from a point) is light no path tracer finds, so Mitsuba's
+//! reference lacks it and lt, which finds it, is 1–3% brighter there.
+//!
+//! The references are 256×256 with a box filter; a 128×128 render is compared with their 2×2 block
+//! averages, region by region, as tests/convergence.rs does for `pt`. A light subpath splats into a
+//! few pixels (one a visible vertex), so neighbouring pixels are slightly correlated; the bounds
+//! below are the same as `pt`'s, and a lost factor (the lens's cos θ, the BSDF's in importance
+//! transport, the subpath count) moves whole regions by far more.
+
+mod common;
+
+use caustica::film::output::read_exr;
+use caustica::scene::{IntegratorKind, load};
+
+fn render_half(gltf: &str, spp: u32) -> caustica::film::Image {
+    let (scene, mut run) = load(&common::data(gltf)).expect("test scene loads");
+    run.render.integrator = IntegratorKind::Lt;
+    run.render.spp = spp;
+    (run.film.width, run.film.height) = (Some(128), Some(128));
+    common::render(scene, &run)
+}
+
+/// The pixels of a 128×128 render of `gltf` whose camera rays (at the corners and the centre of
+/// the pixel) all land first on a surface that is not a delta BSDF.
+fn seen_without_a_delta_bounce(gltf: &str) -> Vec<bool> {
+    use caustica::kernel::Vertex;
+    use caustica::resources::{CameraResource, SceneResource};
+    let (scene, mut run) = load(&common::data(gltf)).expect("test scene loads");
+    (run.film.width, run.film.height) = (Some(128), Some(128));
+    let (world, _) = caustica::driver::scene_world(scene, &run).unwrap();
+    let (scene, camera) = (&world.resource::<SceneResource>().0, &world.resource::<CameraResource>().0);
+    let offsets = [(0.01, 0.01), (0.99, 0.01), (0.01, 0.99), (0.99, 0.99), (0.5, 0.5)];
+    (0..128 * 128)
+        .map(|i| {
+            offsets.iter().all(|&(u, v)| {
+                let ray =
+                    camera.generate_ray(i % 128, i / 128, glam::Vec2::new(u, v), glam::Vec2::splat(0.5), 0.0);
+                let hit = scene.geometry.intersect(&ray);
+                !hit.is_hit()
+                    || !Vertex::new(scene, &ray, scene.geometry.surface_hit(&ray, &hit)).bsdf.is_delta()
+            })
+        })
+        .collect()
+}
+
+/// `image` with the pixels outside `keep` set to the reference's, so they add nothing to a
+/// difference.
+fn masked(
+    image: &caustica::film::Image,
+    reference: &caustica::film::Image,
+    keep: &[bool],
+) -> caustica::film::Image {
+    let mut out = image.clone();
+    for (i, keep) in keep.iter().enumerate() {
+        if !keep {
+            out.pixels[i] = reference.pixels[i];
+        }
+    }
+    out
+}
+
+/// No |z| above 4.4 over a 4×4 grid of blocks (Bonferroni over 16, p ≈ 2e-4) and Σz² below the χ²₁₆
+/// quantile 44.3; the image mean within 1% of the reference's.
+fn assert_matches(image: &caustica::film::Image, reference: &caustica::film::Image) {
+    let z = common::block_z_scores(image, reference, 4);
+    let chi2: f64 = z.iter().map(|v| v * v).sum();
+    let worst = z.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let (mean, standard_error) = common::paired_difference(image, reference);
+    eprintln!("block z {z:.1?}; mean difference {mean:.2e} ± {standard_error:.1e}");
+    assert!(worst < 4.4 && chi2 < 44.3, "block z-scores {z:.1?}: max |z| {worst:.1}, Σz² {chi2:.1}");
+    assert!(mean.abs() < 4.4 * standard_error, "mean difference {mean} ± {standard_error}");
+}
+
+#[test]
+fn lt_on_cornell_box_matches_mitsuba() {
+    let reference = common::downsample2(&read_exr(&common::data("cornell-box.ref.exr")).unwrap());
+    assert_matches(&render_half("cornell-box.gltf", 16), &reference);
+}
+
+#[test]
+fn lt_on_cornell_spheres_matches_mitsuba_outside_the_spheres() {
+    let reference = common::downsample2(&read_exr(&common::data("cornell-spheres.ref.exr")).unwrap());
+    let keep = seen_without_a_delta_bounce("cornell-spheres.gltf");
+    let dropped = keep.iter().filter(|k| !**k).count();
+    // The two spheres and nothing else: a few percent of the pixels.
+    assert!((600..5000).contains(&dropped), "{dropped} pixels seen through a delta bounce");
+    assert_matches(&masked(&render_half("cornell-spheres.gltf", 16), &reference, &keep), &reference);
+}
