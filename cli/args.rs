@@ -154,8 +154,10 @@ pub struct DensityArgs {
     pub output: PathBuf,
 }
 
-/// Arguments of `caustica render`.
+/// Arguments of `caustica render`. Negative numbers are values (`--spp -1` is refused as a count,
+/// not met with clap's tip to write `-- -1`).
 #[derive(Args, Debug, Default, Clone)]
+#[command(allow_negative_numbers = true)]
 pub struct RenderArgs {
     /// Run file or glTF to render (default: scenes/default.toml).
     pub scene: Option<PathBuf>,
@@ -221,8 +223,10 @@ pub struct RenderArgs {
     #[arg(short, long, visible_alias = "outfile")]
     pub output: Vec<PathBuf>,
     /// Set any run-file key, KEY=VALUE, as `render.spp=256` or `camera.eye=[0, 1, 3]` (a value that is
-    /// not TOML is taken as a string: `render.integrator=sppm`); repeatable; other flags win over it.
-    #[arg(long = "set", value_name = "KEY=VALUE")]
+    /// not TOML is taken as a string: `render.integrator=sppm`); the common keys without their table
+    /// (`spp=256`, `passes=64`, `width=800`: those Python's keyword overrides take); `-D` as in
+    /// Mitsuba; repeatable; other flags win over it.
+    #[arg(long = "set", short = 'D', value_name = "KEY=VALUE")]
     pub set: Vec<String>,
     /// Photon mapping: photons for the global map.
     #[arg(long)]
@@ -276,7 +280,8 @@ pub struct RenderArgs {
     /// run file.
     #[arg(long)]
     pub min_spp: Option<u32>,
-    /// Progressive photon mapping: also write the outputs every K passes; overrides the run file.
+    /// Also write the outputs every K samples per pixel or passes (the integrator's unit), so a long
+    /// render can be looked at; overrides the run file.
     #[arg(long)]
     pub write_every: Option<u32>,
     /// Print a per-system profile (calls, total, %, mean, min, max) at exit.
@@ -292,8 +297,9 @@ pub struct RenderArgs {
     /// Reference EXR: print the error of the result against it.
     #[arg(long)]
     pub reference: Option<PathBuf>,
-    /// Render only share I of K of the samples (pt, pt-naive, pm) and write an accumulator EXR (its
-    /// exact sums) to the one `-o FILE.exr`; `caustica merge` makes the image of all K.
+    /// Render only share I of K of the samples (pt, pt-naive, pm, lt) or passes (pppm) and write an
+    /// accumulator EXR (its exact sums) to the one `-o FILE.exr`; `caustica merge` makes the image
+    /// of all K.
     #[arg(long, value_name = "I/K", value_parser = parse_part)]
     pub part: Option<(u32, u32)>,
     /// Write a checkpoint (an accumulator EXR of the whole passes so far) to FILE every
@@ -304,7 +310,8 @@ pub struct RenderArgs {
     #[arg(long, value_name = "SECONDS", default_value_t = 60.0)]
     pub checkpoint_every: f64,
     /// Continue the render a checkpoint holds (the same scene and settings; --spp or --passes may
-    /// raise the target): once it reaches the target, the same bits as a render never stopped.
+    /// raise the target): once it reaches the target, the same bits as a render never stopped. It
+    /// goes on checkpointing to that file (or to --checkpoint FILE).
     #[arg(long, value_name = "FILE.exr")]
     pub resume: Option<PathBuf>,
     /// Also write each output denoised by Intel Open Image Denoise, guided by albedo and normal, as

@@ -73,7 +73,9 @@ pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>) -> Result<bool
     }
     let resumed =
         args.resume.as_deref().map(|path| crate::checkpoint::read_resume(path, &scene, &run)).transpose()?;
-    let mut checkpoints = match &args.checkpoint {
+    // A resumed render goes on checkpointing to the file it resumed, unless told another: else a
+    // second stop would leave only the old checkpoint.
+    let mut checkpoints = match args.checkpoint.as_ref().or(args.resume.as_ref()) {
         Some(path) => {
             // Every file the run reads but the checkpoint it resumes from, which it goes on writing.
             let read = inputs(args, &run, &scene_path);
@@ -138,7 +140,7 @@ pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>) -> Result<bool
     let bar = progress_bar(&renderer, args.quiet);
     let render_start = Instant::now();
     let mut written_marks = 0;
-    let report = renderer.run(run.render.time_limit, |renderer| {
+    let mut report = renderer.run(run.render.time_limit, |renderer| {
         if let Some(checkpoints) = &mut checkpoints
             && let Err(e) = checkpoints.write_if_due(renderer)
         {
@@ -187,7 +189,23 @@ pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>) -> Result<bool
     } else {
         None
     };
+    // A share reports what it rendered itself, not where it ends in the whole render's units.
+    if let Some(info) = &part {
+        report.done -= info.samples.start as f64;
+        report.target = info.samples.len() as u32;
+    }
     print_report(&scene_path, &report, start.elapsed().as_secs_f64());
+    if let Some(info) = &part {
+        outln!(
+            "part        {}/{}: units {}..{} of {} {}",
+            info.part,
+            info.parts,
+            info.samples.start,
+            info.samples.end,
+            info.spp,
+            report.unit.name()
+        );
+    }
     if let Some(profile) = profile {
         outln!("\nper-system profile (tracing spans)\n{}", profile.table());
         if let Some(mut statistics) = renderer.world.get_resource_mut::<TraceStatistics>() {
@@ -279,8 +297,16 @@ fn write_outputs(
 
 /// A part writes one accumulator, so it takes exactly one `-o`, an .exr.
 fn check_part_output(outputs: &[PathBuf]) -> Result<()> {
-    if outputs.len() != 1 || !outputs[0].extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
-        anyhow::bail!("--part writes one accumulator file: give one -o FILE.exr (got {})", outputs.len());
+    match outputs {
+        [one] if one.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) => {}
+        [one] => anyhow::bail!(
+            "{}: --part writes an accumulator, an EXR of exact sums: name it FILE.exr (`caustica merge` \
+             writes the PNG)",
+            one.display()
+        ),
+        _ => {
+            anyhow::bail!("--part writes one accumulator file: give one -o FILE.exr (got {})", outputs.len())
+        }
     }
     Ok(())
 }

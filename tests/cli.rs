@@ -313,3 +313,52 @@ fn odd_inputs_are_refused_or_said() {
     assert!(!output.status.success() && String::from_utf8_lossy(&output.stderr).contains("origin"));
     assert!(!dir.path().join("d.png").exists());
 }
+
+/// What a new user met (issue 32): `--spp -1` is refused as a count, not met with clap's `-- -1`
+/// tip; comparing a PNG says that images are compared as EXRs; `--part` to a PNG names the file and
+/// what it must be; `-D spp=2` sets `render.spp` as Mitsuba's `-D` and Python's `spp=` do; a share's
+/// summary gives the samples it rendered, not where it ends.
+#[test]
+fn what_a_new_user_met_is_said_plainly() {
+    let dir = scratch("new-user");
+    let scene = common::data("cornell-box.gltf");
+    let scene = scene.to_str().unwrap();
+    let out = dir.join("o.exr");
+    let out = out.to_str().unwrap();
+    let negative = caustica(&["render", scene, "--spp", "-1", "-o", out]);
+    let stderr = String::from_utf8_lossy(&negative.stderr);
+    assert!(!negative.status.success() && stderr.contains("'-1'") && !stderr.contains("-- -1"), "{stderr}");
+
+    let png = dir.join("o.png");
+    let rendered = caustica(&[
+        "render",
+        scene,
+        "-D",
+        "spp=2",
+        "-D",
+        "width=8",
+        "--height",
+        "8",
+        "-o",
+        png.to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&rendered.stdout);
+    assert!(rendered.status.success() && stdout.contains("2 spp, 8x8"), "{stdout}");
+    let reference = common::data("cornell-box.ref.exr");
+    assert_fails_naming(
+        &caustica(&["compare", png.to_str().unwrap(), reference.to_str().unwrap()]),
+        "not an OpenEXR file",
+    );
+
+    let part = caustica(&["render", scene, "--spp", "8", "--part", "1/4", "-o", png.to_str().unwrap()]);
+    assert_fails_naming(&part, "o.png: --part writes an accumulator");
+
+    let share = caustica(&[
+        "render", scene, "--spp", "64", "--width", "8", "--height", "8", "--part", "2/4", "-o", out,
+    ]);
+    let stdout = String::from_utf8_lossy(&share.stdout);
+    assert!(
+        stdout.contains("pt, 16 spp, 8x8") && stdout.contains("part        2/4: units 16..32 of 64 spp"),
+        "{stdout}"
+    );
+}

@@ -85,6 +85,25 @@ fn pppm_stopped_by_a_signal_and_resumed_is_the_uninterrupted_render() {
     ]);
 }
 
+/// `--resume` alone goes on checkpointing to the file it resumed (the README's recipe lost work when a
+/// second stop found the old checkpoint), and `--checkpoint OTHER` moves it there.
+#[test]
+fn a_resumed_render_goes_on_checkpointing_to_its_file() {
+    use caustica::film::accumulator::read_info;
+    let dir = tempfile::tempdir().unwrap();
+    let (ck, other, out) =
+        (dir.path().join("ck.exr"), dir.path().join("other.exr"), dir.path().join("o.exr"));
+    let run = |args: &[&str], paths: &[&Path]| caustica(args, paths).status().unwrap().success();
+    assert!(run(&["--spp", "2", "--checkpoint"], &[&ck, Path::new("-o"), &out]));
+    assert!(run(&["--spp", "4", "--resume"], &[&ck, Path::new("-o"), &out]));
+    assert_eq!(read_info(&ck).unwrap().0.samples, 0..4, "the resumed render's last checkpoint");
+    assert!(run(
+        &["--spp", "6", "--resume"],
+        &[&ck, Path::new("--checkpoint"), &other, Path::new("-o"), &out]
+    ));
+    assert_eq!((read_info(&ck).unwrap().0.samples, read_info(&other).unwrap().0.samples), (0..4, 0..6));
+}
+
 #[test]
 fn lt_stopped_by_a_signal_and_resumed_is_the_uninterrupted_render() {
     interrupted_and_resumed_equals_uninterrupted(&["--integrator", "lt", "--spp", "256"]);

@@ -30,30 +30,17 @@ from ._caustica import (
     write_image,
 )
 from ._caustica import load as _load
+from ._caustica import short_keys as _short_keys
 
 __all__ = [
     "CausticaError", "RenderResult", "Scene", "Session", "compare", "from_dict", "has_denoiser", "load", "merge",
     "read_exr", "read_exr_channels", "write_image",
 ]
 
-# The run-file section of each short keyword (`spp=` is `render.spp`); any other key is given
-# dotted, as in the run file: `caustica.load(path, **{"environment.strength": 2.0})`.
-_SECTION = {
-    **dict.fromkeys(
-        ["integrator", "spp", "seed", "max_depth", "rr_depth", "light_selection", "sampler", "time_limit",
-         "memory_budget_mib"],
-        "render",
-    ),
-    **dict.fromkeys(["width", "height", "filter", "exposure"], "film"),
-    **dict.fromkeys(
-        ["eye", "target", "up", "yfov_degrees", "aperture_radius", "focus_distance", "shutter"], "camera"
-    ),
-    **dict.fromkeys(["photons", "caustic_photons", "k", "max_radius", "kernel", "final_gather"], "photons"),
-    **dict.fromkeys(
-        ["passes", "photons_per_pass", "alpha", "initial_radius", "hit_points_per_pixel"], "progressive"
-    ),
-    **dict.fromkeys(["order", "nee", "caustic_map"], "schedule"),
-}
+# The run-file section of each short keyword (`spp=` is `render.spp`): the core's list, which
+# `--set spp=16` and `-D spp=16` take too; any other key is given dotted, as in the run file:
+# `caustica.load(path, **{"environment.strength": 2.0})`.
+_SECTION = dict(_short_keys())
 
 
 _KEY = re.compile(r"[A-Za-z0-9_-]+(\.[A-Za-z0-9_-]+)*")
@@ -94,7 +81,8 @@ def _override_sets(overrides: dict[str, Any]) -> list[str]:
         if not _KEY.fullmatch(key):
             shown = key if len(key) <= 40 else key[:40] + "..."
             raise ValueError(f"{shown!r}: a run-file key is names (letters, digits, _ and -) joined by dots")
-        dotted = key if "." in key else f"{_SECTION.get(key, 'render')}.{key}"
+        # An unknown key without a table goes as it is: the core's error lists the keys it knows.
+        dotted = f"{_SECTION[key]}.{key}" if key in _SECTION else key
         sets.append(f"{dotted}={_toml(value, key)}")
     return sets
 

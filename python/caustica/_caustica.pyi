@@ -97,6 +97,8 @@ def write_image(path: Union[str, os.PathLike[str]], color: npt.NDArray[np.float3
 def compare(image: npt.NDArray[np.float32], reference: npt.NDArray[np.float32]) -> dict[str, float]:
     """rmse, relmse, mae (linear RGB) and flip (mean LDR-FLIP after the PNG tone map), as
     ``caustica compare`` prints them."""
+def short_keys() -> list[tuple[str, str]]:
+    """The run-file keys an override may give without its table, with their tables."""
 def has_denoiser() -> bool:
     """Whether this build has the denoiser (``RenderResult.denoised``)."""
 def read_exr_channels(path: Union[str, os.PathLike[str]]) -> dict[str, npt.NDArray[np.float32]]:

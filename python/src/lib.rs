@@ -73,5 +73,13 @@ fn _caustica(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(images::merge, m)?)?;
     m.add_function(wrap_pyfunction!(images::write_image, m)?)?;
     m.add_function(wrap_pyfunction!(images::compare, m)?)?;
+    m.add_function(wrap_pyfunction!(short_keys, m)?)?;
     Ok(())
+}
+
+/// The run-file keys an override may give without its table, each with its table: the core's one
+/// list, which `--set` and `-D` read too.
+#[pyfunction]
+fn short_keys() -> Vec<(&'static str, &'static str)> {
+    caustica::scene::run_file::SHORT_KEYS.to_vec()
 }

@@ -209,6 +209,14 @@ fn write_png(
     .map_err(|e| e.to_string())
 }
 
+/// Whether the file begins with OpenEXR's magic number.
+fn starts_like_exr(path: &Path) -> bool {
+    use std::io::Read;
+    let mut magic = [0u8; 4];
+    std::fs::File::open(path).and_then(|mut f| f.read_exact(&mut magic)).is_ok()
+        && magic == [0x76, 0x2f, 0x31, 0x01]
+}
+
 /// Read the first RGB(A) layer of an EXR file as linear RGB.
 pub fn read_exr(path: &Path) -> Result<Image> {
     use exr::prelude::read_first_rgba_layer_from_file;
@@ -221,6 +229,13 @@ pub fn read_exr(path: &Path) -> Result<Image> {
     )
     .map_err(|e| match e {
         exr::error::Error::Io(source) => Error::Io { path: path.to_path_buf(), source },
+        _ if !starts_like_exr(path) => Error::Image {
+            path: path.to_path_buf(),
+            message:
+                "not an OpenEXR file: images are compared, and references read, as linear EXRs (a PNG is \
+                      tone-mapped to 8 bits; compare the render's .exr)"
+                    .into(),
+        },
         other => Error::Image { path: path.to_path_buf(), message: format!("not a readable EXR: {other}") },
     })?;
     let size = read.layer_data.size;

@@ -344,6 +344,16 @@ impl RunFile {
                 Err(_) => toml::Value::String(value.to_owned()),
             };
             let mut parts: Vec<&str> = key.split('.').collect();
+            if let [short] = parts[..] {
+                let Some(&(_, table)) = SHORT_KEYS.iter().find(|(k, _)| *k == short) else {
+                    let known: Vec<&str> = SHORT_KEYS.iter().map(|(k, _)| *k).collect();
+                    return Err(format!(
+                        "--set {short}: not a key without its table; give TABLE.KEY (render.spp) or one of {}",
+                        known.join(", ")
+                    ));
+                };
+                parts = vec![table, short];
+            }
             // A run file's keys are a table and a key (`render.spp`, `camera.eye`); a deeper one names
             // nothing, and a very deep one would nest tables deeper than reading them back can recurse.
             if parts.len() > MAX_KEY_DEPTH {
@@ -371,6 +381,47 @@ impl RunFile {
         Ok(run)
     }
 }
+
+/// The keys `--set` (and Python's keyword overrides) take without their table, as Mitsuba's `-D
+/// spp=…` does, with their tables: the one list, which the Python package reads too.
+pub const SHORT_KEYS: &[(&str, &str)] = &[
+    ("integrator", "render"),
+    ("spp", "render"),
+    ("seed", "render"),
+    ("max_depth", "render"),
+    ("rr_depth", "render"),
+    ("light_selection", "render"),
+    ("sampler", "render"),
+    ("time_limit", "render"),
+    ("memory_budget_mib", "render"),
+    ("noise_threshold", "render"),
+    ("min_spp", "render"),
+    ("width", "film"),
+    ("height", "film"),
+    ("filter", "film"),
+    ("exposure", "film"),
+    ("eye", "camera"),
+    ("target", "camera"),
+    ("up", "camera"),
+    ("yfov_degrees", "camera"),
+    ("aperture_radius", "camera"),
+    ("focus_distance", "camera"),
+    ("shutter", "camera"),
+    ("photons", "photons"),
+    ("caustic_photons", "photons"),
+    ("k", "photons"),
+    ("max_radius", "photons"),
+    ("kernel", "photons"),
+    ("final_gather", "photons"),
+    ("passes", "progressive"),
+    ("photons_per_pass", "progressive"),
+    ("alpha", "progressive"),
+    ("initial_radius", "progressive"),
+    ("hit_points_per_pixel", "progressive"),
+    ("order", "schedule"),
+    ("nee", "schedule"),
+    ("caustic_map", "schedule"),
+];
 
 /// Most dotted parts a `--set` key may have: a table, a key, and room for a nested table's key.
 const MAX_KEY_DEPTH: usize = 4;
@@ -420,5 +471,25 @@ mod tests {
         let message = RunFile::parse_with_sets("", &["film.exposure=1e30".into()]).unwrap_err();
         assert!(message.contains("film.exposure") && message.contains("±64"), "{message}");
         assert_eq!(RunFile::parse_with_sets("", &["film.exposure=-3".into()]).unwrap().film.exposure, -3.0);
+    }
+
+    /// `spp=4` is `render.spp=4` (as Python's `spp=` and Mitsuba's `-D spp=`), every short key sets
+    /// its own table's key, and an unknown one is refused listing those it could be.
+    #[test]
+    fn short_keys_set_their_tables_keys() {
+        let run =
+            RunFile::parse_with_sets("", &["spp=4".into(), "width=9".into(), "passes=7".into()]).unwrap();
+        assert_eq!((run.render.spp, run.film.width, run.progressive.passes), (4, Some(9), 7));
+        for (key, table) in super::SHORT_KEYS {
+            let text = format!("[{table}]\n");
+            let short =
+                RunFile::parse_with_sets(&text, &[format!("{key}=\"x\"")]).map_err(|e| e.replace(key, "KEY"));
+            let dotted = RunFile::parse_with_sets(&text, &[format!("{table}.{key}=\"x\"")])
+                .map_err(|e| e.replace(&format!("{table}.{key}"), "KEY"));
+            // The same outcome either way: both refused for the same reason, or both taken.
+            assert_eq!(short.is_ok(), dotted.is_ok(), "{key}: {short:?} vs {dotted:?}");
+        }
+        let message = RunFile::parse_with_sets("", &["spd=4".into()]).unwrap_err();
+        assert!(message.contains("spd") && message.contains("spp"), "{message}");
     }
 }
