@@ -13,7 +13,7 @@
 //! | `splat_camera_connections` | `CameraSplat`, `SceneResource`, `CameraResource` | `FilmResource`, `LightPaths` |
 
 use super::components::{
-    CameraSplat, PathHit, PathRay, PathState, PathStatus, PhotonHit, PhotonRay, PhotonState,
+    CameraSplat, PathAov, PathHit, PathRay, PathState, PathStatus, PhotonHit, PhotonRay, PhotonState,
 };
 use super::resources::{
     CameraResource, FilmResource, PhotonWork, RenderConfig, SceneResource, wavefront_batching,
@@ -91,40 +91,44 @@ pub fn emit_light_paths(
 pub fn scatter_to_seen_emission(
     scene: Res<SceneResource>,
     config: Res<RenderConfig>,
-    mut paths: Query<(&PathHit, &mut PathRay, &mut PathState)>,
+    mut paths: Query<(&PathHit, &mut PathRay, &mut PathState, Option<&mut PathAov>)>,
 ) {
     let arrival =
         Arrival { emission: Some(EmissionWeight::SeenDirectly), last_depth: config.limits.max_depth };
-    paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each(|(hit, mut ray, mut state)| {
-        if state.status != PathStatus::Active {
-            return;
-        }
-        state.rays += 1;
-        let state = &mut *state;
-        let goes_on = arrival.arrive(
-            &scene,
-            &mut ray.0,
-            &hit.0,
-            &mut state.path,
-            state.sampler,
-            None,
-            |path, ray, v, u| {
-                if !v.bsdf.is_delta() {
-                    return false;
-                }
-                match continue_path(path, v, ray.time, u, config.limits) {
-                    Some(next) => {
-                        *ray = next;
-                        true
+    paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each(
+        |(hit, mut ray, mut state, mut aov)| {
+            if state.status != PathStatus::Active {
+                return;
+            }
+            state.rays += 1;
+            let state = &mut *state;
+            // The feature images of the first non-specular surface, as every camera path records them.
+            let aov = aov.as_deref_mut().map(|a| &mut a.0);
+            let goes_on = arrival.arrive(
+                &scene,
+                &mut ray.0,
+                &hit.0,
+                &mut state.path,
+                state.sampler,
+                aov,
+                |path, ray, v, u| {
+                    if !v.bsdf.is_delta() {
+                        return false;
                     }
-                    None => false,
-                }
-            },
-        );
-        if !goes_on {
-            state.status = PathStatus::Finished;
-        }
-    });
+                    match continue_path(path, v, ray.time, u, config.limits) {
+                        Some(next) => {
+                            *ray = next;
+                            true
+                        }
+                        None => false,
+                    }
+                },
+            );
+            if !goes_on {
+                state.status = PathStatus::Finished;
+            }
+        },
+    );
 }
 
 /// Connect every active light subpath's vertex to the camera, then continue it or end it.

@@ -141,14 +141,17 @@ fn through_a_perfect_mirror_the_features_are_those_of_the_surface_it_shows() {
     let dir = tempfile::tempdir().unwrap();
     let behind = [0.25, 0.5, 0.75];
     let scene = planes(dir.path(), MIRROR, &lambertian(behind));
-    let channels = render_aovs(&scene, dir.path(), &["--integrator", "sppm", "--passes", "2"]);
-    assert_all_near(&triples(&channels, ["albedo.R", "albedo.G", "albedo.B"]), behind, 1e-6, "albedo");
-    // The plane behind the camera faces −Z, towards the mirror and so towards the reflected camera.
-    assert_all_near(&triples(&channels, ["N.X", "N.Y", "N.Z"]), [0.0, 0.0, -1.0], 1e-6, "normal");
-    // The unfolded path: to the mirror, then back past the camera to the plane behind it.
-    let unfolded = -FRONT_Z + (BACK_Z - FRONT_Z);
-    for (i, z) in channels["Z"].iter().enumerate() {
-        assert!((z - unfolded).abs() < 1e-4, "depth of pixel {i} is {z}, not {unfolded}");
+    // sppm's camera passes, and lt's camera rays (which follow delta bounces only).
+    for integrator in [&["--integrator", "sppm", "--passes", "2"][..], &["--integrator", "lt"]] {
+        let channels = render_aovs(&scene, dir.path(), integrator);
+        assert_all_near(&triples(&channels, ["albedo.R", "albedo.G", "albedo.B"]), behind, 1e-6, "albedo");
+        // The plane behind the camera faces −Z, towards the mirror and so towards the reflected camera.
+        assert_all_near(&triples(&channels, ["N.X", "N.Y", "N.Z"]), [0.0, 0.0, -1.0], 1e-6, "normal");
+        // The unfolded path: to the mirror, then back past the camera to the plane behind it.
+        let unfolded = -FRONT_Z + (BACK_Z - FRONT_Z);
+        for (i, z) in channels["Z"].iter().enumerate() {
+            assert!((z - unfolded).abs() < 1e-4, "depth of pixel {i} is {z}, not {unfolded}");
+        }
     }
 }
 
