@@ -91,3 +91,25 @@ fn lt_on_cornell_spheres_matches_mitsuba_outside_the_spheres() {
     assert!((600..5000).contains(&dropped), "{dropped} pixels seen through a delta bounce");
     assert_matches(&masked(&render_half("cornell-spheres.gltf", 16), &reference, &keep), &reference);
 }
+
+/// The splats share a connection among the pixels the reconstruction filter reaches, with the
+/// weights the camera samples are drawn from: under the tent and the Gaussian, lt and pt (whose
+/// samples land by the filter) estimate the same pixels. Region by region, as above: the blocks'
+/// z-scores come from the paired differences, so both renders' noise counts. A weight that does not
+/// integrate to one moves every block (tent weights 10% high: every z above 4); a wrong footprint
+/// only blurs within a block, which `camera::tests` checks instead.
+#[test]
+fn lt_and_pt_agree_under_the_wider_filters() {
+    use caustica::scene::FilterKind;
+    for filter in [FilterKind::Tent, FilterKind::Gaussian] {
+        let render = |kind: IntegratorKind| {
+            let (scene, mut run) = load(&common::data("cornell-box.gltf")).expect("test scene loads");
+            run.render.integrator = kind;
+            run.render.spp = 16;
+            run.film.filter = filter;
+            (run.film.width, run.film.height) = (Some(96), Some(96));
+            common::render(scene, &run)
+        };
+        assert_matches(&render(IntegratorKind::Lt), &render(IntegratorKind::Pt));
+    }
+}
