@@ -1,8 +1,8 @@
 //! The World every integrator starts from: the scene's resources, sized and checked.
 
 use crate::resources::{
-    AovFilmResource, CameraResource, FilmResource, MemoryCounted, PassRange, RenderConfig, RenderStats,
-    SceneFeatures, SceneResource,
+    AovFilmResource, CameraResource, FilmResource, PassRange, RenderConfig, RenderStats, SceneFeatures,
+    SceneResource,
 };
 use bevy_ecs::prelude::*;
 use caustica_core::camera::Camera;
@@ -86,8 +86,9 @@ fn scene_camera(
     })
 }
 
-/// A World holding the scene's resources (`SceneResource`, `CameraResource`, `FilmResource`,
-/// `RenderConfig`, `RenderStats`, `PassRange`) and no entities yet, and what the scene uses.
+/// A World holding the scene's resources (`SceneResource`, `CameraResource`, `RenderConfig`,
+/// `RenderStats`, `PassRange`) and no entities or film yet ([`add_films`], once the memory the
+/// render will hold is checked with the scene built), and what the scene uses.
 pub fn scene_world(scene: Scene, run: &RunFile) -> Result<(World, SceneFeatures)> {
     let settings = &run.render;
     let (width, height) = resolution(&scene, run)?;
@@ -95,12 +96,7 @@ pub fn scene_world(scene: Scene, run: &RunFile) -> Result<(World, SceneFeatures)
     let render_scene = RenderScene::from_scene(scene, settings.light_selection);
     let camera = scene_camera(camera_desc, &source, run, &render_scene, width, height)?;
     let features = SceneFeatures::of(&camera, &render_scene);
-    // Once the scene is built (what the process holds counts), before the film is allocated.
-    let integrator = crate::integrators::of_run(run);
-    let need = crate::integrators::memory::render_need(integrator, width as u64 * height as u64, run);
-    let counted = crate::integrators::memory::check(run, need)?;
     let mut world = World::new();
-    world.insert_resource(MemoryCounted(counted));
     world.insert_resource(RenderConfig {
         integrator: settings.integrator,
         seed: settings.seed,
@@ -109,15 +105,23 @@ pub fn scene_world(scene: Scene, run: &RunFile) -> Result<(World, SceneFeatures)
         pass_time: None,
         strata: 1,
     });
-    world.insert_resource(FilmResource(Film::new(width, height)));
-    if run.film.aovs.iter().any(|aov| aov.needs_surface()) {
-        world.insert_resource(AovFilmResource(AovFilm::new(width, height)));
-    }
     world.insert_resource(CameraResource(camera));
     world.insert_resource(SceneResource(render_scene));
     world.insert_resource(RenderStats::default());
     world.insert_resource(PassRange::default());
     Ok((world, features))
+}
+
+/// Add the camera's film, and the feature images' film when `run` asks for them.
+pub fn add_films(world: &mut World, run: &RunFile) {
+    let (width, height) = {
+        let camera = world.resource::<CameraResource>();
+        (camera.width, camera.height)
+    };
+    world.insert_resource(FilmResource(Film::new(width, height)));
+    if run.film.aovs.iter().any(|aov| aov.needs_surface()) {
+        world.insert_resource(AovFilmResource(AovFilm::new(width, height)));
+    }
 }
 
 /// The memory the machine has, from /proc/meminfo (Linux); 8 GiB where it cannot be read.

@@ -286,18 +286,27 @@ fn run_file_text(gltf: Option<usize>, entries: &[(u16, u16, [u16; 4])], edits: &
     String::from_utf8_lossy(&bytes).into_owned()
 }
 
-fn run_file_case(text: &str) -> Result<(), TestCaseError> {
-    let path = common::data("fuzz-run.toml");
+/// The run file `parse` makes, as if read from `path`, loaded and rendered (tiny), timed and counted.
+fn render_run_file(
+    path: &Path,
+    parse: impl FnOnce() -> Result<RunFile, String>,
+) -> (Result<Image, String>, f64) {
     let start = Instant::now();
     let outcome = (|| -> Result<Image, String> {
-        let mut run = RunFile::parse(text, &path).map_err(|e| e.to_string())?;
-        let mut scene = run.load_scene(&path).map_err(|e| e.to_string())?;
-        validate(&mut scene, &path).map_err(|e| e.to_string())?;
+        let mut run = parse()?;
+        let mut scene = run.load_scene(path).map_err(|e| e.to_string())?;
+        validate(&mut scene, path).map_err(|e| e.to_string())?;
         bound_settings(&mut run);
         common::try_render(scene, &run)
     })();
-    let seconds = start.elapsed().as_secs_f64();
     count(&outcome);
+    (outcome, start.elapsed().as_secs_f64())
+}
+
+fn run_file_case(text: &str) -> Result<(), TestCaseError> {
+    let path = common::data("fuzz-run.toml");
+    let (outcome, seconds) =
+        render_run_file(&path, || RunFile::parse(text, &path).map_err(|e| e.to_string()));
     prop_assert!(seconds < MAX_SECONDS, "took {} s", seconds);
     match outcome {
         Ok(image) => check_image(&image, "run file"),
@@ -388,16 +397,7 @@ const SEGMENTS: &[&str] = &[
 /// setting.
 fn set_case(sets: &[String]) -> Result<(), TestCaseError> {
     let path = common::data("fuzz-set.toml");
-    let start = Instant::now();
-    let outcome = (|| -> Result<Image, String> {
-        let mut run = RunFile::parse_with_sets(SET_BASE, sets)?;
-        let mut scene = run.load_scene(&path).map_err(|e| e.to_string())?;
-        validate(&mut scene, &path).map_err(|e| e.to_string())?;
-        bound_settings(&mut run);
-        common::try_render(scene, &run)
-    })();
-    let seconds = start.elapsed().as_secs_f64();
-    count(&outcome);
+    let (outcome, seconds) = render_run_file(&path, || RunFile::parse_with_sets(SET_BASE, sets));
     prop_assert!(seconds < MAX_SECONDS, "took {} s: {:?}", seconds, sets);
     match outcome {
         Ok(image) => check_image(&image, "--set"),

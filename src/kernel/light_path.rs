@@ -3,7 +3,7 @@
 //! BSDFs and Russian roulette are the photons' ([`super::photon`]); what is new is the connection.
 
 use super::Vertex;
-use super::photon::{PhotonPassSettings, PhotonPath, continue_photon};
+use super::photon::{PhotonPassSettings, PhotonPath, arrive, continue_photon};
 use crate::camera::Camera;
 use crate::geometry::Ray;
 use crate::geometry::bvh::Hit;
@@ -53,13 +53,7 @@ pub fn light_vertex(
     u_lens: Vec2,
 ) -> LightBounce {
     let mut bounce = LightBounce { connection: None, next: None, roulette_kill: false };
-    if !hit.is_hit() {
-        return bounce;
-    }
-    if path.media.current().is_some() {
-        path.power *= path.media.transmittance(scene, hit.t);
-    }
-    let v = Vertex::new(scene, ray, scene.geometry.surface_hit(ray, hit));
+    let Some(v) = arrive(scene, path, ray, hit) else { return bounce };
     if !v.bsdf.is_delta() {
         // A black surface sends nothing, to the camera or further.
         if v.bsdf.reflects_nothing() {

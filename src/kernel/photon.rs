@@ -90,6 +90,19 @@ pub struct PhotonBounce {
     pub roulette_kill: bool,
 }
 
+/// What every photon (and light subpath) does where its ray lands: the medium it crossed absorbs,
+/// and the surface there is built; `None` when the ray left the scene.
+#[inline]
+pub fn arrive(scene: &RenderScene, path: &mut PhotonPath, ray: &Ray, hit: &Hit) -> Option<Vertex> {
+    if !hit.is_hit() {
+        return None;
+    }
+    if path.media.current().is_some() {
+        path.power *= path.media.transmittance(scene, hit.t);
+    }
+    Some(Vertex::new(scene, ray, scene.geometry.surface_hit(ray, hit)))
+}
+
 /// Deposit the photon where the map wants it, then continue it by BSDF sampling or end it by
 /// Russian roulette.
 #[inline]
@@ -102,13 +115,7 @@ pub fn scatter_photon(
     sampler: &Sampler,
 ) -> PhotonBounce {
     let mut bounce = PhotonBounce { deposit: None, next: None, roulette_kill: false };
-    if !hit.is_hit() {
-        return bounce;
-    }
-    if path.media.current().is_some() {
-        path.power *= path.media.transmittance(scene, hit.t);
-    }
-    let v = Vertex::new(scene, ray, scene.geometry.surface_hit(ray, hit));
+    let Some(v) = arrive(scene, path, ray, hit) else { return bounce };
     let (si, bsdf) = (&v.si, &v.bsdf);
     let wo_world = -ray.d;
     let diffuse = !bsdf.is_delta();

@@ -89,6 +89,15 @@ impl Renderer {
         let integrator = integrators::of_run(run);
         integrator.check(&scene, run)?;
         let (mut world, features) = scene_world(scene, run)?;
+        // With the scene built (what the process holds counts), before the film is allocated.
+        let pixels = {
+            let camera = world.resource::<crate::resources::CameraResource>();
+            camera.width as u64 * camera.height as u64
+        };
+        let counted =
+            integrators::memory::check(run, integrators::memory::render_need(integrator, pixels, run))?;
+        world.insert_resource(crate::resources::MemoryCounted(counted));
+        crate::world::add_films(&mut world, run);
         let plan = (integrator.plan)(integrator, &mut world, run, features)?;
         crate::aov::equip_paths(&mut world);
         let target = integrator.units(run);
