@@ -215,6 +215,24 @@ impl Camera {
     }
 }
 
+impl Camera {
+    /// The density per unit solid angle of a camera ray's direction `d` (unit, leaving the lens)
+    /// when the film is sampled at one sample per pixel: d_img² / cos³θ, d_img the film's distance
+    /// in pixels (bidirectional weights compare it with the light subpaths, one per pixel). A thin
+    /// lens's rays from one lens point have the same density, the lens point's own cancelling
+    /// between the strategies that share it. Zero behind the camera.
+    #[inline]
+    pub fn pdf_w(&self, d: Vec3) -> f32 {
+        let cos = d.dot(self.forward);
+        if cos <= 0.0 {
+            return 0.0;
+        }
+        let pixels = self.width as f32 * self.height as f32;
+        let area = 4.0 * self.tan_half_y * self.tan_half_y * self.aspect;
+        pixels / (area * cos * cos * cos)
+    }
+}
+
 /// How far from a pixel's centre, in pixels, the filter reaches.
 pub fn filter_radius(filter: FilterKind) -> f32 {
     match filter {

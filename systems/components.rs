@@ -232,3 +232,25 @@ pub struct Chi2Cells {
 /// Per-hit-point estimates behind `appm`'s radius (Kaplanyan & Dachsbacher 2013).
 #[derive(Component, Clone, Copy, Debug, Default)]
 pub struct AdaptiveStats(pub AdaptiveStatistics);
+
+/// A light subpath of `bdpt`: where it started, its running MIS sums, and the vertices it kept so
+/// far (handed to `LightVertices` when it ends; the buffer comes back empty, so no pass allocates
+/// once every entity has held its longest subpath).
+#[derive(Component, Debug, Default)]
+pub struct LightSubpath {
+    /// Its light and the densities of its start.
+    pub origin: caustica_core::kernel::bidirectional::LightOrigin,
+    /// The running sums of its last vertex.
+    pub mis: caustica_core::kernel::bidirectional::SubpathMis,
+    /// Its non-delta vertices so far.
+    pub vertices: Vec<caustica_core::kernel::bidirectional::LightVertex>,
+}
+
+/// A camera subpath of `bdpt`: its running sums and the vertex it left for the connection stage.
+#[derive(Component, Clone, Copy, Debug, Default)]
+pub struct CameraSubpath {
+    /// The running sums of its last vertex.
+    pub mis: caustica_core::kernel::bidirectional::SubpathMis,
+    /// This bounce's vertex, waiting to be connected to its light subpath's.
+    pub vertex: Option<caustica_core::kernel::bidirectional::CameraVertex>,
+}

@@ -89,6 +89,7 @@
 //! archetype while rendering.
 
 pub mod aov;
+pub mod bidirectional;
 pub mod components;
 pub mod driver;
 pub mod emit;

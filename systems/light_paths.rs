@@ -51,7 +51,7 @@ impl LightPaths {
     /// The random numbers of subpath `index` of the pass that starts at unit `work.pass`: those of
     /// subpath `index mod per_unit` of its own unit, so that a pass of any length (a part, a
     /// resumed render) draws what a pass of one unit would; and its lens points' (`lens`).
-    fn sampler(&self, work: &PhotonWork, index: u32, lens: bool) -> Sampler {
+    pub fn sampler(&self, work: &PhotonWork, index: u32, lens: bool) -> Sampler {
         let unit = work.pass + index / self.per_unit;
         let stream = if lens { LENS_STREAM } else { work.settings.kind as u32 };
         photon_sampler(work.sampler, work.seed, unit, stream, index % self.per_unit)

@@ -67,7 +67,7 @@ pub fn light_vertex(
 
 /// The connection of vertex `v` to the camera, or `None` when the camera cannot see it or it sends
 /// the camera nothing.
-fn connect(
+pub fn connect(
     scene: &RenderScene,
     camera: &Camera,
     v: &Vertex,

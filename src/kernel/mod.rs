@@ -15,6 +15,7 @@
 
 pub mod aov;
 pub mod arrival;
+pub mod bidirectional;
 pub mod camera_sample;
 pub mod continuation;
 pub mod dimensions;
@@ -81,6 +82,8 @@ pub enum Quantity {
     Throughput,
     /// A photon-map radiance estimate.
     PhotonEstimate,
+    /// A connection to a light subpath's vertex.
+    Connection,
 }
 
 impl Quantity {
@@ -92,6 +95,7 @@ impl Quantity {
             Self::LightSample => "a light sample's contribution",
             Self::Throughput => "the throughput after a BSDF sample",
             Self::PhotonEstimate => "a photon-map estimate",
+            Self::Connection => "a connection to a light subpath's vertex",
         }
     }
 }

@@ -7,7 +7,8 @@ use super::dimensions::photon as dim;
 use crate::geometry::Ray;
 use crate::geometry::bvh::Hit;
 use crate::geometry::offset::{gamma, offset_ray_origin};
-use crate::materials::TransportMode;
+use crate::lights::EmissionSample;
+use crate::materials::{BsdfSample, TransportMode};
 use crate::photon::{Photon, PhotonMapKind};
 use crate::render_scene::RenderScene;
 use crate::sampling::Sampler;
@@ -57,6 +58,18 @@ pub fn emit_photon(
     sampler: &Sampler,
     time: f32,
 ) -> Option<(Ray, PhotonPath)> {
+    let (_, e, ray) = sample_emission(scene, sampler, time)?;
+    Some((ray, PhotonPath { power: e.weight / settings.total as f32, ..PhotonPath::default() }))
+}
+
+/// A light by power, a point and a direction on it, with `sampler`'s numbers at shutter time
+/// `time`: the light, the sample (its weight textured) and the first ray.
+#[inline]
+pub fn sample_emission(
+    scene: &RenderScene,
+    sampler: &Sampler,
+    time: f32,
+) -> Option<(u32, EmissionSample, Ray)> {
     let (light, mut e) = scene.lights.sample_emission(
         time,
         sampler.get1d(dim::LIGHT),
@@ -66,7 +79,7 @@ pub fn emit_photon(
     e.weight *= scene.emissive_texel(light, e.p, time);
     let ray =
         Ray { o: offset_ray_origin(e.p, e.p.abs() * gamma(4), e.n, e.d), d: e.d, t_max: f32::INFINITY, time };
-    Some((ray, PhotonPath { power: e.weight / settings.total as f32, ..PhotonPath::default() }))
+    Some((light, e, ray))
 }
 
 /// The shutter time of a photon: the pass's when it fixes one, else its own when something moves.
@@ -156,6 +169,20 @@ pub fn continue_photon(
     ray: &Ray,
     sampler: &Sampler,
 ) -> (Option<Ray>, bool) {
+    let (next, killed) = continue_photon_sampled(settings, path, v, ray, sampler);
+    (next.map(|(ray, _)| ray), killed)
+}
+
+/// [`continue_photon`], with the BSDF sample the next ray follows (bidirectional weights need its
+/// densities).
+#[inline]
+pub fn continue_photon_sampled(
+    settings: &PhotonPassSettings,
+    path: &mut PhotonPath,
+    v: &Vertex,
+    ray: &Ray,
+    sampler: &Sampler,
+) -> (Option<(Ray, BsdfSample)>, bool) {
     let (si, bsdf) = (&v.si, &v.bsdf);
     if path.depth + 1 >= settings.max_depth {
         return (None, false);
@@ -196,5 +223,5 @@ pub fn continue_photon(
         t_max: f32::INFINITY,
         time: ray.time,
     };
-    (Some(next), false)
+    (Some((next, bs)), false)
 }

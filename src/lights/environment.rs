@@ -233,6 +233,13 @@ impl Environment {
         }
     }
 
+    /// Density with which [`Environment::sample_emission`] starts a subpath whose direction towards
+    /// the environment is `w`: that direction's own density over the area of the disc it starts on.
+    #[inline]
+    pub fn emission_pdf(&self, w: Vec3) -> f32 {
+        self.pdf(Vec3::ZERO, w) / (PI * self.radius * self.radius)
+    }
+
     /// Start a photon: a direction towards the environment, then a point on the disc of radius R
     /// facing it from beyond the scene; the photon travels back along the direction.
     #[inline]

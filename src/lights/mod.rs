@@ -1,6 +1,7 @@
 //! Lights: emissive triangles and spheres, the environment, sampled for next-event estimation, and
 //! light selection.
 
+pub mod bidirectional;
 pub mod environment;
 pub mod light;
 pub mod punctual;

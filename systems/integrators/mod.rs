@@ -4,6 +4,7 @@
 //! [`of`] is the one lookup by kind; the driver runs any plan.
 
 pub mod appm;
+pub mod bdpt;
 pub mod cppm;
 pub mod descriptor;
 pub mod light_tracing;
@@ -35,11 +36,12 @@ pub fn of(kind: IntegratorKind) -> &'static Integrator {
         IntegratorKind::Cppm => &cppm::CPPM,
         IntegratorKind::Pppm => &pppm::PPPM,
         IntegratorKind::Lt => &light_tracing::LT,
+        IntegratorKind::Bdpt => &bdpt::BDPT,
     }
 }
 
 /// Every integrator's descriptor, in `IntegratorKind::ALL`'s order.
-pub static ALL: [&Integrator; 9] = [
+pub static ALL: [&Integrator; 10] = [
     &path::PT,
     &path::PT_NAIVE,
     &photon_map::PM,
@@ -49,6 +51,7 @@ pub static ALL: [&Integrator; 9] = [
     &cppm::CPPM,
     &pppm::PPPM,
     &light_tracing::LT,
+    &bdpt::BDPT,
 ];
 
 /// The descriptor of the integrator `run` asks for.

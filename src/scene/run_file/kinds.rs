@@ -31,11 +31,14 @@ pub enum IntegratorKind {
     /// Light tracing (Veach's t = 1): light subpaths whose vertices connect to the camera and add
     /// to the film where they land; camera rays add only the emission they see directly.
     Lt,
+    /// Bidirectional path tracing: every (s, t) strategy of Veach's, weighted by the power
+    /// heuristic with Georgiev's recursive sums.
+    Bdpt,
 }
 
 impl IntegratorKind {
     /// Every integrator.
-    pub const ALL: [IntegratorKind; 9] = [
+    pub const ALL: [IntegratorKind; 10] = [
         Self::Pt,
         Self::PtNaive,
         Self::Pm,
@@ -45,6 +48,7 @@ impl IntegratorKind {
         Self::Cppm,
         Self::Pppm,
         Self::Lt,
+        Self::Bdpt,
     ];
 }
 
@@ -93,6 +97,11 @@ impl Choice for IntegratorKind {
             "probabilistic PPM: independent passes at a global radius, averaged (splits by pass)",
         ),
         (Self::Lt, "lt", "light tracing: light subpaths connected to the camera (point-light caustics)"),
+        (
+            Self::Bdpt,
+            "bdpt",
+            "bidirectional path tracing: camera and light subpaths connected, every strategy weighted",
+        ),
     ];
 }
 

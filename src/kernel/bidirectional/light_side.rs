@@ -1,0 +1,186 @@
+//! The light subpath of bidirectional path tracing: its emission, each vertex's weights, the
+//! vertices kept for the camera subpaths, and the t = 1 strategy (the vertex seen by the camera).
+
+use super::mis::{MisFactors, SubpathMis, weight};
+use crate::camera::Camera;
+use crate::geometry::Ray;
+use crate::geometry::bvh::Hit;
+use crate::kernel::Vertex;
+use crate::kernel::light_path::{CameraConnection, connect};
+use crate::kernel::photon::{
+    PhotonPassSettings, PhotonPath, arrive, continue_photon_sampled, sample_emission,
+};
+use crate::lights::bidirectional::EmitterKind;
+use crate::render_scene::RenderScene;
+use crate::sampling::Sampler;
+use glam::{Vec2, Vec3};
+
+/// Where a light subpath started: what the weights of its first vertex need, known only once the
+/// vertex is (light sampling from there picks the origin with a density that depends on it).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightOrigin {
+    /// The light.
+    pub light: u32,
+    /// The point it left from, and the light's normal there.
+    pub p: Vec3,
+    /// The light's normal at `p`.
+    pub n: Vec3,
+    /// Emission's density of the start (selection included).
+    pub emission_pdf: f32,
+    /// The cosine at the origin (1 for an infinite light).
+    pub cos: f32,
+    /// Delta, finite.
+    pub kind: EmitterKind,
+}
+
+impl Default for LightOrigin {
+    fn default() -> Self {
+        Self {
+            light: 0,
+            p: Vec3::ZERO,
+            n: Vec3::ZERO,
+            emission_pdf: 0.0,
+            cos: 0.0,
+            kind: EmitterKind { delta: false, finite: true },
+        }
+    }
+}
+
+/// A non-delta vertex of a light subpath, kept for the camera subpaths to connect to.
+#[derive(Clone, Copy, Debug)]
+pub struct LightVertex {
+    /// The vertex (its BSDF, frame and the direction the subpath arrived from).
+    pub v: Vertex,
+    /// The subpath's throughput arriving there.
+    pub beta: Vec3,
+    /// Its running sums there.
+    pub mis: SubpathMis,
+    /// Bounces before it (0: the first hit).
+    pub depth: u32,
+}
+
+/// Start a light subpath with `sampler`'s numbers at shutter time `time`: its first ray, its
+/// photon path (power undivided: each subpath is a whole estimate) and its origin.
+#[inline]
+pub fn emit_light_subpath(
+    scene: &RenderScene,
+    sampler: &Sampler,
+    time: f32,
+) -> Option<(Ray, PhotonPath, LightOrigin)> {
+    let (light, e, ray) = sample_emission(scene, sampler, time)?;
+    let kind = scene.lights.emitter_kind(light);
+    let emission_pdf = scene.lights.emission_pdf(light, e.n, e.d);
+    if !(emission_pdf > 0.0) {
+        return None;
+    }
+    let cos = if kind.finite && !kind.delta { e.n.dot(e.d).abs() } else { 1.0 };
+    let origin = LightOrigin { light, p: e.p, n: e.n, emission_pdf, cos, kind };
+    Some((ray, PhotonPath { power: e.weight, ..PhotonPath::default() }, origin))
+}
+
+/// What a light subpath did at a hit.
+#[derive(Clone, Copy, Debug)]
+pub struct LightStep {
+    /// The vertex to keep, if it is not a delta one.
+    pub kept: Option<LightVertex>,
+    /// Its connection to the camera, weighted.
+    pub connection: Option<CameraConnection>,
+    /// The next ray, if the subpath goes on.
+    pub next: Option<Ray>,
+    /// Whether Russian roulette ended it.
+    pub roulette_kill: bool,
+}
+
+/// One vertex of a light subpath: its weights, the vertex kept for connections, its weighted
+/// connection to the lens point `u_lens` (paths of at most `max_depth` bounces), then its
+/// continuation. `mis` holds the sums of the subpath's last vertex (unset before the first hit).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn light_subpath_vertex(
+    scene: &RenderScene,
+    camera: &Camera,
+    factors: &MisFactors,
+    settings: &PhotonPassSettings,
+    origin: &LightOrigin,
+    mis: &mut SubpathMis,
+    path: &mut PhotonPath,
+    ray: &Ray,
+    hit: &Hit,
+    sampler: &Sampler,
+    u_lens: Vec2,
+) -> LightStep {
+    let mut step = LightStep { kept: None, connection: None, next: None, roulette_kill: false };
+    let Some(v) = arrive(scene, path, ray, hit) else { return step };
+    let dist2 = (hit.t * ray.d.length()).powi(2);
+    let cos_in = v.wo.z.abs();
+    if path.depth == 0 {
+        *mis = first_vertex_mis(scene, factors, origin, v.si.p, ray, dist2, ray.time);
+        mis.arrive(origin.kind.finite.then_some(dist2), cos_in);
+    } else {
+        mis.arrive(Some(dist2), cos_in);
+    }
+    if !v.bsdf.is_delta() {
+        if v.bsdf.reflects_nothing() {
+            return step;
+        }
+        step.kept = Some(LightVertex { v, beta: path.power, mis: *mis, depth: path.depth });
+        // The t = 1 path has this vertex's bounces and the one towards the camera.
+        if path.depth < settings.max_depth {
+            step.connection = connect(scene, camera, &v, path, u_lens, ray.time)
+                .and_then(|c| weigh_camera_connection(camera, factors, &v, mis, c));
+        }
+    }
+    let (next, killed) = continue_photon_sampled(settings, path, &v, ray, sampler);
+    step.roulette_kill = killed;
+    if let Some((next, bs)) = next {
+        let pdf_rev = if bs.is_specular { bs.pdf } else { v.bsdf.pdf(bs.wi, v.wo) };
+        mis.scatter(factors, bs.wi.z.abs(), bs.pdf, pdf_rev, bs.is_specular);
+        step.next = Some(next);
+    }
+    step
+}
+
+/// The sums at a light subpath's first vertex `p`, reached along `ray` over `dist2`, before its
+/// arrival there: light sampling from `p` picks the origin with a density that depends on `p`.
+#[inline]
+fn first_vertex_mis(
+    scene: &RenderScene,
+    factors: &MisFactors,
+    origin: &LightOrigin,
+    p: Vec3,
+    ray: &Ray,
+    dist2: f32,
+    time: f32,
+) -> SubpathMis {
+    let lights = &scene.lights;
+    let direct_pdf = if origin.kind.delta {
+        lights.power_pmf(origin.light)
+    } else if origin.kind.finite {
+        lights.direct_pdf(origin.light, p, origin.p, origin.n, -ray.d, time) * origin.cos / dist2
+    } else {
+        lights.direct_pdf(origin.light, p, origin.p, origin.n, -ray.d, time)
+    };
+    SubpathMis::light(factors, direct_pdf, origin.emission_pdf, origin.cos, origin.kind.delta)
+}
+
+/// Light tracing's connection `c` from vertex `v` (sums `mis`) with its weight against the
+/// strategies that make the same path from the camera's side.
+#[inline]
+fn weigh_camera_connection(
+    camera: &Camera,
+    factors: &MisFactors,
+    v: &Vertex,
+    mis: &SubpathMis,
+    mut c: CameraConnection,
+) -> Option<CameraConnection> {
+    let lens = c.shadow.o + c.shadow.d;
+    let to_lens = lens - v.si.p;
+    let dist2 = to_lens.length_squared();
+    let wi_world = to_lens / dist2.sqrt();
+    let wi = v.frame.to_local(wi_world);
+    let camera_pdf_a = camera.pdf_w(-wi_world) * wi.z.abs() / dist2;
+    let w_light = mis.towards(factors, camera_pdf_a / factors.light_paths, v.bsdf.pdf(wi, v.wo));
+    let w = weight(w_light, 0.0);
+    c.value *= w;
+    (c.value.max_element() > 0.0).then_some(c)
+}

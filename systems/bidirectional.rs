@@ -1,0 +1,229 @@
+//! Bidirectional path tracing's own systems (`bdpt`). A pass traces one light subpath per pixel,
+//! keeping their non-delta vertices (`LightVertices`, by subpath index) and connecting each to the
+//! camera; then one camera subpath per pixel, which at each vertex adds the emission it hit, sends
+//! a light sample to the shadow stage, and connects to every kept vertex of the light subpath with
+//! its pixel's index (SmallVCM's pairing). Tracing, light sampling's shadow rays, the camera splats
+//! and handing out work are the other integrators' systems.
+//!
+//! | system | stage | reads | writes |
+//! |---|---|---|---|
+//! | `emit_light_subpaths` | Emit | `SceneResource`, `PhotonWork`, `LightPaths` | `PhotonRay`, `PhotonState`, `LightSubpath` |
+//! | `scatter_light_subpaths` | Scatter | `PhotonHit`, `SceneResource`, `CameraResource`, `PhotonWork`, `LightVertices` | `PhotonRay`, `PhotonState`, `LightSubpath`, `CameraSplat` |
+//! | `keep_light_vertices` | Gather, before `store_photons` | `PhotonState` | `LightSubpath`, `LightVertices` |
+//! | `scatter_camera_subpaths` | Scatter | `PathHit`, `SceneResource`, `CameraResource`, `RenderConfig`, `LightVertices` | `PathRay`, `PathState`, `ShadowRay`, `CameraSubpath` |
+//! | `connect_to_light_vertices` | Shadow | `CameraSubpath`, `LightVertices`, `SceneResource`, `RenderConfig` | `PathState` |
+
+use super::components::{
+    CameraSplat, CameraSubpath, LightSubpath, PathAov, PathHit, PathRay, PathState, PathStatus, PhotonHit,
+    PhotonRay, PhotonState, ShadowRay,
+};
+use super::light_paths::LightPaths;
+use super::resources::{CameraResource, PhotonWork, RenderConfig, SceneResource, wavefront_batching};
+use bevy_ecs::prelude::*;
+use caustica_core::kernel::Quantity;
+use caustica_core::kernel::bidirectional::camera_side::CameraStep;
+use caustica_core::kernel::bidirectional::{
+    LightVertex, MisFactors, camera_vertex, connect_vertices, emit_light_subpath, light_subpath_vertex,
+};
+use caustica_core::kernel::photon::photon_time;
+use glam::Vec2;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// The light vertices of the pass's subpaths, by subpath index, and the weights' shared factors.
+#[derive(Resource, Debug, Default)]
+pub struct LightVertices {
+    /// The pass's factors (light subpaths per pass).
+    pub factors: Option<MisFactors>,
+    /// Each subpath's non-delta vertices.
+    pub paths: Vec<Vec<LightVertex>>,
+    /// Connections between camera and light vertices made (segments traced).
+    pub connections: AtomicU64,
+    /// Light vertices kept.
+    pub kept: AtomicU64,
+}
+
+impl LightVertices {
+    /// The factors, set when the plan is built.
+    fn factors(&self) -> MisFactors {
+        self.factors.expect("bdpt's plan sets the MIS factors")
+    }
+}
+
+/// Start a light subpath wherever an entity needs one, with its unit's own numbers.
+pub fn emit_light_subpaths(
+    scene: Res<SceneResource>,
+    work: Res<PhotonWork>,
+    light_paths: Res<LightPaths>,
+    mut paths: Query<(&mut PhotonRay, &mut PhotonState, &mut LightSubpath)>,
+) {
+    paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each(
+        |(mut ray, mut state, mut subpath)| {
+            if state.status != PathStatus::NeedsStart {
+                return;
+            }
+            subpath.vertices.clear();
+            let sampler = light_paths.sampler(&work, state.index, false);
+            let time = photon_time(work.time, work.motion, &sampler);
+            match emit_light_subpath(&scene, &sampler, time) {
+                Some((first, path, origin)) => {
+                    ray.0 = first;
+                    state.path = path;
+                    subpath.origin = origin;
+                    state.status = PathStatus::Active;
+                }
+                None => state.status = PathStatus::Finished,
+            }
+        },
+    );
+}
+
+/// Weigh every active light subpath's vertex, keep it, connect it to the camera, and continue the
+/// subpath or end it.
+#[allow(clippy::type_complexity)]
+pub fn scatter_light_subpaths(
+    scene: Res<SceneResource>,
+    camera: Res<CameraResource>,
+    work: Res<PhotonWork>,
+    light_paths: Res<LightPaths>,
+    store: Res<LightVertices>,
+    mut paths: Query<(&PhotonHit, &mut PhotonRay, &mut PhotonState, &mut CameraSplat, &mut LightSubpath)>,
+) {
+    let factors = store.factors();
+    paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each(
+        |(hit, mut ray, mut state, mut splat, mut subpath)| {
+            if state.status != PathStatus::Active {
+                return;
+            }
+            state.bounces += 1;
+            let sampler = light_paths.sampler(&work, state.index, false);
+            let u_lens = if camera.has_lens() {
+                light_paths.sampler(&work, state.index, true).get2d(2 * state.path.depth)
+            } else {
+                Vec2::splat(0.5)
+            };
+            let subpath = &mut *subpath;
+            let step = light_subpath_vertex(
+                &scene,
+                &camera,
+                &factors,
+                &work.settings,
+                &subpath.origin,
+                &mut subpath.mis,
+                &mut state.path,
+                &ray.0,
+                &hit.0,
+                &sampler,
+                u_lens,
+            );
+            if let Some(kept) = step.kept {
+                subpath.vertices.push(kept);
+            }
+            splat.0 = step.connection;
+            state.roulette_kills += step.roulette_kill as u32;
+            match step.next {
+                Some(next) => ray.0 = next,
+                None => state.status = PathStatus::Finished,
+            }
+        },
+    );
+}
+
+/// Hand every subpath that ended its kept vertices, by its index (a swap of buffers: the entity
+/// takes back the index's old one, emptied when it starts again).
+pub fn keep_light_vertices(
+    mut store: ResMut<LightVertices>,
+    mut paths: Query<(&PhotonState, &mut LightSubpath)>,
+) {
+    let store = &mut *store;
+    for (state, mut subpath) in &mut paths {
+        if state.status != PathStatus::Finished {
+            continue;
+        }
+        if let Some(slot) = store.paths.get_mut(state.index as usize) {
+            *store.kept.get_mut() += subpath.vertices.len() as u64;
+            std::mem::swap(slot, &mut subpath.vertices);
+        }
+        subpath.vertices.clear();
+    }
+}
+
+/// One vertex of every active camera subpath: emission and the sky, weighted; its light sample to
+/// the shadow stage; its vertex to the connection stage; its continuation.
+#[allow(clippy::type_complexity)]
+pub fn scatter_camera_subpaths(
+    scene: Res<SceneResource>,
+    camera: Res<CameraResource>,
+    config: Res<RenderConfig>,
+    store: Res<LightVertices>,
+    mut paths: Query<(
+        &PathHit,
+        &mut PathRay,
+        &mut PathState,
+        &mut ShadowRay,
+        &mut CameraSubpath,
+        Option<&mut PathAov>,
+    )>,
+) {
+    let factors = store.factors();
+    paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each(
+        |(hit, mut ray, mut state, mut shadow, mut subpath, mut aov)| {
+            if state.status != PathStatus::Active {
+                return;
+            }
+            state.rays += 1;
+            let state = &mut *state;
+            let mut step = CameraStep::default();
+            let goes_on = camera_vertex(
+                &scene,
+                &camera,
+                &factors,
+                config.limits,
+                &mut ray.0,
+                &hit.0,
+                &mut state.path,
+                &mut subpath.mis,
+                state.sampler,
+                aov.as_deref_mut().map(|a| &mut a.0),
+                &mut step,
+            );
+            if let Some(sample) = step.shadow {
+                shadow.queue(sample);
+            }
+            subpath.vertex = step.vertex;
+            if !goes_on {
+                state.status = PathStatus::Finished;
+            }
+        },
+    );
+}
+
+/// Connect every camera vertex left this bounce to each kept vertex of its pixel's light subpath,
+/// adding what each free segment carries (paths of at most `max_depth` bounces).
+pub fn connect_to_light_vertices(
+    scene: Res<SceneResource>,
+    config: Res<RenderConfig>,
+    store: Res<LightVertices>,
+    mut paths: Query<(&PathRay, &mut PathState, &mut CameraSubpath)>,
+) {
+    let factors = store.factors();
+    let max_depth = config.limits.max_depth;
+    paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each(|(ray, mut state, mut subpath)| {
+        let Some(c) = subpath.vertex.take() else { return };
+        let Some(light_path) = store.paths.get(state.pixel as usize) else { return };
+        let mut traced = 0;
+        for l in light_path {
+            if (c.depth as u64 + l.depth as u64 + 2) > max_depth as u64 {
+                break;
+            }
+            let Some((segment, contribution)) = connect_vertices(&scene, &factors, &c, l, ray.0.time) else {
+                continue;
+            };
+            traced += 1;
+            if !scene.geometry.occluded(&segment) {
+                state.path.add(contribution, Quantity::Connection);
+            }
+        }
+        state.shadow_rays += traced;
+        store.connections.fetch_add(traced as u64, Ordering::Relaxed);
+    });
+}

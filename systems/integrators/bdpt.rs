@@ -1,0 +1,182 @@
+//! Bidirectional path tracing, `bdpt` (Veach 1997, ch. 10; pbrt-v4's `BDPTIntegrator`, SmallVCM's
+//! `kBpt`): every path is made by every strategy that can make it — the camera subpath hitting a
+//! light (s = 0), sampling one (s = 1), connecting to a light subpath's vertex (s, t ≥ 2), the light
+//! subpath's vertex seen by the camera (t = 1) — each weighted by the power heuristic among them,
+//! with Georgiev's recursive sums (O(1) a connection). It finds what `pt` finds and what `lt`
+//! finds: point-light caustics on diffuse surfaces, and the same surfaces seen in a mirror.
+//!
+//! | parameter | type | default | meaning |
+//! |---|---|---|---|
+//! | `integrator` | `bdpt` | | bidirectional path tracing |
+//! | `spp` | u32 | 64 | passes: a camera subpath and a light subpath per pixel each |
+//! | `max_depth` | u32 or none | none | maximum bounces of a whole path |
+//! | `rr_depth` | u32 | 5 | first bounce at which Russian roulette may end a subpath |
+//! | `seed`, `sampler` | | | as `pt` |
+//!
+//! Lights are picked by power on both sides (a light tree's choice depends on the shading point's
+//! normal, which a connection's weight cannot know), and light sampling ignores the receiver's
+//! normal, so every strategy's density is a function of the path alone.
+//!
+//! | phase | stages |
+//! |---|---|
+//! | photons (the light subpaths) | `emit_light_subpaths` → `trace_photons` → `scatter_light_subpaths` → `splat_camera_connections` → `keep_light_vertices`, `store_photons` |
+//! | camera | `emit_camera_paths` → `trace_paths` → `scatter_camera_subpaths` → `trace_shadow_rays`, `connect_to_light_vertices` → `splat_paths_to_film` |
+//!
+//! A pass is one unit: the light subpaths first (their vertices kept by index, their camera
+//! connections splatted), then the camera subpaths, the one of pixel i connecting to light
+//! subpath i. Each unit's subpaths draw their numbers from its index, so the film alone is the
+//! state: `--part` and checkpoints work as for `pt`.
+
+use super::descriptor::{Integrator, LightSampling, MemoryNeed, no_checks, one_sample_per_unit};
+use super::{configure_stages, film_image, paths_busy, photons_busy, stage_order};
+use crate::PassSystems;
+use crate::bidirectional::{
+    LightVertices, connect_to_light_vertices, emit_light_subpaths, keep_light_vertices,
+    scatter_camera_subpaths, scatter_light_subpaths,
+};
+use crate::components::{
+    CameraSplat, CameraSubpath, LightSubpath, PathState, PathStatus, PhotonHit, PhotonRay, PhotonState,
+};
+use crate::emit::emit_camera_paths_for;
+use crate::gather::{splat_paths_to_film, store_photons};
+use crate::light_paths::{LightPaths, splat_camera_connections};
+use crate::passes::{begin_photon_pass, hand_out_samples};
+use crate::plan::{Phase, Plan, Repeat, Unit, When};
+use crate::report::Report;
+use crate::resources::{
+    FilmResource, PassRange, PhotonBuffer, PhotonStats, PhotonWork, RenderConfig, SceneFeatures,
+};
+use crate::trace::{trace_paths, trace_photons, trace_shadow_rays};
+use crate::world::MAX_WAVEFRONT;
+use bevy_ecs::prelude::*;
+use caustica_core::error::Result;
+use caustica_core::kernel::bidirectional::{LightVertex, MisFactors};
+use caustica_core::photon::PhotonMapKind;
+use caustica_core::scene::{IntegratorKind, RunFile};
+use std::sync::atomic::Ordering;
+
+/// Kept vertices a light subpath has on average, for the memory estimate: Russian roulette on
+/// reflectivity ends most subpaths within a few bounces (cornell-box: 2.1; a white room more).
+const KEPT_VERTICES_PER_SUBPATH: u64 = 3;
+
+/// `bdpt`: camera and light subpaths, every strategy weighted.
+pub static BDPT: Integrator = Integrator {
+    kind: IntegratorKind::Bdpt,
+    unit: Unit::Samples,
+    film_is_the_state: true,
+    whole_passes: true,
+    light_sampling: LightSampling::Always(
+        "light sampling is one of bdpt's strategies, weighted among the others",
+    ),
+    takes: &[],
+    default_hit_points_per_pixel: 0,
+    camera_samples_per_unit: one_sample_per_unit,
+    memory,
+    check: no_checks,
+    plan,
+};
+
+/// The camera paths of a sample integrator with their connection vertex, a wavefront of light
+/// subpaths, and the pass's kept light vertices.
+fn memory(_: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
+    let paths = super::path::paths(pixels, run);
+    let wavefront = pixels.min(MAX_WAVEFRONT as u64);
+    let camera = wavefront * size_of::<CameraSubpath>() as u64;
+    let subpaths = wavefront
+        * super::memory::entity_bytes(&[
+            size_of::<PhotonRay>(),
+            size_of::<PhotonHit>(),
+            size_of::<PhotonState>(),
+            size_of::<CameraSplat>(),
+            size_of::<LightSubpath>(),
+        ]);
+    let kept = pixels
+        * (size_of::<Vec<LightVertex>>() as u64
+            + KEPT_VERTICES_PER_SUBPATH * size_of::<LightVertex>() as u64);
+    MemoryNeed {
+        bytes: paths.bytes + camera + subpaths + kept,
+        what: format!("a {pixels}-pixel film, its paths, light subpaths and their kept vertices"),
+    }
+}
+
+fn plan(_: &Integrator, world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
+    let features = super::without_visibility_learning(world, features, "bdpt picks lights by power");
+    let order = stage_order(run);
+    let pixels = {
+        let film = world.resource::<FilmResource>();
+        film.width * film.height
+    };
+    let config = world.resource::<RenderConfig>().clone();
+    world.insert_resource(PhotonWork::new(PhotonMapKind::Global, pixels, &config, features.motion));
+    world.insert_resource(PhotonBuffer::default());
+    world.insert_resource(PhotonStats::default());
+    world.insert_resource(LightPaths { per_unit: pixels, ..Default::default() });
+    world.insert_resource(LightVertices {
+        factors: Some(MisFactors::connections_only(pixels)),
+        paths: (0..pixels).map(|_| Vec::new()).collect(),
+        ..Default::default()
+    });
+    super::spawn_path_wavefront(world);
+    let camera_paths: Vec<Entity> = world.query_filtered::<Entity, With<PathState>>().iter(world).collect();
+    for entity in camera_paths {
+        world.entity_mut(entity).insert(CameraSubpath::default());
+    }
+    world.spawn_batch((0..pixels.min(MAX_WAVEFRONT)).map(|index| {
+        let state = PhotonState { index, status: PathStatus::Idle, ..Default::default() };
+        (PhotonRay::default(), PhotonHit::default(), state, CameraSplat::default(), LightSubpath::default())
+    }));
+
+    let mut light = Phase::new("photons", When::EveryPass, Repeat::WhileBusy(photons_busy))
+        .with_begin((begin_light_pass(pixels), begin_photon_pass).chain());
+    configure_stages(&mut light.schedule, order);
+    light.schedule.add_systems(emit_light_subpaths.in_set(PassSystems::Emit));
+    light.schedule.add_systems(trace_photons.in_set(PassSystems::Trace));
+    light.schedule.add_systems(scatter_light_subpaths.in_set(PassSystems::Scatter));
+    light.schedule.add_systems(splat_camera_connections.in_set(PassSystems::Shadow));
+    light.schedule.add_systems((keep_light_vertices, store_photons).chain().in_set(PassSystems::Gather));
+    let mut camera =
+        Phase::new("camera", When::EveryPass, Repeat::WhileBusy(paths_busy)).with_begin(hand_out_samples(1));
+    configure_stages(&mut camera.schedule, order);
+    camera.schedule.add_systems(emit_camera_paths_for(features).in_set(PassSystems::Emit));
+    camera.schedule.add_systems(trace_paths.in_set(PassSystems::Trace));
+    camera.schedule.add_systems(scatter_camera_subpaths.in_set(PassSystems::Scatter));
+    camera.schedule.add_systems((trace_shadow_rays, connect_to_light_vertices).in_set(PassSystems::Shadow));
+    camera.schedule.add_systems(splat_paths_to_film.in_set(PassSystems::Gather));
+    Ok(Plan {
+        phases: vec![light, camera],
+        // One unit a pass: camera subpath i connects to light subpath i of the same unit.
+        pass_end: Box::new(|done, target| (done + 1).min(target)),
+        image: film_image,
+        report,
+        reset: |_| {},
+    })
+}
+
+/// A system that sets up the pass's light subpaths: one per pixel, with the random numbers of the
+/// pass's unit.
+fn begin_light_pass(pixels: u32) -> impl FnMut(Res<PassRange>, ResMut<PhotonWork>) {
+    move |range, mut work| {
+        work.pass = range.begin;
+        work.settings.total = pixels.saturating_mul(range.end - range.begin);
+    }
+}
+
+/// The subpaths and their connections.
+fn report(world: &World, report: &mut Report) {
+    report.photons = Some(super::photon_summary(world, (0, None), Vec::new()));
+    let stats = world.resource::<LightPaths>();
+    let store = world.resource::<LightVertices>();
+    let (to_camera, seen, dropped) = (
+        stats.connections.load(Ordering::Relaxed),
+        stats.splatted.load(Ordering::Relaxed),
+        stats.dropped.load(Ordering::Relaxed),
+    );
+    report.notes.push((
+        "connections",
+        format!(
+            "{} light vertices kept, {} camera–light connections; {to_camera} light vertices to the camera, {seen} seen, {dropped} splats out of range dropped",
+            store.kept.load(Ordering::Relaxed),
+            store.connections.load(Ordering::Relaxed),
+        ),
+    ));
+}
