@@ -29,17 +29,28 @@ use caustica_core::kernel::photon::photon_time;
 use glam::Vec2;
 use std::sync::atomic::{AtomicU64, Ordering};
 
-/// The light vertices of the pass's subpaths, by subpath index, and the weights' shared factors.
+/// No vertex: the end of a subpath's chain.
+const NONE: u32 = u32::MAX;
+
+/// The light vertices of the pass's subpaths in one table, in the order they were kept (the
+/// wavefront's steps, in entity order: the same for any thread count), each linked to its
+/// subpath's previous one, with each subpath's last vertex by index; and the weights' factors.
+/// Linked, not contiguous: an entity then holds one vertex, not a buffer as long as its longest
+/// subpath (65 536 of those took 300 MB).
 #[derive(Resource, Debug, Default)]
 pub struct LightVertices {
     /// The pass's factors (light subpaths per pass).
     pub factors: Option<MisFactors>,
-    /// Each subpath's non-delta vertices.
-    pub paths: Vec<Vec<LightVertex>>,
+    /// Every kept vertex of the pass.
+    pub vertices: Vec<LightVertex>,
+    /// For each vertex, its subpath's previous one (`NONE` for the first).
+    pub previous: Vec<u32>,
+    /// Each subpath's last vertex, by index.
+    pub last: Vec<u32>,
     /// Connections between camera and light vertices made (segments traced).
     pub connections: AtomicU64,
     /// Light vertices kept.
-    pub kept: AtomicU64,
+    pub kept: u64,
 }
 
 impl LightVertices {
@@ -47,6 +58,24 @@ impl LightVertices {
     fn factors(&self) -> MisFactors {
         self.factors.expect("bdpt's plan sets the MIS factors")
     }
+
+    /// The kept vertices of subpath `index` of this pass, last first.
+    #[inline]
+    pub fn subpath(&self, index: u32) -> impl Iterator<Item = &LightVertex> {
+        let mut at = self.last.get(index as usize).copied().unwrap_or(NONE);
+        std::iter::from_fn(move || {
+            let vertex = self.vertices.get(at as usize)?;
+            at = self.previous[at as usize];
+            Some(vertex)
+        })
+    }
+}
+
+/// A system that empties the table for the pass's subpaths (keeping its memory).
+pub fn begin_light_vertices(mut store: ResMut<LightVertices>) {
+    store.vertices.clear();
+    store.previous.clear();
+    store.last.fill(NONE);
 }
 
 /// Start a light subpath wherever an entity needs one, with its unit's own numbers.
@@ -61,7 +90,7 @@ pub fn emit_light_subpaths(
             if state.status != PathStatus::NeedsStart {
                 return;
             }
-            subpath.vertices.clear();
+            subpath.kept = None;
             let sampler = light_paths.sampler(&work, state.index, false);
             let time = photon_time(work.time, work.motion, &sampler);
             match emit_light_subpath(&scene, &sampler, time) {
@@ -115,9 +144,7 @@ pub fn scatter_light_subpaths(
                 &sampler,
                 u_lens,
             );
-            if let Some(kept) = step.kept {
-                subpath.vertices.push(kept);
-            }
+            subpath.kept = step.kept;
             splat.0 = step.connection;
             state.roulette_kills += step.roulette_kill as u32;
             match step.next {
@@ -128,22 +155,26 @@ pub fn scatter_light_subpaths(
     );
 }
 
-/// Hand every subpath that ended its kept vertices, by its index (a swap of buffers: the entity
-/// takes back the index's old one, emptied when it starts again).
+/// Append this bounce's kept vertices to the pass's table, and record the last vertex of every
+/// subpath that ended under its index.
 pub fn keep_light_vertices(
     mut store: ResMut<LightVertices>,
     mut paths: Query<(&PhotonState, &mut LightSubpath)>,
 ) {
     let store = &mut *store;
     for (state, mut subpath) in &mut paths {
-        if state.status != PathStatus::Finished {
-            continue;
+        if let Some(vertex) = subpath.kept.take() {
+            store.previous.push(subpath.last);
+            subpath.last = store.vertices.len() as u32;
+            store.vertices.push(vertex);
+            store.kept += 1;
         }
-        if let Some(slot) = store.paths.get_mut(state.index as usize) {
-            *store.kept.get_mut() += subpath.vertices.len() as u64;
-            std::mem::swap(slot, &mut subpath.vertices);
+        if state.status == PathStatus::Finished && subpath.last != NONE {
+            if let Some(last) = store.last.get_mut(state.index as usize) {
+                *last = subpath.last;
+            }
+            subpath.last = NONE;
         }
-        subpath.vertices.clear();
     }
 }
 
@@ -209,11 +240,10 @@ pub fn connect_to_light_vertices(
     let max_depth = config.limits.max_depth;
     paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each(|(ray, mut state, mut subpath)| {
         let Some(c) = subpath.vertex.take() else { return };
-        let Some(light_path) = store.paths.get(state.pixel as usize) else { return };
         let mut traced = 0;
-        for l in light_path {
+        for l in store.subpath(state.pixel) {
             if (c.depth as u64 + l.depth as u64 + 2) > max_depth as u64 {
-                break;
+                continue;
             }
             let Some((segment, contribution)) = connect_vertices(&scene, &factors, &c, l, ray.0.time) else {
                 continue;

@@ -233,17 +233,24 @@ pub struct Chi2Cells {
 #[derive(Component, Clone, Copy, Debug, Default)]
 pub struct AdaptiveStats(pub AdaptiveStatistics);
 
-/// A light subpath of `bdpt`: where it started, its running MIS sums, and the vertices it kept so
-/// far (handed to `LightVertices` when it ends; the buffer comes back empty, so no pass allocates
-/// once every entity has held its longest subpath).
-#[derive(Component, Debug, Default)]
+/// A light subpath of `bdpt`: where it started, its running MIS sums, the vertex it kept this
+/// bounce (for `keep_light_vertices`) and the last one it kept before.
+#[derive(Component, Clone, Copy, Debug)]
 pub struct LightSubpath {
     /// Its light and the densities of its start.
     pub origin: caustica_core::kernel::bidirectional::LightOrigin,
     /// The running sums of its last vertex.
     pub mis: caustica_core::kernel::bidirectional::SubpathMis,
-    /// Its non-delta vertices so far.
-    pub vertices: Vec<caustica_core::kernel::bidirectional::LightVertex>,
+    /// This bounce's vertex, if it keeps one.
+    pub kept: Option<caustica_core::kernel::bidirectional::LightVertex>,
+    /// The place of its last kept vertex in the pass's table (`u32::MAX`: none yet).
+    pub last: u32,
+}
+
+impl Default for LightSubpath {
+    fn default() -> Self {
+        Self { origin: Default::default(), mis: Default::default(), kept: None, last: u32::MAX }
+    }
 }
 
 /// A camera subpath of `bdpt`: its running sums and the vertex it left for the connection stage.

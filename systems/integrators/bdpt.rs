@@ -31,7 +31,7 @@ use super::descriptor::{Integrator, LightSampling, MemoryNeed, no_checks, one_sa
 use super::{configure_stages, film_image, paths_busy, photons_busy, stage_order};
 use crate::PassSystems;
 use crate::bidirectional::{
-    LightVertices, connect_to_light_vertices, emit_light_subpaths, keep_light_vertices,
+    LightVertices, begin_light_vertices, connect_to_light_vertices, emit_light_subpaths, keep_light_vertices,
     scatter_camera_subpaths, scatter_light_subpaths,
 };
 use crate::components::{
@@ -113,7 +113,7 @@ fn plan(_: &Integrator, world: &mut World, run: &RunFile, features: SceneFeature
     world.insert_resource(LightPaths { per_unit: pixels, ..Default::default() });
     world.insert_resource(LightVertices {
         factors: Some(MisFactors::connections_only(pixels)),
-        paths: (0..pixels).map(|_| Vec::new()).collect(),
+        last: vec![u32::MAX; pixels as usize],
         ..Default::default()
     });
     super::spawn_path_wavefront(world);
@@ -127,7 +127,7 @@ fn plan(_: &Integrator, world: &mut World, run: &RunFile, features: SceneFeature
     }));
 
     let mut light = Phase::new("photons", When::EveryPass, Repeat::WhileBusy(photons_busy))
-        .with_begin((begin_light_pass(pixels), begin_photon_pass).chain());
+        .with_begin((begin_light_pass(pixels), begin_photon_pass, begin_light_vertices).chain());
     configure_stages(&mut light.schedule, order);
     light.schedule.add_systems(emit_light_subpaths.in_set(PassSystems::Emit));
     light.schedule.add_systems(trace_photons.in_set(PassSystems::Trace));
@@ -175,7 +175,7 @@ fn report(world: &World, report: &mut Report) {
         "connections",
         format!(
             "{} light vertices kept, {} camera–light connections; {to_camera} light vertices to the camera, {seen} seen, {dropped} splats out of range dropped",
-            store.kept.load(Ordering::Relaxed),
+            store.kept,
             store.connections.load(Ordering::Relaxed),
         ),
     ));

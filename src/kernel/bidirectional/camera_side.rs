@@ -12,6 +12,7 @@ use crate::kernel::aov::FirstSurface;
 use crate::kernel::continuation::crosses_inconsistently;
 use crate::kernel::direct::ShadowSample;
 use crate::kernel::{CameraPath, PathLimits, Quantity, Vertex, VertexSampler, continue_path};
+use crate::lights::LightSample;
 use crate::materials::TransportMode;
 use crate::render_scene::RenderScene;
 use crate::sampling::Sampler;
@@ -131,17 +132,32 @@ fn add_emission(
     if !(si.light != NO_LIGHT && si.ng.dot(wo) > 0.0) {
         return;
     }
-    let w = if path.depth == 0 {
-        // Seen directly: no light subpath reaches the lens, so the camera is the only strategy.
-        1.0
-    } else {
-        let lights = &scene.lights;
-        let direct_pdf_a =
-            to_area(lights.direct_pdf(si.light, path.prev_p, si.p, si.ng, -wo, time), dist2, v.wo.z.abs());
-        let emission_pdf = lights.emission_pdf(si.light, si.ng, wo);
-        weight(0.0, mis.hitting_light(direct_pdf_a, emission_pdf))
-    };
+    let w = emission_weight(scene, path, mis, v, wo, dist2, time);
     path.add(path.beta * scene.emission(si) * w, Quantity::Emission);
+}
+
+/// The weight of the emission of vertex `v` (a light's front, seen from `wo` over `dist2`) that
+/// camera path `path` (sums `mis` there) hit: against light sampling at its previous vertex and
+/// light subpaths leaving the point.
+#[inline]
+pub fn emission_weight(
+    scene: &RenderScene,
+    path: &CameraPath,
+    mis: &SubpathMis,
+    v: &Vertex,
+    wo: Vec3,
+    dist2: f32,
+    time: f32,
+) -> f32 {
+    if path.depth == 0 {
+        // Seen directly: no light subpath reaches the lens, so the camera is the only strategy.
+        return 1.0;
+    }
+    let (si, lights) = (&v.si, &scene.lights);
+    let direct_pdf_a =
+        to_area(lights.direct_pdf(si.light, path.prev_p, si.p, si.ng, -wo, time), dist2, v.wo.z.abs());
+    let emission_pdf = lights.emission_pdf(si.light, si.ng, wo);
+    weight(0.0, mis.hitting_light(direct_pdf_a, emission_pdf))
 }
 
 /// The s = 1 strategy at vertex `v`: a light by power and a point on it, weighted against the
@@ -174,18 +190,7 @@ fn sample_light(
     if !(f.max_element() > 0.0) {
         return None;
     }
-    let kind = lights.emitter_kind(light);
-    let cos_light = if kind.finite && !kind.delta { ls.n.dot(-wi_world).abs() } else { 1.0 };
-    let emission_pdf = lights.emission_pdf(light, ls.n, -wi_world);
-    let (emission_pdf_a, direct_pdf_a) = match (kind.delta, kind.finite) {
-        (true, true) => (emission_pdf * wi.z.abs() / dist2, ls.pdf),
-        (true, false) => (emission_pdf * wi.z.abs(), ls.pdf),
-        (false, true) => (emission_pdf * wi.z.abs() / dist2, ls.pdf * cos_light / dist2),
-        (false, false) => (emission_pdf * wi.z.abs(), ls.pdf),
-    };
-    let w_light = if kind.delta { 0.0 } else { super::mis::mis(v.bsdf.pdf(v.wo, wi) / ls.pdf) };
-    let w_camera = mis.towards(factors, emission_pdf_a / direct_pdf_a, v.bsdf.pdf(wi, v.wo));
-    let w = weight(w_light, w_camera);
+    let w = light_sample_weight(scene, factors, v, mis, light, &ls);
     let beta = path.beta * path.media.transmittance(scene, dist2.sqrt());
     let contribution = beta * f * ls.le * (w / ls.pdf);
     if !(contribution.max_element() > 0.0) {
@@ -194,6 +199,55 @@ fn sample_light(
     let origin = offset_ray_origin(si.p, si.p_error, si.ng, wi_world);
     let ray = Ray { o: origin, d: ls.p - origin, t_max: 1.0 - SHADOW_EPSILON, time };
     Some(ShadowSample { ray, contribution, light, normal: v.n_side() })
+}
+
+/// The weight of light sample `ls` of light `light` taken at vertex `v` (sums `mis` there):
+/// against the camera path hitting the light and light subpaths leaving it.
+#[inline]
+pub fn light_sample_weight(
+    scene: &RenderScene,
+    factors: &MisFactors,
+    v: &Vertex,
+    mis: &SubpathMis,
+    light: u32,
+    ls: &LightSample,
+) -> f32 {
+    let lights = &scene.lights;
+    let to_light = ls.p - v.si.p;
+    let dist2 = to_light.length_squared();
+    let wi_world = to_light / dist2.sqrt();
+    let wi = v.frame.to_local(wi_world);
+    let kind = lights.emitter_kind(light);
+    let emission_pdf = lights.emission_pdf(light, ls.n, -wi_world);
+    let cos_x = wi.z.abs();
+    let (emission_pdf_a, direct_pdf_a) = match (kind.delta, kind.finite) {
+        (true, true) => (emission_pdf * cos_x / dist2, ls.pdf),
+        (true, false) | (false, false) => (emission_pdf * cos_x, ls.pdf),
+        (false, true) => (emission_pdf * cos_x / dist2, to_area(ls.pdf, dist2, ls.n.dot(-wi_world).abs())),
+    };
+    let w_light = if kind.delta { 0.0 } else { super::mis::mis(v.bsdf.pdf(v.wo, wi) / ls.pdf) };
+    let w_camera = mis.towards(factors, emission_pdf_a / direct_pdf_a, v.bsdf.pdf(wi, v.wo));
+    weight(w_light, w_camera)
+}
+
+/// The weight of the connection of camera vertex `c` to light vertex `l` along `dir` (unit, from
+/// `c` to `l`) over `dist2`.
+#[inline]
+pub fn connection_weight(
+    factors: &MisFactors,
+    c: &CameraVertex,
+    l: &LightVertex,
+    dir: Vec3,
+    dist2: f32,
+) -> f32 {
+    let wi_c = c.v.frame.to_local(dir);
+    let wi_l = l.v.frame.to_local(-dir);
+    let (cos_c, cos_l) = (wi_c.z.abs(), wi_l.z.abs());
+    let w_light =
+        l.mis.towards(factors, to_area(c.v.bsdf.pdf(c.v.wo, wi_c), dist2, cos_l), l.v.bsdf.pdf(wi_l, l.v.wo));
+    let w_camera =
+        c.mis.towards(factors, to_area(l.v.bsdf.pdf(l.v.wo, wi_l), dist2, cos_c), c.v.bsdf.pdf(wi_c, c.v.wo));
+    weight(w_light, w_camera)
 }
 
 /// The connection of camera vertex `c` to light vertex `l` (s, t ≥ 2): the segment to trace and
@@ -220,17 +274,13 @@ pub fn connect_vertices(
     }
     let f_c = c.v.bsdf.eval(c.v.wo, wi_c, TransportMode::Radiance);
     let f_l = l.v.bsdf.eval(l.v.wo, wi_l, TransportMode::Importance);
-    let (cos_c, cos_l) = (wi_c.z.abs(), wi_l.z.abs());
-    let g = cos_c * cos_l / dist2;
+    let g = wi_c.z.abs() * wi_l.z.abs() / dist2;
     let value = c.beta * l.beta * f_c * f_l * g;
     if !(value.max_element() > 0.0) {
         return None;
     }
-    let w_light =
-        l.mis.towards(factors, to_area(c.v.bsdf.pdf(c.v.wo, wi_c), dist2, cos_l), l.v.bsdf.pdf(wi_l, l.v.wo));
-    let w_camera =
-        c.mis.towards(factors, to_area(l.v.bsdf.pdf(l.v.wo, wi_l), dist2, cos_c), c.v.bsdf.pdf(wi_c, c.v.wo));
-    let contribution = value * weight(w_light, w_camera) * c.media.transmittance(scene, dist);
+    let contribution =
+        value * connection_weight(factors, c, l, dir, dist2) * c.media.transmittance(scene, dist);
     if !(contribution.max_element() > 0.0) || !contribution.is_finite() {
         return None;
     }

@@ -143,7 +143,7 @@ pub fn light_subpath_vertex(
 /// The sums at a light subpath's first vertex `p`, reached along `ray` over `dist2`, before its
 /// arrival there: light sampling from `p` picks the origin with a density that depends on `p`.
 #[inline]
-fn first_vertex_mis(
+pub fn first_vertex_mis(
     scene: &RenderScene,
     factors: &MisFactors,
     origin: &LightOrigin,
@@ -163,8 +163,7 @@ fn first_vertex_mis(
     SubpathMis::light(factors, direct_pdf, origin.emission_pdf, origin.cos, origin.kind.delta)
 }
 
-/// Light tracing's connection `c` from vertex `v` (sums `mis`) with its weight against the
-/// strategies that make the same path from the camera's side.
+/// Light tracing's connection `c` from vertex `v` (sums `mis`), weighted.
 #[inline]
 fn weigh_camera_connection(
     camera: &Camera,
@@ -173,14 +172,24 @@ fn weigh_camera_connection(
     mis: &SubpathMis,
     mut c: CameraConnection,
 ) -> Option<CameraConnection> {
-    let lens = c.shadow.o + c.shadow.d;
+    c.value *= camera_connection_weight(camera, factors, v, mis, c.shadow.o + c.shadow.d);
+    (c.value.max_element() > 0.0).then_some(c)
+}
+
+/// The weight of light tracing's connection from vertex `v` (sums `mis`) to the lens point `lens`:
+/// against the strategies that make the same path from the camera's side.
+#[inline]
+pub fn camera_connection_weight(
+    camera: &Camera,
+    factors: &MisFactors,
+    v: &Vertex,
+    mis: &SubpathMis,
+    lens: Vec3,
+) -> f32 {
     let to_lens = lens - v.si.p;
     let dist2 = to_lens.length_squared();
     let wi_world = to_lens / dist2.sqrt();
     let wi = v.frame.to_local(wi_world);
     let camera_pdf_a = camera.pdf_w(-wi_world) * wi.z.abs() / dist2;
-    let w_light = mis.towards(factors, camera_pdf_a / factors.light_paths, v.bsdf.pdf(wi, v.wo));
-    let w = weight(w_light, 0.0);
-    c.value *= w;
-    (c.value.max_element() > 0.0).then_some(c)
+    weight(mis.towards(factors, camera_pdf_a / factors.light_paths, v.bsdf.pdf(wi, v.wo)), 0.0)
 }
