@@ -141,8 +141,10 @@ fn through_a_perfect_mirror_the_features_are_those_of_the_surface_it_shows() {
     let dir = tempfile::tempdir().unwrap();
     let behind = [0.25, 0.5, 0.75];
     let scene = planes(dir.path(), MIRROR, &lambertian(behind));
-    // sppm's camera passes, and lt's camera rays (which follow delta bounces only).
-    for integrator in [&["--integrator", "sppm", "--passes", "2"][..], &["--integrator", "lt"]] {
+    // sppm's camera passes, lt's camera rays (which follow delta bounces only) and bdpt's.
+    for integrator in
+        [&["--integrator", "sppm", "--passes", "2"][..], &["--integrator", "lt"], &["--integrator", "bdpt"]]
+    {
         let channels = render_aovs(&scene, dir.path(), integrator);
         assert_all_near(&triples(&channels, ["albedo.R", "albedo.G", "albedo.B"]), behind, 1e-6, "albedo");
         // The plane behind the camera faces −Z, towards the mirror and so towards the reflected camera.

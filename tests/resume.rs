@@ -109,6 +109,11 @@ fn lt_stopped_by_a_signal_and_resumed_is_the_uninterrupted_render() {
     interrupted_and_resumed_equals_uninterrupted(&["--integrator", "lt", "--spp", "256"]);
 }
 
+#[test]
+fn bdpt_stopped_by_a_signal_and_resumed_is_the_uninterrupted_render() {
+    interrupted_and_resumed_equals_uninterrupted(&["--integrator", "bdpt", "--spp", "64"]);
+}
+
 fn progressive(kind: &'static str) -> [&'static str; 6] {
     ["--integrator", kind, "--passes", "40", "--photons-per-pass", "20000"]
 }
