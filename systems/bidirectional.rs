@@ -2,7 +2,7 @@
 //! keeping their non-delta vertices (`LightVertices`, by subpath index) and connecting each to the
 //! camera; then one camera subpath per pixel, which at each vertex adds the emission it hit, sends
 //! a light sample to the shadow stage, and connects to every kept vertex of the light subpath with
-//! its pixel's index (SmallVCM's pairing). Tracing, light sampling's shadow rays, the camera splats
+//! its pixel's index in its unit (SmallVCM's pairing). Tracing, light sampling's shadow rays, the camera splats
 //! and handing out work are the other integrators' systems.
 //!
 //! | system | stage | reads | writes |
@@ -18,7 +18,9 @@ use super::components::{
     PhotonRay, PhotonState, ShadowRay,
 };
 use super::light_paths::LightPaths;
-use super::resources::{CameraResource, PhotonWork, RenderConfig, SceneResource, wavefront_batching};
+use super::resources::{
+    CameraResource, PassRange, PhotonWork, RenderConfig, SceneResource, wavefront_batching,
+};
 use bevy_ecs::prelude::*;
 use caustica_core::kernel::Quantity;
 use caustica_core::kernel::bidirectional::camera_side::CameraStep;
@@ -143,8 +145,8 @@ pub fn scatter_light_subpaths(
                 &hit.0,
                 &sampler,
                 u_lens,
+                &mut subpath.kept,
             );
-            subpath.kept = step.kept;
             splat.0 = step.connection;
             state.roulette_kills += step.roulette_kill as u32;
             match step.next {
@@ -203,7 +205,8 @@ pub fn scatter_camera_subpaths(
             }
             state.rays += 1;
             let state = &mut *state;
-            let mut step = CameraStep::default();
+            let subpath = &mut *subpath;
+            let mut step = CameraStep { shadow: None, vertex: &mut subpath.vertex };
             let goes_on = camera_vertex(
                 &scene,
                 &camera,
@@ -220,7 +223,6 @@ pub fn scatter_camera_subpaths(
             if let Some(sample) = step.shadow {
                 shadow.queue(sample);
             }
-            subpath.vertex = step.vertex;
             if !goes_on {
                 state.status = PathStatus::Finished;
             }
@@ -233,6 +235,8 @@ pub fn scatter_camera_subpaths(
 pub fn connect_to_light_vertices(
     scene: Res<SceneResource>,
     config: Res<RenderConfig>,
+    range: Res<PassRange>,
+    light_paths: Res<LightPaths>,
     store: Res<LightVertices>,
     mut paths: Query<(&PathRay, &mut PathState, &mut CameraSubpath)>,
 ) {
@@ -241,7 +245,9 @@ pub fn connect_to_light_vertices(
     paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each(|(ray, mut state, mut subpath)| {
         let Some(c) = subpath.vertex.take() else { return };
         let mut traced = 0;
-        for l in store.subpath(state.pixel) {
+        // The light subpath of the same unit and pixel.
+        let index = (state.sample - range.begin) * light_paths.per_unit + state.pixel;
+        for l in store.subpath(index) {
             if (c.depth as u64 + l.depth as u64 + 2) > max_depth as u64 {
                 continue;
             }

@@ -22,9 +22,9 @@
 //! | photons (the light subpaths) | `emit_light_subpaths` → `trace_photons` → `scatter_light_subpaths` → `splat_camera_connections` → `keep_light_vertices`, `store_photons` |
 //! | camera | `emit_camera_paths` → `trace_paths` → `scatter_camera_subpaths` → `trace_shadow_rays`, `connect_to_light_vertices` → `splat_paths_to_film` |
 //!
-//! A pass is one unit: the light subpaths first (their vertices kept by index, their camera
+//! A pass is a few units (about 2^18 light subpaths): the light subpaths first (their vertices kept by index, their camera
 //! connections splatted), then the camera subpaths, the one of pixel i connecting to light
-//! subpath i. Each unit's subpaths draw their numbers from its index, so the film alone is the
+//! subpath i of its unit. Each unit's subpaths draw their numbers from its index, so the film alone is the
 //! state: `--part` and checkpoints work as for `pt`.
 
 use super::descriptor::{Integrator, LightSampling, MemoryNeed, no_checks, one_sample_per_unit};
@@ -54,6 +54,15 @@ use caustica_core::kernel::bidirectional::{LightVertex, MisFactors};
 use caustica_core::photon::PhotonMapKind;
 use caustica_core::scene::{IntegratorKind, RunFile};
 use std::sync::atomic::Ordering;
+
+/// Light subpaths a pass aims at: a pass's steps each cost a walk over every entity, so small
+/// images group units (256²: four), within what the kept vertices' table may hold.
+const SUBPATHS_PER_PASS: u32 = 1 << 18;
+
+/// Units a pass of a `pixels`-pixel image groups.
+fn units_per_pass(pixels: u32) -> u32 {
+    (SUBPATHS_PER_PASS / pixels.max(1)).max(1)
+}
 
 /// Kept vertices a light subpath has on average, for the memory estimate: Russian roulette on
 /// reflectivity ends most subpaths within a few bounces (cornell-box: 2.1; a white room more).
@@ -90,7 +99,8 @@ fn memory(_: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
             size_of::<CameraSplat>(),
             size_of::<LightSubpath>(),
         ]);
-    let kept = pixels
+    let subpaths_per_pass = pixels * units_per_pass(pixels.min(u32::MAX as u64) as u32) as u64;
+    let kept = subpaths_per_pass
         * (size_of::<Vec<LightVertex>>() as u64
             + KEPT_VERTICES_PER_SUBPATH * size_of::<LightVertex>() as u64);
     MemoryNeed {
@@ -113,9 +123,10 @@ fn plan(_: &Integrator, world: &mut World, run: &RunFile, features: SceneFeature
     world.insert_resource(LightPaths { per_unit: pixels, ..Default::default() });
     world.insert_resource(LightVertices {
         factors: Some(MisFactors::connections_only(pixels)),
-        last: vec![u32::MAX; pixels as usize],
+        last: vec![u32::MAX; (pixels * units_per_pass(pixels)) as usize],
         ..Default::default()
     });
+    let units = units_per_pass(pixels);
     super::spawn_path_wavefront(world);
     let camera_paths: Vec<Entity> = world.query_filtered::<Entity, With<PathState>>().iter(world).collect();
     for entity in camera_paths {
@@ -144,8 +155,9 @@ fn plan(_: &Integrator, world: &mut World, run: &RunFile, features: SceneFeature
     camera.schedule.add_systems(splat_paths_to_film.in_set(PassSystems::Gather));
     Ok(Plan {
         phases: vec![light, camera],
-        // One unit a pass: camera subpath i connects to light subpath i of the same unit.
-        pass_end: Box::new(|done, target| (done + 1).min(target)),
+        // Units enough for about 2^18 light subpaths a pass; each unit's subpaths have its own
+        // numbers, and its camera subpaths connect to them, however the units are grouped.
+        pass_end: Box::new(move |done, target| (done + units).min(target)),
         image: film_image,
         report,
         reset: |_| {},

@@ -33,13 +33,13 @@ pub struct CameraVertex {
     pub media: crate::kernel::media::Media,
 }
 
-/// What a camera vertex leaves for the stages after it.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct CameraStep {
+/// What a camera vertex leaves for the stages after it (written in place: the vertex is 400 bytes).
+#[derive(Debug)]
+pub struct CameraStep<'a> {
     /// Its light sample, weighted, waiting for the shadow stage.
     pub shadow: Option<ShadowSample>,
     /// The vertex for the connection stage.
-    pub vertex: Option<CameraVertex>,
+    pub vertex: &'a mut Option<CameraVertex>,
 }
 
 /// One vertex of a camera subpath that travelled along `ray` to `hit`: the emission there (or the
@@ -59,8 +59,9 @@ pub fn camera_vertex(
     mis: &mut SubpathMis,
     sampler: Sampler,
     aov: Option<&mut FirstSurface>,
-    step: &mut CameraStep,
+    step: &mut CameraStep<'_>,
 ) -> bool {
+    *step.vertex = None;
     if path.depth == 0 {
         *mis = SubpathMis::camera(factors, camera.pdf_w(ray.d.normalize()));
     }
@@ -86,7 +87,7 @@ pub fn camera_vertex(
     }
     if !v.bsdf.is_delta() && !v.bsdf.reflects_nothing() {
         step.shadow = sample_light(scene, factors, &v, path, mis, ray.time, &u);
-        step.vertex =
+        *step.vertex =
             Some(CameraVertex { v, beta: path.beta, mis: *mis, depth: path.depth, media: path.media });
     }
     let Some(next) = continue_path(path, &v, ray.time, &u, limits) else { return false };

@@ -78,11 +78,9 @@ pub fn emit_light_subpath(
     Some((ray, PhotonPath { power: e.weight, ..PhotonPath::default() }, origin))
 }
 
-/// What a light subpath did at a hit.
+/// What a light subpath did at a hit, beside the vertex it kept.
 #[derive(Clone, Copy, Debug)]
 pub struct LightStep {
-    /// The vertex to keep, if it is not a delta one.
-    pub kept: Option<LightVertex>,
     /// Its connection to the camera, weighted.
     pub connection: Option<CameraConnection>,
     /// The next ray, if the subpath goes on.
@@ -93,7 +91,9 @@ pub struct LightStep {
 
 /// One vertex of a light subpath: its weights, the vertex kept for connections, its weighted
 /// connection to the lens point `u_lens` (paths of at most `max_depth` bounces), then its
-/// continuation. `mis` holds the sums of the subpath's last vertex (unset before the first hit).
+/// continuation. `mis` holds the sums of the subpath's last vertex (unset before the first hit);
+/// `kept` receives the vertex if it is not a delta one (written in place: 400 bytes that a return
+/// would copy twice).
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn light_subpath_vertex(
@@ -108,8 +108,10 @@ pub fn light_subpath_vertex(
     hit: &Hit,
     sampler: &Sampler,
     u_lens: Vec2,
+    kept: &mut Option<LightVertex>,
 ) -> LightStep {
-    let mut step = LightStep { kept: None, connection: None, next: None, roulette_kill: false };
+    let mut step = LightStep { connection: None, next: None, roulette_kill: false };
+    *kept = None;
     let Some(v) = arrive(scene, path, ray, hit) else { return step };
     let dist2 = (hit.t * ray.d.length()).powi(2);
     let cos_in = v.wo.z.abs();
@@ -123,7 +125,7 @@ pub fn light_subpath_vertex(
         if v.bsdf.reflects_nothing() {
             return step;
         }
-        step.kept = Some(LightVertex { v, beta: path.power, mis: *mis, depth: path.depth });
+        *kept = Some(LightVertex { v, beta: path.power, mis: *mis, depth: path.depth });
         // The t = 1 path has this vertex's bounces and the one towards the camera.
         if path.depth < settings.max_depth {
             step.connection = connect(scene, camera, &v, path, u_lens, ray.time)
