@@ -95,3 +95,19 @@ fn bdpt_and_pt_agree_under_the_tent_filter() {
     };
     assert_matches(&render(IntegratorKind::Bdpt, 8), &render(IntegratorKind::Pt, 16));
 }
+
+/// Through a thin lens: the camera subpaths start on the lens and the light subpaths connect to a
+/// lens point of their own, each direction's density that of a pinhole at its lens point.
+#[test]
+fn bdpt_and_pt_agree_through_a_thin_lens() {
+    let render = |kind: IntegratorKind, spp: u32| {
+        let (scene, mut run) = load(&common::data("cornell-box.gltf")).expect("test scene loads");
+        run.render.integrator = kind;
+        run.render.spp = spp;
+        run.camera.aperture_radius = 0.02;
+        run.camera.focus_distance = Some(0.6);
+        (run.film.width, run.film.height) = (Some(96), Some(96));
+        common::render(scene, &run)
+    };
+    assert_matches(&render(IntegratorKind::Bdpt, 8), &render(IntegratorKind::Pt, 16));
+}

@@ -216,6 +216,31 @@ fn light_sampling_of_the_environment_is_unbiased_for_every_selection() {
     }
 }
 
+/// bdpt against pt-naive under the sky map (with its sun) and a lamp: light subpaths leave the sky
+/// from its disc and the lamp by power, the camera's escaped rays and light samples are weighted by
+/// the map's density, and the rough ball is glossy. A density of the sky that the weights get wrong
+/// biases every block.
+#[test]
+fn bdpt_under_the_sky_and_a_lamp_is_unbiased() {
+    let dir = temp_dir("bdpt");
+    write_sky(&dir);
+    let path = outdoor_run_file(&dir, "file = \"sky.exr\"\nrotation_degrees = [0.0, 40.0, 0.0]");
+    let (scene, mut run) = scene::load(&path).expect("loads");
+    run.render.integrator = IntegratorKind::PtNaive;
+    run.render.spp = 256;
+    run.render.seed = 1;
+    let naive = common::render(scene.clone(), &run);
+    run.render.integrator = IntegratorKind::Bdpt;
+    run.render.spp = 64;
+    run.render.seed = 3;
+    let image = common::render(scene, &run);
+    let (mean, se) = common::paired_difference(&image, &naive);
+    assert!(mean.abs() < 4.4 * se, "bdpt − pt-naive = {mean} ± {se}");
+    for (block, z) in common::block_z_scores(&image, &naive, 4).iter().enumerate() {
+        assert!(z.abs() < 4.4, "block {block} z = {z}");
+    }
+}
+
 /// A Lambertian ball alone under the sky map, with a distant lamp so that photon emission must split
 /// its photons between the environment and another light by power.
 fn ball_under_the_sky(dir: &Path) -> PathBuf {

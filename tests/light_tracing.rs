@@ -2,7 +2,7 @@
 //! scenes, wherever lt finds every path: everywhere in the cornell box; in cornell-spheres (a glass
 //! and a mirror sphere, whose caustics lt finds at once) everywhere but the spheres, in which
 //! diffuse surfaces are seen through a delta bounce (L…D S E), which neither a connection nor lt's
-//! camera rays can make (`bdpt` will). Not cornell-point-rough: its point light's reflection off the
+//! camera rays can make (`bdpt` does: tests/bidirectional.rs). Not cornell-point-rough: its point light's reflection off the
 //! mirror sphere onto the walls (L S D E from a point) is light no path tracer finds, so Mitsuba's
 //! reference lacks it and lt, which finds it, is 1–3% brighter there.
 //!

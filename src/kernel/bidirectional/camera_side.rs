@@ -105,15 +105,22 @@ fn add_sky(scene: &RenderScene, path: &mut CameraPath, mis: &SubpathMis, d: Vec3
     let lights = &scene.lights;
     let Some(environment) = &lights.environment else { return };
     let le = environment.le(d);
-    let w = if path.depth == 0 {
-        1.0
-    } else {
-        let index = lights.environment_index();
-        let direct_pdf = lights.direct_pdf(index, path.prev_p, Vec3::ZERO, Vec3::ZERO, d, 0.0);
-        let emission_pdf = lights.emission_pdf(index, Vec3::ZERO, -d.normalize());
-        weight(0.0, mis.hitting_light(direct_pdf, emission_pdf))
-    };
+    let w = sky_weight(scene, path, mis, d);
     path.add(path.beta * le * w, Quantity::Environment);
+}
+
+/// The weight of the sky that camera path `path` (sums `mis`) sees along `d`: against light
+/// sampling at its previous vertex and light subpaths leaving the sky.
+#[inline]
+pub fn sky_weight(scene: &RenderScene, path: &CameraPath, mis: &SubpathMis, d: Vec3) -> f32 {
+    if path.depth == 0 {
+        return 1.0;
+    }
+    let lights = &scene.lights;
+    let index = lights.environment_index();
+    let direct_pdf = lights.direct_pdf(index, path.prev_p, Vec3::ZERO, Vec3::ZERO, d, 0.0);
+    let emission_pdf = lights.emission_pdf(index, Vec3::ZERO, -d.normalize());
+    weight(0.0, mis.hitting_light(direct_pdf, emission_pdf))
 }
 
 /// The emission of vertex `v`'s surface seen from `wo` (world, unit) over `dist2`, weighted

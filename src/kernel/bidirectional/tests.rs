@@ -3,7 +3,7 @@
 //! wall both emits and reflects so that every strategy can make every path. The sums are built by
 //! the kernel's own weight functions, each subpath's sums by the recursion the systems run.
 
-use super::camera_side::{CameraVertex, connection_weight, emission_weight, light_sample_weight};
+use super::camera_side::{CameraVertex, connection_weight, emission_weight, light_sample_weight, sky_weight};
 use super::light_side::{LightOrigin, LightVertex, camera_connection_weight, first_vertex_mis};
 use super::mis::{MisFactors, SubpathMis};
 use crate::camera::Camera;
@@ -136,4 +136,55 @@ fn the_weights_of_every_strategy_of_a_path_sum_to_one() {
         checked += 1;
     }
     assert_eq!(checked, 40);
+}
+
+/// One bounce under the sky: the camera path escaping (s = 0), light sampling of the sky (s = 1),
+/// and a subpath from the sky's disc seen by the camera (s = 2), whose densities are per unit solid
+/// angle and per unit area of the disc, with no distance to convert.
+#[test]
+fn the_weights_of_a_path_from_the_sky_sum_to_one() {
+    let furnace = crate::test_scenes::environment_furnace(0.5, 1.0);
+    let scene = RenderScene::build(&furnace, LightSelection::Power);
+    let camera =
+        Camera::new(furnace.camera.as_ref().unwrap(), &CameraOverrides::default(), 32, 32, FilterKind::Box)
+            .unwrap();
+    let factors = MisFactors::connections_only(32 * 32);
+    let sky = scene.lights.environment_index();
+    let eye = Vec3::new(0.0, 0.0, 3.0);
+    let sampler = Sampler::new(11, 0, 0);
+    for path in 0..20u32 {
+        let u = sampler.get2d(10 * path);
+        let (ray, v) = land(&scene, eye, Vec3::new(0.6 * u.x - 0.3, 0.6 * u.y - 0.3, 0.0));
+        // A direction towards the sky above the facet.
+        let u = sampler.get2d(10 * path + 2);
+        let local = crate::sampling::warp::cosine_hemisphere(u);
+        let w = v.frame.to_world(local);
+        let dist2 = (v.si.p - eye).length_squared();
+        // The camera subpath.
+        let mut camera_mis = SubpathMis::camera(&factors, camera.pdf_w(ray.d));
+        camera_mis.arrive(Some(dist2), v.wo.z.abs());
+        let at_vertex = camera_mis;
+        let wi = v.frame.to_local(w);
+        camera_mis.scatter(&factors, wi.z.abs(), v.bsdf.pdf(v.wo, wi), v.bsdf.pdf(wi, v.wo), false);
+        let escaped = CameraPath { prev_p: v.si.p, depth: 1, ..CameraPath::START };
+        let mut sum = sky_weight(&scene, &escaped, &camera_mis, w);
+        let far = v.si.p + w * 100.0;
+        let pdf = scene.lights.direct_pdf(sky, v.si.p, far, -w, w, 0.0);
+        let ls = LightSample { p: far, n: -w, le: Vec3::ONE, pdf, delta: false };
+        sum += light_sample_weight(&scene, &factors, &v, &at_vertex, sky, &ls);
+        // The light subpath from the sky's disc, arriving along −w.
+        let origin = LightOrigin {
+            light: sky,
+            p: far,
+            n: -w,
+            emission_pdf: scene.lights.emission_pdf(sky, -w, -w),
+            cos: 1.0,
+            kind: scene.lights.emitter_kind(sky),
+        };
+        let (light_ray, lv) = land(&scene, far, v.si.p);
+        let mut light_mis = first_vertex_mis(&scene, &factors, &origin, lv.si.p, &light_ray, 1.0, 0.0);
+        light_mis.arrive(None, lv.wo.z.abs());
+        sum += camera_connection_weight(&camera, &factors, &lv, &light_mis, eye);
+        assert!((sum - 1.0).abs() < 2e-3, "path {path}: the weights sum to {sum}");
+    }
 }
