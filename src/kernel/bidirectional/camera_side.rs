@@ -249,12 +249,12 @@ pub fn connection_weight(
     dist2: f32,
 ) -> f32 {
     let wi_c = c.v.frame.to_local(dir);
-    let wi_l = l.v.frame.to_local(-dir);
+    let wi_l = l.frame.to_local(-dir);
     let (cos_c, cos_l) = (wi_c.z.abs(), wi_l.z.abs());
     let w_light =
-        l.mis.towards(factors, to_area(c.v.bsdf.pdf(c.v.wo, wi_c), dist2, cos_l), l.v.bsdf.pdf(wi_l, l.v.wo));
+        l.mis.towards(factors, to_area(c.v.bsdf.pdf(c.v.wo, wi_c), dist2, cos_l), l.bsdf.pdf(wi_l, l.wo));
     let w_camera =
-        c.mis.towards(factors, to_area(l.v.bsdf.pdf(l.v.wo, wi_l), dist2, cos_c), c.v.bsdf.pdf(wi_c, c.v.wo));
+        c.mis.towards(factors, to_area(l.bsdf.pdf(l.wo, wi_l), dist2, cos_c), c.v.bsdf.pdf(wi_c, c.v.wo));
     weight(w_light, w_camera)
 }
 
@@ -268,7 +268,7 @@ pub fn connect_vertices(
     l: &LightVertex,
     time: f32,
 ) -> Option<(Ray, Vec3)> {
-    let d = l.v.si.p - c.v.si.p;
+    let d = l.p - c.v.si.p;
     let dist2 = d.length_squared();
     if !(dist2 > 0.0) {
         return None;
@@ -276,12 +276,12 @@ pub fn connect_vertices(
     let dist = dist2.sqrt();
     let dir = d / dist;
     let wi_c = c.v.frame.to_local(dir);
-    let wi_l = l.v.frame.to_local(-dir);
-    if crosses_inconsistently(&c.v, dir, wi_c) || crosses_inconsistently(&l.v, -dir, wi_l) {
+    let wi_l = l.frame.to_local(-dir);
+    if crosses_inconsistently(&c.v, dir, wi_c) || l.crosses_inconsistently(-dir, wi_l) {
         return None;
     }
     let f_c = c.v.bsdf.eval(c.v.wo, wi_c, TransportMode::Radiance);
-    let f_l = l.v.bsdf.eval(l.v.wo, wi_l, TransportMode::Importance);
+    let f_l = l.bsdf.eval(l.wo, wi_l, TransportMode::Importance);
     let g = wi_c.z.abs() * wi_l.z.abs() / dist2;
     let value = c.beta * l.beta * f_c * f_l * g;
     if !(value.max_element() > 0.0) {
@@ -293,6 +293,6 @@ pub fn connect_vertices(
         return None;
     }
     let origin = offset_ray_origin(c.v.si.p, c.v.si.p_error, c.v.si.ng, dir);
-    let target = offset_ray_origin(l.v.si.p, l.v.si.p_error, l.v.si.ng, -dir);
+    let target = offset_ray_origin(l.p, l.p_error, l.ng, -dir);
     Some((Ray { o: origin, d: target - origin, t_max: 1.0 - SHADOW_EPSILON, time }, contribution))
 }

@@ -11,8 +11,10 @@ use crate::kernel::photon::{
     PhotonPassSettings, PhotonPath, arrive, continue_photon_sampled, sample_emission,
 };
 use crate::lights::bidirectional::EmitterKind;
+use crate::materials::Bsdf;
 use crate::render_scene::RenderScene;
 use crate::sampling::Sampler;
+use crate::sampling::warp::Frame;
 use glam::{Vec2, Vec3};
 
 /// Where a light subpath started: what the weights of its first vertex need, known only once the
@@ -46,17 +48,56 @@ impl Default for LightOrigin {
     }
 }
 
-/// A non-delta vertex of a light subpath, kept for the camera subpaths to connect to.
+/// A non-delta vertex of a light subpath, kept for the camera subpaths to connect to: what a
+/// connection reads of it (280 bytes; the whole [`Vertex`], with the hit's texture coordinates and
+/// the material's parameters, is 384, and a pass keeps a quarter of a million).
 #[derive(Clone, Copy, Debug)]
 pub struct LightVertex {
-    /// The vertex (its BSDF, frame and the direction the subpath arrived from).
-    pub v: Vertex,
+    /// The point.
+    pub p: Vec3,
+    /// Its floating-point error bound (to offset the connection's end).
+    pub p_error: Vec3,
+    /// The geometric normal.
+    pub ng: Vec3,
+    /// The shading frame.
+    pub frame: Frame,
+    /// Towards where the subpath came from, in the shading frame.
+    pub wo: Vec3,
+    /// The BSDF there.
+    pub bsdf: Bsdf,
     /// The subpath's throughput arriving there.
     pub beta: Vec3,
     /// Its running sums there.
     pub mis: SubpathMis,
     /// Bounces before it (0: the first hit).
     pub depth: u32,
+}
+
+impl LightVertex {
+    /// Vertex `v` reached with throughput `beta` and sums `mis` after `depth` bounces.
+    #[inline]
+    pub fn new(v: &Vertex, beta: Vec3, mis: SubpathMis, depth: u32) -> Self {
+        Self {
+            p: v.si.p,
+            p_error: v.si.p_error,
+            ng: v.si.ng,
+            frame: v.frame,
+            wo: v.wo,
+            bsdf: v.bsdf,
+            beta,
+            mis,
+            depth,
+        }
+    }
+
+    /// Whether `wi` (world and local) leaves on one side by the shading normal and the other by
+    /// the geometric one, relative to where the subpath arrived (as
+    /// [`crate::kernel::continuation::crosses_inconsistently`]).
+    #[inline]
+    pub fn crosses_inconsistently(&self, wi_world: Vec3, wi_local: Vec3) -> bool {
+        let wo_world = self.frame.to_world(self.wo);
+        wi_world.dot(self.ng) * wo_world.dot(self.ng) * wi_local.z * self.wo.z < 0.0
+    }
 }
 
 /// Start a light subpath with `sampler`'s numbers at shutter time `time`: its first ray, its
@@ -125,7 +166,7 @@ pub fn light_subpath_vertex(
         if v.bsdf.reflects_nothing() {
             return step;
         }
-        *kept = Some(LightVertex { v, beta: path.power, mis: *mis, depth: path.depth });
+        *kept = Some(LightVertex::new(&v, path.power, *mis, path.depth));
         // The t = 1 path has this vertex's bounces and the one towards the camera.
         if path.depth < settings.max_depth {
             step.connection = connect(scene, camera, &v, path, u_lens, ray.time)
@@ -195,3 +236,5 @@ pub fn camera_connection_weight(
     let camera_pdf_a = camera.pdf_w(-wi_world) * wi.z.abs() / dist2;
     weight(mis.towards(factors, camera_pdf_a / factors.light_paths, v.bsdf.pdf(wi, v.wo)), 0.0)
 }
+
+const _: () = assert!(size_of::<LightVertex>() <= 280);

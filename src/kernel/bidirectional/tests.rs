@@ -103,7 +103,7 @@ fn weight_sum(
     // 2 ≤ s ≤ n: camera vertex i connects to light vertex i + 1.
     for i in 1..n {
         let (_, lv, lmis) = light_at(i + 1);
-        let l = LightVertex { v: *lv, beta: Vec3::ONE, mis: *lmis, depth: (n - i - 1) as u32 };
+        let l = LightVertex::new(lv, Vec3::ONE, *lmis, (n - i - 1) as u32);
         let d = points[i + 1] - points[i];
         sum += connection_weight(factors, &camera_at(i), &l, d.normalize(), d.length_squared());
     }
