@@ -165,6 +165,11 @@ pub fn keep_light_vertices(
 ) {
     let store = &mut *store;
     for (state, mut subpath) in &mut paths {
+        // Only a subpath that moved this step has kept anything: the others' 370-byte components
+        // stay unread (the tail of a pass has few subpaths left among 65 536 entities).
+        if !matches!(state.status, PathStatus::Active | PathStatus::Finished) {
+            continue;
+        }
         if let Some(vertex) = subpath.kept.take() {
             store.previous.push(subpath.last);
             subpath.last = store.vertices.len() as u32;
