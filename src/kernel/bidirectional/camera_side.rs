@@ -3,7 +3,7 @@
 //! continuation.
 
 use super::light_side::LightVertex;
-use super::mis::{MisFactors, SubpathMis, to_area, weight};
+use super::mis::{MisFactors, SubpathMis, positive, to_area, weight};
 use crate::camera::Camera;
 use crate::geometry::Ray;
 use crate::geometry::bvh::{Hit, NO_LIGHT};
@@ -183,7 +183,7 @@ fn sample_light(
     let si = &v.si;
     let lights = &scene.lights;
     let (light, mut ls) = lights.sample_by_power(si.p, time, u.light_select(), u.light_point())?;
-    if light == si.light || !(ls.pdf > 0.0) {
+    if light == si.light || !positive(ls.pdf) {
         return None;
     }
     ls.le *= scene.emissive_texel(light, ls.p, time);
@@ -195,13 +195,13 @@ fn sample_light(
         return None;
     }
     let f = v.bsdf.eval(v.wo, wi, TransportMode::Radiance) * wi.z.abs();
-    if !(f.max_element() > 0.0) {
+    if !positive(f.max_element()) {
         return None;
     }
     let w = light_sample_weight(scene, factors, v, mis, light, &ls);
     let beta = path.beta * path.media.transmittance(scene, dist2.sqrt());
     let contribution = beta * f * ls.le * (w / ls.pdf);
-    if !(contribution.max_element() > 0.0) {
+    if !positive(contribution.max_element()) {
         return None;
     }
     let origin = offset_ray_origin(si.p, si.p_error, si.ng, wi_world);
@@ -270,7 +270,7 @@ pub fn connect_vertices(
 ) -> Option<(Ray, Vec3)> {
     let d = l.p - c.v.si.p;
     let dist2 = d.length_squared();
-    if !(dist2 > 0.0) {
+    if !positive(dist2) {
         return None;
     }
     let dist = dist2.sqrt();
@@ -284,12 +284,12 @@ pub fn connect_vertices(
     let f_l = l.bsdf.eval(l.wo, wi_l, TransportMode::Importance);
     let g = wi_c.z.abs() * wi_l.z.abs() / dist2;
     let value = c.beta * l.beta * f_c * f_l * g;
-    if !(value.max_element() > 0.0) {
+    if !positive(value.max_element()) {
         return None;
     }
     let contribution =
         value * connection_weight(factors, c, l, dir, dist2) * c.media.transmittance(scene, dist);
-    if !(contribution.max_element() > 0.0) || !contribution.is_finite() {
+    if !positive(contribution.max_element()) || !contribution.is_finite() {
         return None;
     }
     let origin = offset_ray_origin(c.v.si.p, c.v.si.p_error, c.v.si.ng, dir);

@@ -1,7 +1,7 @@
 //! The light subpath of bidirectional path tracing: its emission, each vertex's weights, the
 //! vertices kept for the camera subpaths, and the t = 1 strategy (the vertex seen by the camera).
 
-use super::mis::{MisFactors, SubpathMis, weight};
+use super::mis::{MisFactors, SubpathMis, positive, weight};
 use crate::camera::Camera;
 use crate::geometry::Ray;
 use crate::geometry::bvh::Hit;
@@ -111,7 +111,7 @@ pub fn emit_light_subpath(
     let (light, e, ray) = sample_emission(scene, sampler, time)?;
     let kind = scene.lights.emitter_kind(light);
     let emission_pdf = scene.lights.emission_pdf(light, e.n, e.d);
-    if !(emission_pdf > 0.0) {
+    if !positive(emission_pdf) {
         return None;
     }
     let cos = if kind.finite && !kind.delta { e.n.dot(e.d).abs() } else { 1.0 };

@@ -118,6 +118,12 @@ impl SubpathMis {
     }
 }
 
+/// Whether `x` is a positive number (NaN is not): what a density or a contribution must be to count.
+#[inline(always)]
+pub fn positive(x: f32) -> bool {
+    x > 0.0
+}
+
 /// The balance of the two sides' sums into the weight of the strategy itself.
 #[inline]
 pub fn weight(light_side: f32, camera_side: f32) -> f32 {
