@@ -113,3 +113,22 @@ fn lt_and_pt_agree_under_the_wider_filters() {
         assert_matches(&render(IntegratorKind::Lt), &render(IntegratorKind::Pt));
     }
 }
+
+/// Under point, spot and sun lights alone a camera ray finds no light, so lt counts its samples
+/// without tracing them; asking for feature images brings the camera rays back, and the colour
+/// must be the same to the bit either way.
+#[test]
+fn without_area_lights_or_sky_the_skipped_camera_rays_change_no_bit() {
+    let render = |aovs: Vec<caustica::film::aov::Aov>| {
+        let (scene, mut run) = load(&common::data("punctual-lights.gltf")).expect("test scene loads");
+        run.render.integrator = IntegratorKind::Lt;
+        run.render.spp = 4;
+        run.film.aovs = aovs;
+        (run.film.width, run.film.height) = (Some(48), Some(32));
+        common::render(scene, &run)
+    };
+    let counted = render(Vec::new());
+    let traced = render(vec![caustica::film::aov::Aov::Albedo]);
+    assert!(counted.mean().max_element() > 0.01, "the scene is lit: {}", counted.mean());
+    assert_eq!(counted.pixels, traced.pixels);
+}
