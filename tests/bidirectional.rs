@@ -111,3 +111,15 @@ fn bdpt_and_pt_agree_through_a_thin_lens() {
     };
     assert_matches(&render(IntegratorKind::Bdpt, 8), &render(IntegratorKind::Pt, 16));
 }
+
+/// A light selection bdpt cannot use is not silently dropped: the warning names the setting.
+#[test]
+fn a_light_selection_bdpt_does_not_use_is_named_in_a_warning() {
+    let (scene, mut run) = load(&common::data("cornell-box.gltf")).expect("test scene loads");
+    run.render.integrator = IntegratorKind::Bdpt;
+    run.render.light_selection = caustica::scene::LightSelection::Tree;
+    run.render.spp = 1;
+    (run.film.width, run.film.height) = (Some(16), Some(16));
+    let (_, logs) = common::capture_logs(|| common::render(scene, &run));
+    assert!(logs.contains("render.light_selection = tree is not used"), "{logs}");
+}

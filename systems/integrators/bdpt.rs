@@ -49,10 +49,11 @@ use crate::resources::{
 use crate::trace::{trace_paths, trace_photons, trace_shadow_rays};
 use crate::world::MAX_WAVEFRONT;
 use bevy_ecs::prelude::*;
+use caustica_core::choice::Choice;
 use caustica_core::error::Result;
 use caustica_core::kernel::bidirectional::{LightVertex, MisFactors};
 use caustica_core::photon::PhotonMapKind;
-use caustica_core::scene::{IntegratorKind, RunFile};
+use caustica_core::scene::{IntegratorKind, LightSelection, RunFile};
 use std::sync::atomic::Ordering;
 
 /// Light subpaths a pass aims at: a pass's steps each cost a walk over every entity, so small
@@ -111,6 +112,14 @@ fn memory(_: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
 
 fn plan(_: &Integrator, world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
     let features = super::without_visibility_learning(world, features, "bdpt picks lights by power");
+    if run.render.light_selection != LightSelection::Power {
+        tracing::warn!(
+            "bdpt picks lights by power on both sides (a strategy's weight needs the density with which \
+             the other side picks a light, and a light tree's depends on a normal the other side cannot \
+             know); render.light_selection = {} is not used",
+            run.render.light_selection.name()
+        );
+    }
     let order = stage_order(run);
     let pixels = {
         let film = world.resource::<FilmResource>();
