@@ -28,7 +28,6 @@ use caustica_core::kernel::bidirectional::{
     LightVertex, MisFactors, camera_vertex, connect_vertices, emit_light_subpath, light_subpath_vertex,
 };
 use caustica_core::kernel::photon::photon_time;
-use glam::Vec2;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// No vertex: the end of a subpath's chain.
@@ -127,11 +126,7 @@ pub fn scatter_light_subpaths(
             }
             state.bounces += 1;
             let sampler = light_paths.sampler(&work, state.index, false);
-            let u_lens = if camera.has_lens() {
-                light_paths.sampler(&work, state.index, true).get2d(2 * state.path.depth)
-            } else {
-                Vec2::splat(0.5)
-            };
+            let u_lens = light_paths.lens_sample(&work, &camera, state.index, state.path.depth);
             let subpath = &mut *subpath;
             let step = light_subpath_vertex(
                 &scene,

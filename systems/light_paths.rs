@@ -48,6 +48,30 @@ pub struct LightPaths {
 }
 
 impl LightPaths {
+    /// What the connections to the camera did, for the report.
+    pub fn describe(&self) -> String {
+        let (connections, splatted, dropped) = (
+            self.connections.load(Ordering::Relaxed),
+            self.splatted.load(Ordering::Relaxed),
+            self.dropped.load(Ordering::Relaxed),
+        );
+        format!(
+            "{connections} connections from light vertices, {splatted} seen, {dropped} splats out of range dropped"
+        )
+    }
+
+    /// The lens point of subpath `index`'s connection at `depth` (the pinhole itself without an
+    /// aperture).
+    pub fn lens_sample(
+        &self,
+        work: &PhotonWork,
+        camera: &caustica_core::camera::Camera,
+        index: u32,
+        depth: u32,
+    ) -> Vec2 {
+        if camera.has_lens() { self.sampler(work, index, true).get2d(2 * depth) } else { Vec2::splat(0.5) }
+    }
+
     /// The random numbers of subpath `index` of the pass that starts at unit `work.pass`: those of
     /// subpath `index mod per_unit` of its own unit, so that a pass of any length (a part, a
     /// resumed render) draws what a pass of one unit would; and its lens points' (`lens`).
@@ -146,11 +170,7 @@ pub fn scatter_light_paths(
             }
             state.bounces += 1;
             let sampler = light_paths.sampler(&work, state.index, false);
-            let u_lens = if camera.has_lens() {
-                light_paths.sampler(&work, state.index, true).get2d(2 * state.path.depth)
-            } else {
-                Vec2::splat(0.5)
-            };
+            let u_lens = light_paths.lens_sample(&work, &camera, state.index, state.path.depth);
             let bounce = light_vertex(
                 &scene,
                 &camera,

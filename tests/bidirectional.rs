@@ -22,22 +22,10 @@ fn render(gltf: &str, kind: IntegratorKind, spp: u32, size: u32) -> caustica::fi
     common::render(scene, &run)
 }
 
-/// No |z| above 4.4 over a 4×4 grid of blocks (Bonferroni over 16, p ≈ 2e-4) and Σz² below the χ²₁₆
-/// quantile 44.3; the image mean within 4.4 standard errors of the reference's.
-fn assert_matches(image: &caustica::film::Image, reference: &caustica::film::Image) {
-    let z = common::block_z_scores(image, reference, 4);
-    let chi2: f64 = z.iter().map(|v| v * v).sum();
-    let worst = z.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let (mean, standard_error) = common::paired_difference(image, reference);
-    eprintln!("block z {z:.1?}; mean difference {mean:.2e} ± {standard_error:.1e}");
-    assert!(worst < 4.4 && chi2 < 44.3, "block z-scores {z:.1?}: max |z| {worst:.1}, Σz² {chi2:.1}");
-    assert!(mean.abs() < 4.4 * standard_error, "mean difference {mean} ± {standard_error}");
-}
-
 #[test]
 fn bdpt_on_cornell_box_matches_mitsuba() {
     let reference = common::downsample2(&read_exr(&common::data("cornell-box.ref.exr")).unwrap());
-    assert_matches(&render("cornell-box.gltf", IntegratorKind::Bdpt, 8, 128), &reference);
+    common::assert_blocks_match(&render("cornell-box.gltf", IntegratorKind::Bdpt, 8, 128), &reference);
 }
 
 /// Everywhere, the spheres included: the walls seen in the mirror and through the glass are
@@ -45,7 +33,7 @@ fn bdpt_on_cornell_box_matches_mitsuba() {
 #[test]
 fn bdpt_on_cornell_spheres_matches_mitsuba_everywhere() {
     let reference = common::downsample2(&read_exr(&common::data("cornell-spheres.ref.exr")).unwrap());
-    assert_matches(&render("cornell-spheres.gltf", IntegratorKind::Bdpt, 8, 128), &reference);
+    common::assert_blocks_match(&render("cornell-spheres.gltf", IntegratorKind::Bdpt, 8, 128), &reference);
 }
 
 /// Inside a closed sphere whose wall emits 1 and reflects half, every pixel sees exactly 2, and
@@ -78,7 +66,7 @@ fn bdpt_and_pt_agree_under_point_spot_and_sun_lights() {
     let bdpt = render("punctual-lights.gltf", IntegratorKind::Bdpt, 16, 64);
     let pt = render("punctual-lights.gltf", IntegratorKind::Pt, 64, 64);
     assert!(pt.mean().max_element() > 0.01, "the scene is lit: {}", pt.mean());
-    assert_matches(&bdpt, &pt);
+    common::assert_blocks_match(&bdpt, &pt);
 }
 
 /// Light tracing's splats share a connection among the pixels the filter reaches: under the tent,
@@ -93,7 +81,7 @@ fn bdpt_and_pt_agree_under_the_tent_filter() {
         (run.film.width, run.film.height) = (Some(96), Some(96));
         common::render(scene, &run)
     };
-    assert_matches(&render(IntegratorKind::Bdpt, 8), &render(IntegratorKind::Pt, 16));
+    common::assert_blocks_match(&render(IntegratorKind::Bdpt, 8), &render(IntegratorKind::Pt, 16));
 }
 
 /// Through a thin lens: the camera subpaths start on the lens and the light subpaths connect to a
@@ -109,7 +97,7 @@ fn bdpt_and_pt_agree_through_a_thin_lens() {
         (run.film.width, run.film.height) = (Some(96), Some(96));
         common::render(scene, &run)
     };
-    assert_matches(&render(IntegratorKind::Bdpt, 8), &render(IntegratorKind::Pt, 16));
+    common::assert_blocks_match(&render(IntegratorKind::Bdpt, 8), &render(IntegratorKind::Pt, 16));
 }
 
 /// A light selection bdpt cannot use is not silently dropped: the warning names the setting.

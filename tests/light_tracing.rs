@@ -64,22 +64,10 @@ fn masked(
     out
 }
 
-/// No |z| above 4.4 over a 4×4 grid of blocks (Bonferroni over 16, p ≈ 2e-4) and Σz² below the χ²₁₆
-/// quantile 44.3; the image mean within 1% of the reference's.
-fn assert_matches(image: &caustica::film::Image, reference: &caustica::film::Image) {
-    let z = common::block_z_scores(image, reference, 4);
-    let chi2: f64 = z.iter().map(|v| v * v).sum();
-    let worst = z.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let (mean, standard_error) = common::paired_difference(image, reference);
-    eprintln!("block z {z:.1?}; mean difference {mean:.2e} ± {standard_error:.1e}");
-    assert!(worst < 4.4 && chi2 < 44.3, "block z-scores {z:.1?}: max |z| {worst:.1}, Σz² {chi2:.1}");
-    assert!(mean.abs() < 4.4 * standard_error, "mean difference {mean} ± {standard_error}");
-}
-
 #[test]
 fn lt_on_cornell_box_matches_mitsuba() {
     let reference = common::downsample2(&read_exr(&common::data("cornell-box.ref.exr")).unwrap());
-    assert_matches(&render_half("cornell-box.gltf", 16), &reference);
+    common::assert_blocks_match(&render_half("cornell-box.gltf", 16), &reference);
 }
 
 #[test]
@@ -89,7 +77,10 @@ fn lt_on_cornell_spheres_matches_mitsuba_outside_the_spheres() {
     let dropped = keep.iter().filter(|k| !**k).count();
     // The two spheres and nothing else: a few percent of the pixels.
     assert!((600..5000).contains(&dropped), "{dropped} pixels seen through a delta bounce");
-    assert_matches(&masked(&render_half("cornell-spheres.gltf", 16), &reference, &keep), &reference);
+    common::assert_blocks_match(
+        &masked(&render_half("cornell-spheres.gltf", 16), &reference, &keep),
+        &reference,
+    );
 }
 
 /// The splats share a connection among the pixels the reconstruction filter reaches, with the
@@ -110,7 +101,7 @@ fn lt_and_pt_agree_under_the_wider_filters() {
             (run.film.width, run.film.height) = (Some(96), Some(96));
             common::render(scene, &run)
         };
-        assert_matches(&render(IntegratorKind::Lt), &render(IntegratorKind::Pt));
+        common::assert_blocks_match(&render(IntegratorKind::Lt), &render(IntegratorKind::Pt));
     }
 }
 

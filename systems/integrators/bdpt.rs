@@ -43,16 +43,13 @@ use crate::light_paths::{LightPaths, splat_camera_connections};
 use crate::passes::{begin_photon_pass, hand_out_samples};
 use crate::plan::{Phase, Plan, Repeat, Unit, When};
 use crate::report::Report;
-use crate::resources::{
-    FilmResource, PassRange, PhotonBuffer, PhotonStats, PhotonWork, RenderConfig, SceneFeatures,
-};
+use crate::resources::{FilmResource, SceneFeatures};
 use crate::trace::{trace_paths, trace_photons, trace_shadow_rays};
 use crate::world::MAX_WAVEFRONT;
 use bevy_ecs::prelude::*;
 use caustica_core::choice::Choice;
 use caustica_core::error::Result;
 use caustica_core::kernel::bidirectional::{LightVertex, MisFactors};
-use caustica_core::photon::PhotonMapKind;
 use caustica_core::scene::{IntegratorKind, LightSelection, RunFile};
 use std::sync::atomic::Ordering;
 
@@ -125,11 +122,7 @@ fn plan(_: &Integrator, world: &mut World, run: &RunFile, features: SceneFeature
         let film = world.resource::<FilmResource>();
         film.width * film.height
     };
-    let config = world.resource::<RenderConfig>().clone();
-    world.insert_resource(PhotonWork::new(PhotonMapKind::Global, pixels, &config, features.motion));
-    world.insert_resource(PhotonBuffer::default());
-    world.insert_resource(PhotonStats::default());
-    world.insert_resource(LightPaths { per_unit: pixels, ..Default::default() });
+    super::light_tracing::insert_light_path_resources(world, pixels, features);
     world.insert_resource(LightVertices {
         factors: Some(MisFactors::connections_only(pixels)),
         last: vec![u32::MAX; (pixels * units_per_pass(pixels)) as usize],
@@ -146,8 +139,9 @@ fn plan(_: &Integrator, world: &mut World, run: &RunFile, features: SceneFeature
         (PhotonRay::default(), PhotonHit::default(), state, CameraSplat::default(), LightSubpath::default())
     }));
 
-    let mut light = Phase::new("photons", When::EveryPass, Repeat::WhileBusy(photons_busy))
-        .with_begin((begin_light_pass(pixels), begin_photon_pass, begin_light_vertices).chain());
+    let mut light = Phase::new("photons", When::EveryPass, Repeat::WhileBusy(photons_busy)).with_begin(
+        (super::light_tracing::begin_light_pass(pixels), begin_photon_pass, begin_light_vertices).chain(),
+    );
     configure_stages(&mut light.schedule, order);
     light.schedule.add_systems(emit_light_subpaths.in_set(PassSystems::Emit));
     light.schedule.add_systems(trace_photons.in_set(PassSystems::Trace));
@@ -173,31 +167,17 @@ fn plan(_: &Integrator, world: &mut World, run: &RunFile, features: SceneFeature
     })
 }
 
-/// A system that sets up the pass's light subpaths: one per pixel, with the random numbers of the
-/// pass's unit.
-fn begin_light_pass(pixels: u32) -> impl FnMut(Res<PassRange>, ResMut<PhotonWork>) {
-    move |range, mut work| {
-        work.pass = range.begin;
-        work.settings.total = pixels.saturating_mul(range.end - range.begin);
-    }
-}
-
 /// The subpaths and their connections.
 fn report(world: &World, report: &mut Report) {
     report.photons = Some(super::photon_summary(world, (0, None), Vec::new()));
-    let stats = world.resource::<LightPaths>();
     let store = world.resource::<LightVertices>();
-    let (to_camera, seen, dropped) = (
-        stats.connections.load(Ordering::Relaxed),
-        stats.splatted.load(Ordering::Relaxed),
-        stats.dropped.load(Ordering::Relaxed),
-    );
     report.notes.push((
         "connections",
         format!(
-            "{} light vertices kept, {} camera–light connections; {to_camera} light vertices to the camera, {seen} seen, {dropped} splats out of range dropped",
+            "{} light vertices kept, {} camera–light connections",
             store.kept,
-            store.connections.load(Ordering::Relaxed),
+            store.connections.load(Ordering::Relaxed)
         ),
     ));
+    report.notes.push(("camera", world.resource::<LightPaths>().describe()));
 }

@@ -50,7 +50,6 @@ use bevy_ecs::prelude::*;
 use caustica_core::error::Result;
 use caustica_core::photon::PhotonMapKind;
 use caustica_core::scene::{IntegratorKind, RunFile};
-use std::sync::atomic::Ordering;
 
 /// Light subpaths a pass aims at: enough to amortise a pass's fixed cost, few enough that a stop
 /// (which waits for the pass's end) is prompt.
@@ -95,11 +94,7 @@ fn plan(_: &Integrator, world: &mut World, run: &RunFile, features: SceneFeature
         let film = world.resource::<FilmResource>();
         film.width * film.height
     };
-    let config = world.resource::<RenderConfig>().clone();
-    world.insert_resource(PhotonWork::new(PhotonMapKind::Global, pixels, &config, features.motion));
-    world.insert_resource(PhotonBuffer::default());
-    world.insert_resource(PhotonStats::default());
-    world.insert_resource(LightPaths { per_unit: pixels, ..Default::default() });
+    insert_light_path_resources(world, pixels, features);
     super::spawn_path_wavefront(world);
     world.spawn_batch((0..pixels.min(MAX_WAVEFRONT)).map(|index| {
         let state = PhotonState { index, status: PathStatus::Idle, ..Default::default() };
@@ -159,9 +154,19 @@ fn count_camera_samples(range: Res<PassRange>, film: Res<FilmResource>, mut stat
     stats.samples += pixels as u64 * units as u64;
 }
 
+/// What light subpaths of one a pixel a unit share with photon passes: the pass's work (one
+/// subpath a pixel a unit), its buffer and counters, and the subpaths' own numbers.
+pub(super) fn insert_light_path_resources(world: &mut World, pixels: u32, features: SceneFeatures) {
+    let config = world.resource::<RenderConfig>().clone();
+    world.insert_resource(PhotonWork::new(PhotonMapKind::Global, pixels, &config, features.motion));
+    world.insert_resource(PhotonBuffer::default());
+    world.insert_resource(PhotonStats::default());
+    world.insert_resource(LightPaths { per_unit: pixels, ..Default::default() });
+}
+
 /// A system that sets up the pass's light subpaths: as many as the pass has camera samples, with
 /// the random numbers of its unit index.
-fn begin_light_pass(pixels: u32) -> impl FnMut(Res<PassRange>, ResMut<PhotonWork>) {
+pub(super) fn begin_light_pass(pixels: u32) -> impl FnMut(Res<PassRange>, ResMut<PhotonWork>) {
     move |range, mut work| {
         work.pass = range.begin;
         work.settings.total = pixels.saturating_mul(range.end - range.begin);
@@ -171,14 +176,5 @@ fn begin_light_pass(pixels: u32) -> impl FnMut(Res<PassRange>, ResMut<PhotonWork
 /// The subpaths and their connections.
 fn report(world: &World, report: &mut Report) {
     report.photons = Some(super::photon_summary(world, (0, None), Vec::new()));
-    let stats = world.resource::<LightPaths>();
-    let (connections, splatted, dropped) = (
-        stats.connections.load(Ordering::Relaxed),
-        stats.splatted.load(Ordering::Relaxed),
-        stats.dropped.load(Ordering::Relaxed),
-    );
-    report.notes.push((
-        "camera",
-        format!("{connections} connections from light vertices, {splatted} seen, {dropped} splats out of range dropped"),
-    ));
+    report.notes.push(("camera", world.resource::<LightPaths>().describe()));
 }

@@ -114,3 +114,16 @@ pub fn capture_logs<T>(f: impl FnOnce() -> T) -> (T, String) {
     let logs = String::from_utf8(buffer.0.lock().expect("log buffer").clone()).expect("utf-8 logs");
     (result, logs)
 }
+
+/// `image` against `reference` region by region: no |z| above 4.4 over a 4×4 grid of blocks
+/// (Bonferroni over 16, p ≈ 2e-4) and Σz² below the χ²₁₆ quantile 44.3; the mean difference within
+/// 4.4 standard errors.
+pub fn assert_blocks_match(image: &caustica::film::Image, reference: &caustica::film::Image) {
+    let z = block_z_scores(image, reference, 4);
+    let chi2: f64 = z.iter().map(|v| v * v).sum();
+    let worst = z.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let (mean, standard_error) = paired_difference(image, reference);
+    eprintln!("block z {z:.1?}; mean difference {mean:.2e} ± {standard_error:.1e}");
+    assert!(worst < 4.4 && chi2 < 44.3, "block z-scores {z:.1?}: max |z| {worst:.1}, Σz² {chi2:.1}");
+    assert!(mean.abs() < 4.4 * standard_error, "mean difference {mean} ± {standard_error}");
+}
