@@ -253,9 +253,14 @@ pub fn mse_optimal_radius(c: f64, laplacian: f64, passes: u32) -> Option<f32> {
 }
 
 /// `FOOTPRINT_PIXELS` pixel footprints at the median of `distances` from the eye, if there is one.
-pub fn radius_cap(camera: &crate::camera::Camera, mut distances: Vec<f32>) -> Option<f32> {
+pub fn radius_cap(camera: &crate::camera::Camera, distances: Vec<f32>) -> Option<f32> {
     /// A first estimate blurred over up to ten pixels is smooth enough and sharpens within passes.
     const FOOTPRINT_PIXELS: f32 = 10.0;
+    pixel_footprint(camera, distances).map(|footprint| FOOTPRINT_PIXELS * footprint)
+}
+
+/// The width a pixel covers at the median of `distances` from the eye, if there is one.
+pub fn pixel_footprint(camera: &crate::camera::Camera, mut distances: Vec<f32>) -> Option<f32> {
     let (cx, cy) = (camera.width / 2, camera.height / 2);
     let ray = |x| camera.generate_ray(x, cy, Vec2::splat(0.5), Vec2::splat(0.5), 0.0);
     let pixel_angle = ray(cx).d.normalize().angle_between(ray(cx + 1).d.normalize());
@@ -264,8 +269,8 @@ pub fn radius_cap(camera: &crate::camera::Camera, mut distances: Vec<f32>) -> Op
     }
     let mid = distances.len() / 2;
     let median = *distances.select_nth_unstable_by(mid, f32::total_cmp).1;
-    let cap = FOOTPRINT_PIXELS * pixel_angle * median;
-    (cap > 0.0).then_some(cap)
+    let footprint = pixel_angle * median;
+    (footprint > 0.0).then_some(footprint)
 }
 
 /// The distances from the eye of the first hits of rays through the centres of a grid of at most

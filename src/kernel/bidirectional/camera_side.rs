@@ -296,3 +296,25 @@ pub fn connect_vertices(
     let target = offset_ray_origin(l.p, l.p_error, l.ng, -dir);
     Some((Ray { o: origin, d: target - origin, t_max: 1.0 - SHADOW_EPSILON, time }, contribution))
 }
+
+/// The merging of camera vertex `c` with light vertex `l` (within the merging radius): what it adds
+/// to the camera path before the kernel's normalization, weighted (Georgiev et al. 2012's vertex
+/// merging: the light vertex's flux, through the camera vertex's BSDF).
+#[inline]
+pub fn merge_vertices(factors: &MisFactors, c: &CameraVertex, l: &LightVertex) -> Vec3 {
+    let wi_world = l.frame.to_world(l.wo);
+    let wi = c.v.frame.to_local(wi_world);
+    let f = c.v.bsdf.eval(c.v.wo, wi, TransportMode::Radiance);
+    if !positive(f.max_element()) {
+        return Vec3::ZERO;
+    }
+    let w = super::mis::merging_weight(
+        factors,
+        &c.mis,
+        &l.mis,
+        c.v.bsdf.pdf(c.v.wo, wi),
+        c.v.bsdf.pdf(wi, c.v.wo),
+    );
+    let value = c.beta * f * l.beta * w;
+    if value.is_finite() { value } else { Vec3::ZERO }
+}

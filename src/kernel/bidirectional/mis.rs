@@ -15,22 +15,44 @@ pub fn mis(x: f32) -> f32 {
     x * x
 }
 
-/// What the weights of a pass share: how many light subpaths it traces and how merging weighs
+/// What the weights of a unit share: how many light subpaths it traces and how merging weighs
 /// against connection (zero without merging: bdpt).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MisFactors {
-    /// Light subpaths in the pass (one per pixel): the light-tracing strategy uses all of them.
+    /// Light subpaths in the unit (one per pixel): the light-tracing strategy uses all of them.
     pub light_paths: f32,
     /// Mis(η_VCM): merging's weight against a connection (0 without merging).
     pub vm: f32,
     /// Mis(1/η_VCM): a connection's weight against merging (0 without merging).
     pub vc: f32,
+    /// The merging radius (0 without merging).
+    pub radius: f32,
 }
 
 impl MisFactors {
     /// Bidirectional path tracing: connections only.
     pub fn connections_only(light_paths: u32) -> Self {
-        Self { light_paths: light_paths as f32, vm: 0.0, vc: 0.0 }
+        Self { light_paths: light_paths as f32, vm: 0.0, vc: 0.0, radius: 0.0 }
+    }
+
+    /// Vertex connection and merging at `radius`: η_VCM = π r² N, the ratio of merging's density
+    /// to a connection's for the same path (Georgiev et al. 2012, eq. 13).
+    pub fn merging(light_paths: u32, radius: f32) -> Self {
+        let eta = std::f32::consts::PI * radius * radius * light_paths as f32;
+        Self { light_paths: light_paths as f32, vm: mis(eta), vc: mis(1.0 / eta), radius }
+    }
+
+    /// Whether light vertices are merged.
+    #[inline]
+    pub fn merges(&self) -> bool {
+        self.radius > 0.0
+    }
+
+    /// What a merged light vertex's flux becomes at the camera vertex: 1 / (π r² N), the kernel's
+    /// density over the unit's subpaths.
+    #[inline]
+    pub fn merge_normalization(&self) -> f32 {
+        1.0 / (std::f32::consts::PI * self.radius * self.radius * self.light_paths)
     }
 }
 
@@ -122,6 +144,22 @@ impl SubpathMis {
 #[inline(always)]
 pub fn positive(x: f32) -> bool {
     x > 0.0
+}
+
+/// The weight of merging camera vertex sums `camera` with light vertex sums `light` at one point:
+/// `pdf` is the camera BSDF's density of the light vertex's incoming direction, `pdf_rev` that of
+/// the camera's outgoing direction from it (SmallVCM's `RangeQuery`).
+#[inline]
+pub fn merging_weight(
+    factors: &MisFactors,
+    camera: &SubpathMis,
+    light: &SubpathMis,
+    pdf: f32,
+    pdf_rev: f32,
+) -> f32 {
+    let w_light = light.dvcm * factors.vc + light.dvm * mis(pdf);
+    let w_camera = camera.dvcm * factors.vc + camera.dvm * mis(pdf_rev);
+    weight(w_light, w_camera)
 }
 
 /// The balance of the two sides' sums into the weight of the strategy itself.

@@ -16,6 +16,6 @@ pub mod mis;
 #[cfg(test)]
 mod tests;
 
-pub use camera_side::{CameraVertex, camera_vertex, connect_vertices};
+pub use camera_side::{CameraVertex, camera_vertex, connect_vertices, merge_vertices};
 pub use light_side::{LightOrigin, LightVertex, emit_light_subpath, light_subpath_vertex};
 pub use mis::{MisFactors, SubpathMis};

@@ -109,15 +109,39 @@ fn weight_sum(
     }
     // s = n + 1: the light subpath's last vertex seen by the camera.
     let (_, lv, lmis) = light_at(1);
-    sum + camera_connection_weight(camera, factors, lv, lmis, Vec3::ZERO)
+    sum += camera_connection_weight(camera, factors, lv, lmis, Vec3::ZERO);
+    // With merging: the two subpaths meet at each vertex, the camera's arriving from the camera's
+    // side, the light's from the light's.
+    if factors.merges() {
+        for i in 1..=n {
+            let c = camera_at(i);
+            let (_, lv, lmis) = light_at(i);
+            let wi = c.v.frame.to_local(lv.frame.to_world(lv.wo));
+            let (pdf, pdf_rev) = (c.v.bsdf.pdf(c.v.wo, wi), c.v.bsdf.pdf(wi, c.v.wo));
+            sum += super::mis::merging_weight(factors, &c.mis, lmis, pdf, pdf_rev);
+        }
+    }
+    sum
 }
 
 #[test]
 fn the_weights_of_every_strategy_of_a_path_sum_to_one() {
+    furnace_paths_sum_their_weights_to_one(MisFactors::connections_only(16 * 16));
+}
+
+/// With merging (vcm), at radii from a hundredth to a tenth of the furnace's: the merges at every
+/// vertex join the connections' sum.
+#[test]
+fn with_merging_the_weights_of_every_strategy_of_a_path_sum_to_one() {
+    for radius in [0.01, 0.1] {
+        furnace_paths_sum_their_weights_to_one(MisFactors::merging(16 * 16, radius));
+    }
+}
+
+fn furnace_paths_sum_their_weights_to_one(factors: MisFactors) {
     let scene = RenderScene::build(&crate::test_scenes::furnace(0.6, 1.0), LightSelection::Power);
     let desc = crate::test_scenes::furnace(0.6, 1.0).camera.unwrap();
     let camera = Camera::new(&desc, &CameraOverrides::default(), 16, 16, FilterKind::Box).unwrap();
-    let factors = MisFactors::connections_only(16 * 16);
     let sampler = Sampler::new(7, 0, 0);
     let mut checked = 0;
     for path in 0..40u32 {
@@ -132,7 +156,11 @@ fn the_weights_of_every_strategy_of_a_path_sum_to_one() {
         }
         let light_point = y.pop().unwrap();
         let sum = weight_sum(&scene, &camera, &factors, &y, light_point);
-        assert!((sum - 1.0).abs() < 2e-3, "path {path} ({bounces} bounces): the weights sum to {sum}");
+        assert!(
+            (sum - 1.0).abs() < 2e-3,
+            "path {path} ({bounces} bounces, radius {}): the weights sum to {sum}",
+            factors.radius
+        );
         checked += 1;
     }
     assert_eq!(checked, 40);
