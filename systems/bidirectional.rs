@@ -26,8 +26,11 @@ use caustica_core::kernel::Quantity;
 use caustica_core::kernel::bidirectional::camera_side::CameraStep;
 use caustica_core::kernel::bidirectional::{
     LightVertex, MisFactors, camera_vertex, connect_vertices, emit_light_subpath, light_subpath_vertex,
+    merge_vertices,
 };
 use caustica_core::kernel::photon::photon_time;
+use caustica_core::photon::hash_grid::HashGrid;
+use glam::Vec3;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// No vertex: the end of a subpath's chain.
@@ -40,24 +43,52 @@ const NONE: u32 = u32::MAX;
 /// subpath (65 536 of those took 300 MB).
 #[derive(Resource, Debug, Default)]
 pub struct LightVertices {
-    /// The pass's factors (light subpaths per pass).
-    pub factors: Option<MisFactors>,
+    /// Light subpaths a unit (the pixels).
+    pub light_paths: u32,
+    /// vcm's merging radius sequence; none for bdpt.
+    pub merging: Option<RadiusSequence>,
     /// Every kept vertex of the pass.
     pub vertices: Vec<LightVertex>,
     /// For each vertex, its subpath's previous one (`NONE` for the first).
     pub previous: Vec<u32>,
     /// Each subpath's last vertex, by index.
     pub last: Vec<u32>,
+    /// vcm: each unit's vertices by cell, for merging.
+    pub grids: Vec<HashGrid>,
     /// Connections between camera and light vertices made (segments traced).
     pub connections: AtomicU64,
+    /// Light vertices merged with camera vertices (vcm).
+    pub merges: AtomicU64,
     /// Light vertices kept.
     pub kept: u64,
 }
 
+/// vcm's merging radii: r_u = r₀ · u^((α − 1)/2) for unit u counted from one (Georgiev et al. 2012,
+/// after Knaus & Zwicker 2011), a function of the unit alone, so parts and passes of any length
+/// merge at the same radii.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RadiusSequence {
+    /// r₀.
+    pub r0: f32,
+    /// α.
+    pub alpha: f32,
+}
+
+impl RadiusSequence {
+    /// The radius of unit `unit` (from zero).
+    pub fn radius(&self, unit: u32) -> f32 {
+        self.r0 * ((unit as f64 + 1.0).powf((self.alpha as f64 - 1.0) / 2.0)) as f32
+    }
+}
+
 impl LightVertices {
-    /// The factors, set when the plan is built.
-    fn factors(&self) -> MisFactors {
-        self.factors.expect("bdpt's plan sets the MIS factors")
+    /// The weights' factors of unit `unit`.
+    #[inline]
+    pub fn factors(&self, unit: u32) -> MisFactors {
+        match self.merging {
+            Some(radii) => MisFactors::merging(self.light_paths, radii.radius(unit)),
+            None => MisFactors::connections_only(self.light_paths),
+        }
     }
 
     /// The kept vertices of subpath `index` of this pass, last first.
@@ -118,12 +149,12 @@ pub fn scatter_light_subpaths(
     store: Res<LightVertices>,
     mut paths: Query<(&PhotonHit, &mut PhotonRay, &mut PhotonState, &mut CameraSplat, &mut LightSubpath)>,
 ) {
-    let factors = store.factors();
     paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each(
         |(hit, mut ray, mut state, mut splat, mut subpath)| {
             if state.status != PathStatus::Active {
                 return;
             }
+            let factors = store.factors(work.pass + state.index / light_paths.per_unit);
             state.bounces += 1;
             let sampler = light_paths.sampler(&work, state.index, false);
             let u_lens = light_paths.lens_sample(&work, &camera, state.index, state.path.depth);
@@ -197,12 +228,12 @@ pub fn scatter_camera_subpaths(
         Option<&mut PathAov>,
     )>,
 ) {
-    let factors = store.factors();
     paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each(
         |(hit, mut ray, mut state, mut shadow, mut subpath, mut aov)| {
             if state.status != PathStatus::Active {
                 return;
             }
+            let factors = store.factors(state.sample);
             state.rays += 1;
             let state = &mut *state;
             let subpath = &mut *subpath;
@@ -231,7 +262,8 @@ pub fn scatter_camera_subpaths(
 }
 
 /// Connect every camera vertex left this bounce to each kept vertex of its pixel's light subpath,
-/// adding what each free segment carries (paths of at most `max_depth` bounces).
+/// adding what each free segment carries (paths of at most `max_depth` bounces); with merging
+/// (vcm), also merge it with every light vertex of its unit within the unit's radius.
 pub fn connect_to_light_vertices(
     scene: Res<SceneResource>,
     config: Res<RenderConfig>,
@@ -240,15 +272,16 @@ pub fn connect_to_light_vertices(
     store: Res<LightVertices>,
     mut paths: Query<(&PathRay, &mut PathState, &mut CameraSubpath)>,
 ) {
-    let factors = store.factors();
-    let max_depth = config.limits.max_depth;
+    let max_depth = config.limits.max_depth as u64;
     paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each(|(ray, mut state, mut subpath)| {
         let Some(c) = subpath.vertex.take() else { return };
+        let factors = store.factors(state.sample);
         let mut traced = 0;
         // The light subpath of the same unit and pixel.
-        let index = (state.sample - range.begin) * light_paths.per_unit + state.pixel;
+        let unit_in_pass = state.sample - range.begin;
+        let index = unit_in_pass * light_paths.per_unit + state.pixel;
         for l in store.subpath(index) {
-            if (c.depth as u64 + l.depth as u64 + 2) > max_depth as u64 {
+            if (c.depth as u64 + l.depth as u64 + 2) > max_depth {
                 continue;
             }
             let Some((segment, contribution)) = connect_vertices(&scene, &factors, &c, l, ray.0.time) else {
@@ -261,5 +294,48 @@ pub fn connect_to_light_vertices(
         }
         state.shadow_rays += traced;
         store.connections.fetch_add(traced as u64, Ordering::Relaxed);
+        let Some(grid) = store.grids.get(unit_in_pass as usize).filter(|_| factors.merges()) else { return };
+        let (radius, mut merged, mut sum) = (factors.radius, 0u64, Vec3::ZERO);
+        grid.for_each_near(c.v.si.p, radius, |id| {
+            let l = &store.vertices[id as usize];
+            // The merged vertex is both subpaths' last: c.depth + l.depth + 1 bounces.
+            if (l.p - c.v.si.p).length_squared() > radius * radius
+                || c.depth as u64 + l.depth as u64 + 1 > max_depth
+            {
+                return;
+            }
+            sum += merge_vertices(&factors, &c, l);
+            merged += 1;
+        });
+        if merged > 0 {
+            state.path.add(sum * factors.merge_normalization(), Quantity::Merge);
+            store.merges.fetch_add(merged, Ordering::Relaxed);
+        }
     });
+}
+
+/// vcm: sort each unit's light vertices of the pass into its grid, at the unit's radius (before the
+/// camera subpaths, which merge with them).
+pub fn build_merge_grids(
+    range: Res<PassRange>,
+    light_paths: Res<LightPaths>,
+    mut store: ResMut<LightVertices>,
+) {
+    let Some(radii) = store.merging else { return };
+    let units = (range.end - range.begin) as usize;
+    let store = &mut *store;
+    store.grids.resize_with(units.max(store.grids.len()), HashGrid::default);
+    let mut points = Vec::new();
+    for k in 0..units {
+        points.clear();
+        let subpaths = k as u32 * light_paths.per_unit..(k as u32 + 1) * light_paths.per_unit;
+        for index in subpaths {
+            let mut at = store.last.get(index as usize).copied().unwrap_or(NONE);
+            while let Some(vertex) = store.vertices.get(at as usize) {
+                points.push((at, vertex.p));
+                at = store.previous[at as usize];
+            }
+        }
+        store.grids[k].build(&points, radii.radius(range.begin + k as u32));
+    }
 }

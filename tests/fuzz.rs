@@ -609,7 +609,7 @@ fn temp_gltf(bytes: &[u8]) -> PathBuf {
     path
 }
 
-const INTEGRATORS: [IntegratorKind; 10] = IntegratorKind::ALL;
+const INTEGRATORS: [IntegratorKind; 11] = IntegratorKind::ALL;
 
 fn gltf_case(seed: usize, edits: &[(u8, u32, u16)], integrator: usize) -> Result<(), TestCaseError> {
     let original = std::fs::read(common::data(SEEDS[seed % SEEDS.len()])).expect("seed file");

@@ -154,7 +154,7 @@ use glam::Mat4;
 use std::path::Path;
 use std::time::Instant;
 
-const EVERY_INTEGRATOR: [IntegratorKind; 10] = IntegratorKind::ALL;
+const EVERY_INTEGRATOR: [IntegratorKind; 11] = IntegratorKind::ALL;
 
 /// Photons emitted by one render of [`tiny_run`]: per pass × passes for the progressive mappers, the
 /// global map for `pm`.

@@ -84,6 +84,8 @@ pub enum Quantity {
     PhotonEstimate,
     /// A connection to a light subpath's vertex.
     Connection,
+    /// Light subpaths' vertices merged at a camera vertex.
+    Merge,
 }
 
 impl Quantity {
@@ -96,6 +98,7 @@ impl Quantity {
             Self::Throughput => "the throughput after a BSDF sample",
             Self::PhotonEstimate => "a photon-map estimate",
             Self::Connection => "a connection to a light subpath's vertex",
+            Self::Merge => "light subpaths' vertices merged at a camera vertex",
         }
     }
 }

@@ -2,6 +2,7 @@
 //! statistics of progressive photon mapping.
 
 pub mod estimate;
+pub mod hash_grid;
 pub mod kdtree;
 pub mod progressive;
 pub mod record;

@@ -31,8 +31,8 @@ use super::descriptor::{Integrator, LightSampling, MemoryNeed, no_checks, one_sa
 use super::{configure_stages, film_image, paths_busy, photons_busy, stage_order};
 use crate::PassSystems;
 use crate::bidirectional::{
-    LightVertices, begin_light_vertices, connect_to_light_vertices, emit_light_subpaths, keep_light_vertices,
-    scatter_camera_subpaths, scatter_light_subpaths,
+    LightVertices, RadiusSequence, begin_light_vertices, build_merge_grids, connect_to_light_vertices,
+    emit_light_subpaths, keep_light_vertices, scatter_camera_subpaths, scatter_light_subpaths,
 };
 use crate::components::{
     CameraSplat, CameraSubpath, LightSubpath, PathState, PathStatus, PhotonHit, PhotonRay, PhotonState,
@@ -49,7 +49,7 @@ use crate::world::MAX_WAVEFRONT;
 use bevy_ecs::prelude::*;
 use caustica_core::choice::Choice;
 use caustica_core::error::Result;
-use caustica_core::kernel::bidirectional::{LightVertex, MisFactors};
+use caustica_core::kernel::bidirectional::LightVertex;
 use caustica_core::scene::{IntegratorKind, LightSelection, RunFile};
 use std::sync::atomic::Ordering;
 
@@ -108,6 +108,17 @@ fn memory(_: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
 }
 
 fn plan(_: &Integrator, world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
+    plan_bidirectional(world, run, features, None)
+}
+
+/// The plan of bdpt, and of vcm with its radii (`merging`): the same subpaths, connections and
+/// weights, and for vcm the merges.
+pub(super) fn plan_bidirectional(
+    world: &mut World,
+    run: &RunFile,
+    features: SceneFeatures,
+    merging: Option<RadiusSequence>,
+) -> Result<Plan> {
     let features = super::without_visibility_learning(world, features, "bdpt picks lights by power");
     if run.render.light_selection != LightSelection::Power {
         tracing::warn!(
@@ -124,7 +135,8 @@ fn plan(_: &Integrator, world: &mut World, run: &RunFile, features: SceneFeature
     };
     super::light_tracing::insert_light_path_resources(world, pixels, features);
     world.insert_resource(LightVertices {
-        factors: Some(MisFactors::connections_only(pixels)),
+        light_paths: pixels,
+        merging,
         last: vec![u32::MAX; (pixels * units_per_pass(pixels)) as usize],
         ..Default::default()
     });
@@ -148,8 +160,8 @@ fn plan(_: &Integrator, world: &mut World, run: &RunFile, features: SceneFeature
     light.schedule.add_systems(scatter_light_subpaths.in_set(PassSystems::Scatter));
     light.schedule.add_systems(splat_camera_connections.in_set(PassSystems::Shadow));
     light.schedule.add_systems((keep_light_vertices, store_photons).chain().in_set(PassSystems::Gather));
-    let mut camera =
-        Phase::new("camera", When::EveryPass, Repeat::WhileBusy(paths_busy)).with_begin(hand_out_samples(1));
+    let mut camera = Phase::new("camera", When::EveryPass, Repeat::WhileBusy(paths_busy))
+        .with_begin((hand_out_samples(1), build_merge_grids).chain());
     configure_stages(&mut camera.schedule, order);
     camera.schedule.add_systems(emit_camera_paths_for(features).in_set(PassSystems::Emit));
     camera.schedule.add_systems(trace_paths.in_set(PassSystems::Trace));
@@ -174,9 +186,10 @@ fn report(world: &World, report: &mut Report) {
     report.notes.push((
         "connections",
         format!(
-            "{} light vertices kept, {} camera–light connections",
+            "{} light vertices kept, {} camera–light connections, {} merges",
             store.kept,
-            store.connections.load(Ordering::Relaxed)
+            store.connections.load(Ordering::Relaxed),
+            store.merges.load(Ordering::Relaxed)
         ),
     ));
     report.notes.push(("camera", world.resource::<LightPaths>().describe()));

@@ -15,6 +15,7 @@ pub mod ppm;
 pub mod pppm;
 pub mod progressive;
 pub mod sppm;
+pub mod vcm;
 
 use crate::PassSystems;
 use crate::resources::SceneFeatures;
@@ -37,11 +38,12 @@ pub fn of(kind: IntegratorKind) -> &'static Integrator {
         IntegratorKind::Pppm => &pppm::PPPM,
         IntegratorKind::Lt => &light_tracing::LT,
         IntegratorKind::Bdpt => &bdpt::BDPT,
+        IntegratorKind::Vcm => &vcm::VCM,
     }
 }
 
 /// Every integrator's descriptor, in `IntegratorKind::ALL`'s order.
-pub static ALL: [&Integrator; 10] = [
+pub static ALL: [&Integrator; 11] = [
     &path::PT,
     &path::PT_NAIVE,
     &photon_map::PM,
@@ -52,6 +54,7 @@ pub static ALL: [&Integrator; 10] = [
     &pppm::PPPM,
     &light_tracing::LT,
     &bdpt::BDPT,
+    &vcm::VCM,
 ];
 
 /// The descriptor of the integrator `run` asks for.

@@ -34,11 +34,14 @@ pub enum IntegratorKind {
     /// Bidirectional path tracing: every (s, t) strategy of Veach's, weighted by the power
     /// heuristic with Georgiev's recursive sums.
     Bdpt,
+    /// Vertex connection and merging: bdpt's strategies and the light vertices merged at every
+    /// camera vertex, all under one MIS (Georgiev et al. 2012).
+    Vcm,
 }
 
 impl IntegratorKind {
     /// Every integrator.
-    pub const ALL: [IntegratorKind; 10] = [
+    pub const ALL: [IntegratorKind; 11] = [
         Self::Pt,
         Self::PtNaive,
         Self::Pm,
@@ -49,6 +52,7 @@ impl IntegratorKind {
         Self::Pppm,
         Self::Lt,
         Self::Bdpt,
+        Self::Vcm,
     ];
 }
 
@@ -101,6 +105,11 @@ impl Choice for IntegratorKind {
             Self::Bdpt,
             "bdpt",
             "bidirectional path tracing: camera and light subpaths connected, every strategy weighted",
+        ),
+        (
+            Self::Vcm,
+            "vcm",
+            "vertex connection and merging: bdpt's connections and photon-style merges under one MIS",
         ),
     ];
 }

@@ -1,0 +1,133 @@
+//! A hash grid over points for fixed-radius queries (vcm's merging; Georgiev et al. 2012 and
+//! SmallVCM use one): cells twice the radius wide, so a query visits at most 2 × 2 × 2 cells, their
+//! points sorted by bucket with a counting sort. Built in the order the points come, so the order a
+//! query visits them in is the same for any thread count.
+
+use glam::Vec3;
+
+/// The points of one pass by cell.
+#[derive(Clone, Debug, Default)]
+pub struct HashGrid {
+    /// 1 / the cell's width.
+    inv_cell: f32,
+    /// Buckets − 1 (a power of two).
+    mask: u32,
+    /// Where each bucket's points start in `items`; one more entry than buckets.
+    starts: Vec<u32>,
+    /// The points' ids, bucket by bucket.
+    items: Vec<u32>,
+    /// Each point's bucket (kept between the counting and the filling pass).
+    buckets: Vec<u32>,
+}
+
+impl HashGrid {
+    /// Rebuild over `points` (id and position) for queries of radius `radius`, keeping the memory.
+    pub fn build(&mut self, points: &[(u32, Vec3)], radius: f32) {
+        self.inv_cell = 1.0 / (2.0 * radius);
+        let buckets = (2 * points.len()).next_power_of_two().max(1);
+        self.mask = buckets as u32 - 1;
+        self.starts.clear();
+        self.starts.resize(buckets + 1, 0);
+        self.buckets.clear();
+        for &(_, p) in points {
+            let bucket = self.bucket(self.cell(p));
+            self.buckets.push(bucket);
+            self.starts[bucket as usize + 1] += 1;
+        }
+        for i in 1..self.starts.len() {
+            self.starts[i] += self.starts[i - 1];
+        }
+        self.items.clear();
+        self.items.resize(points.len(), 0);
+        let mut next = self.starts.clone();
+        for (&(id, _), &bucket) in points.iter().zip(&self.buckets) {
+            let slot = &mut next[bucket as usize];
+            self.items[*slot as usize] = id;
+            *slot += 1;
+        }
+    }
+
+    /// Whether the grid holds no point.
+    pub fn is_empty(&self) -> bool {
+        self.items.is_empty()
+    }
+
+    /// Call `visit` with the id of every point in the cells within `radius` of `x` (a superset of
+    /// the points within `radius`: the caller tests the distance), each once.
+    #[inline]
+    pub fn for_each_near(&self, x: Vec3, radius: f32, mut visit: impl FnMut(u32)) {
+        if self.items.is_empty() {
+            return;
+        }
+        let (lo, hi) = (self.cell(x - Vec3::splat(radius)), self.cell(x + Vec3::splat(radius)));
+        let mut buckets = [u32::MAX; 8];
+        let mut count = 0;
+        for cx in lo[0]..=hi[0].min(lo[0] + 1) {
+            for cy in lo[1]..=hi[1].min(lo[1] + 1) {
+                for cz in lo[2]..=hi[2].min(lo[2] + 1) {
+                    let bucket = self.bucket([cx, cy, cz]);
+                    // Two cells may share a bucket: visit it once.
+                    if !buckets[..count].contains(&bucket) {
+                        buckets[count] = bucket;
+                        count += 1;
+                    }
+                }
+            }
+        }
+        for &bucket in &buckets[..count] {
+            let (start, end) = (self.starts[bucket as usize], self.starts[bucket as usize + 1]);
+            for &id in &self.items[start as usize..end as usize] {
+                visit(id);
+            }
+        }
+    }
+
+    #[inline]
+    fn cell(&self, p: Vec3) -> [i32; 3] {
+        let c = (p * self.inv_cell).floor();
+        [c.x as i32, c.y as i32, c.z as i32]
+    }
+
+    #[inline]
+    fn bucket(&self, c: [i32; 3]) -> u32 {
+        let h = (c[0] as u32).wrapping_mul(73_856_093)
+            ^ (c[1] as u32).wrapping_mul(19_349_663)
+            ^ (c[2] as u32).wrapping_mul(83_492_791);
+        h & self.mask
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::Sampler;
+
+    /// Every point within the radius is visited exactly once, against a brute-force search.
+    #[test]
+    fn a_query_visits_every_point_within_the_radius_once() {
+        let sampler = Sampler::new(3, 0, 0);
+        let points: Vec<(u32, Vec3)> = (0..2000)
+            .map(|i| {
+                let (a, b) = (sampler.get2d(3 * i), sampler.get1d(3 * i + 2));
+                (i, Vec3::new(a.x, a.y, b) * 2.0 - 1.0)
+            })
+            .collect();
+        let radius = 0.07;
+        let mut grid = HashGrid::default();
+        grid.build(&points, radius);
+        for q in 0..200 {
+            let x = points[q * 7].1 + Vec3::splat(0.01);
+            let mut seen = Vec::new();
+            grid.for_each_near(x, radius, |id| seen.push(id));
+            let mut within: Vec<u32> =
+                seen.iter().copied().filter(|&id| (points[id as usize].1 - x).length() <= radius).collect();
+            let before = within.len();
+            within.sort_unstable();
+            within.dedup();
+            assert_eq!(before, within.len(), "query {q} visits a point twice");
+            let expected: Vec<u32> =
+                points.iter().filter(|(_, p)| (*p - x).length() <= radius).map(|&(id, _)| id).collect();
+            assert_eq!(within, expected, "query {q}");
+        }
+    }
+}
