@@ -30,8 +30,11 @@ fn binary() -> Command {
 
 /// A render of the test scene at 12×12: `integrator` with its unit flag set to `units`, and `more`.
 fn render(dir: &Path, integrator: &str, units: u32, more: &[&str]) -> Output {
-    let unit =
-        if matches!(integrator, "pt" | "pt-naive" | "pm" | "lt" | "bdpt") { "--spp" } else { "--passes" };
+    let unit = if matches!(integrator, "pt" | "pt-naive" | "pm" | "lt" | "bdpt" | "vcm") {
+        "--spp"
+    } else {
+        "--passes"
+    };
     binary()
         .args([
             "render",
@@ -219,7 +222,7 @@ fn fuzz_checkpoints(integrator: &str) -> (usize, usize) {
 
 fn integrators() -> Vec<&'static str> {
     if std::env::var("CAUSTICA_FUZZ_FILES").is_ok_and(|v| v == "all") {
-        vec!["pt", "pt-naive", "pm", "ppm", "sppm", "appm", "cppm", "pppm", "lt", "bdpt"]
+        vec!["pt", "pt-naive", "pm", "ppm", "sppm", "appm", "cppm", "pppm", "lt", "bdpt", "vcm"]
     } else {
         vec!["pt", "sppm", "ppm"]
     }

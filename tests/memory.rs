@@ -5,7 +5,8 @@
 
 use std::process::{Command, Output};
 
-const INTEGRATORS: [&str; 10] = ["pt", "pt-naive", "pm", "ppm", "sppm", "appm", "cppm", "pppm", "lt", "bdpt"];
+const INTEGRATORS: [&str; 11] =
+    ["pt", "pt-naive", "pm", "ppm", "sppm", "appm", "cppm", "pppm", "lt", "bdpt", "vcm"];
 
 fn render(integrator: &str, size: u32, checkpoint: bool, budget_mib: Option<u64>) -> Output {
     let dir = std::env::temp_dir()
@@ -13,7 +14,7 @@ fn render(integrator: &str, size: u32, checkpoint: bool, budget_mib: Option<u64>
     std::fs::create_dir_all(&dir).unwrap();
     let size = size.to_string();
     let units: &[&str] = match integrator {
-        "pt" | "pt-naive" | "lt" | "bdpt" => &["--spp", "2"],
+        "pt" | "pt-naive" | "lt" | "bdpt" | "vcm" => &["--spp", "2"],
         "pm" => &["--spp", "1"],
         // ppm's default keeps many hit points a pixel; two keep this test light.
         "ppm" => &["--passes", "2", "--hit-points-per-pixel", "2"],

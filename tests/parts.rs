@@ -100,6 +100,11 @@ fn bdpt_parts_merge_into_the_bits_of_one_run_in_any_order() {
 }
 
 #[test]
+fn vcm_parts_merge_into_the_bits_of_one_run_in_any_order() {
+    four_parts_merge_into_one_run(IntegratorKind::Vcm);
+}
+
+#[test]
 fn pt_naive_parts_merge_into_the_bits_of_one_run() {
     let dir = tempfile::tempdir().unwrap();
     let parts: Vec<PathBuf> = (1..=3).map(|i| part(IntegratorKind::PtNaive, 7, i, 3, dir.path())).collect();

@@ -114,6 +114,11 @@ fn bdpt_stopped_by_a_signal_and_resumed_is_the_uninterrupted_render() {
     interrupted_and_resumed_equals_uninterrupted(&["--integrator", "bdpt", "--spp", "64"]);
 }
 
+#[test]
+fn vcm_stopped_by_a_signal_and_resumed_is_the_uninterrupted_render() {
+    interrupted_and_resumed_equals_uninterrupted(&["--integrator", "vcm", "--spp", "64"]);
+}
+
 fn progressive(kind: &'static str) -> [&'static str; 6] {
     ["--integrator", kind, "--passes", "40", "--photons-per-pass", "20000"]
 }
