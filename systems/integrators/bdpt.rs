@@ -119,10 +119,12 @@ pub(super) fn plan_bidirectional(
     features: SceneFeatures,
     merging: Option<RadiusSequence>,
 ) -> Result<Plan> {
-    let features = super::without_visibility_learning(world, features, "bdpt picks lights by power");
+    let name = super::of_run(run).name();
+    let features =
+        super::without_visibility_learning(world, features, &format!("{name} picks lights by power"));
     if run.render.light_selection != LightSelection::Power {
         tracing::warn!(
-            "bdpt picks lights by power on both sides (a strategy's weight needs the density with which \
+            "{name} picks lights by power on both sides (a strategy's weight needs the density with which \
              the other side picks a light, and a light tree's depends on a normal the other side cannot \
              know); render.light_selection = {} is not used",
             run.render.light_selection.name()
