@@ -171,12 +171,16 @@ fn furnace_paths_sum_their_weights_to_one(factors: MisFactors) {
 /// angle and per unit area of the disc, with no distance to convert.
 #[test]
 fn the_weights_of_a_path_from_the_sky_sum_to_one() {
+    sky_paths_sum_their_weights_to_one(MisFactors::connections_only(32 * 32));
+    sky_paths_sum_their_weights_to_one(MisFactors::merging(32 * 32, 0.05));
+}
+
+fn sky_paths_sum_their_weights_to_one(factors: MisFactors) {
     let furnace = crate::test_scenes::environment_furnace(0.5, 1.0);
     let scene = RenderScene::build(&furnace, LightSelection::Power);
     let camera =
         Camera::new(furnace.camera.as_ref().unwrap(), &CameraOverrides::default(), 32, 32, FilterKind::Box)
             .unwrap();
-    let factors = MisFactors::connections_only(32 * 32);
     let sky = scene.lights.environment_index();
     let eye = Vec3::new(0.0, 0.0, 3.0);
     let sampler = Sampler::new(11, 0, 0);
@@ -213,6 +217,22 @@ fn the_weights_of_a_path_from_the_sky_sum_to_one() {
         let mut light_mis = first_vertex_mis(&scene, &factors, &origin, lv.si.p, &light_ray, 1.0, 0.0);
         light_mis.arrive(None, lv.wo.z.abs());
         sum += camera_connection_weight(&camera, &factors, &lv, &light_mis, eye);
-        assert!((sum - 1.0).abs() < 2e-3, "path {path}: the weights sum to {sum}");
+        if factors.merges() {
+            let c = CameraVertex {
+                v,
+                beta: Vec3::ONE,
+                mis: at_vertex,
+                depth: 0,
+                media: crate::kernel::media::Media::AIR,
+            };
+            let wi = v.frame.to_local(lv.frame.to_world(lv.wo));
+            let (pdf, pdf_rev) = (v.bsdf.pdf(v.wo, wi), v.bsdf.pdf(wi, v.wo));
+            sum += super::mis::merging_weight(&factors, &c.mis, &light_mis, pdf, pdf_rev);
+        }
+        assert!(
+            (sum - 1.0).abs() < 2e-3,
+            "path {path} (radius {}): the weights sum to {sum}",
+            factors.radius
+        );
     }
 }
