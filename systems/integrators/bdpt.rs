@@ -97,14 +97,23 @@ fn memory(_: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
             size_of::<CameraSplat>(),
             size_of::<LightSubpath>(),
         ]);
-    let subpaths_per_pass = pixels * units_per_pass(pixels.min(u32::MAX as u64) as u32) as u64;
-    let kept = subpaths_per_pass
-        * (size_of::<Vec<LightVertex>>() as u64
-            + KEPT_VERTICES_PER_SUBPATH * size_of::<LightVertex>() as u64);
+    // Each subpath's last vertex, and each kept vertex with its link to the one before.
+    let kept = subpaths_per_pass(pixels) * size_of::<u32>() as u64
+        + kept_vertices_per_pass(pixels) * (size_of::<LightVertex>() + size_of::<u32>()) as u64;
     MemoryNeed {
         bytes: paths.bytes + camera + subpaths + kept,
         what: format!("a {pixels}-pixel film, its paths, light subpaths and their kept vertices"),
     }
+}
+
+/// Light subpaths a pass of a `pixels`-pixel image traces.
+fn subpaths_per_pass(pixels: u64) -> u64 {
+    pixels * units_per_pass(pixels.min(u32::MAX as u64) as u32) as u64
+}
+
+/// The light vertices a pass keeps, as the memory count assumes.
+pub(super) fn kept_vertices_per_pass(pixels: u64) -> u64 {
+    subpaths_per_pass(pixels) * KEPT_VERTICES_PER_SUBPATH
 }
 
 fn plan(_: &Integrator, world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {

@@ -52,11 +52,14 @@ pub static VCM: Integrator = Integrator {
     plan,
 };
 
-/// bdpt's, with a grid over the kept vertices (a bucket and an id a vertex, at most).
+/// bdpt's, and the grids over the kept vertices: for each, its id and position while the grid is
+/// built, its bucket, its place in the grid, and at most four buckets' starts.
 fn memory(this: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
+    const GRID_BYTES_PER_VERTEX: u64 =
+        (size_of::<(u32, glam::Vec3)>() + 2 * size_of::<u32>() + 4 * size_of::<u32>()) as u64;
     let bdpt = (super::bdpt::BDPT.memory)(this, pixels, run);
-    let grid = bdpt.bytes / 40;
-    MemoryNeed { bytes: bdpt.bytes + grid, what: bdpt.what }
+    let grids = super::bdpt::kept_vertices_per_pass(pixels) * GRID_BYTES_PER_VERTEX;
+    MemoryNeed { bytes: bdpt.bytes + grids, what: format!("{} and their merging grids", bdpt.what) }
 }
 
 fn plan(_: &Integrator, world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
