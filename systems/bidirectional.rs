@@ -122,7 +122,6 @@ pub fn emit_light_subpaths(
             if state.status != PathStatus::NeedsStart {
                 return;
             }
-            subpath.kept = None;
             let sampler = light_paths.sampler(&work, state.index, false);
             let time = photon_time(work.time, work.motion, &sampler);
             match emit_light_subpath(&scene, &sampler, time) {

@@ -183,13 +183,10 @@ fn a_scene_without_lights_gets_a_white_environment_with_a_warning() {
     assert!(!logs.contains("uniform white"), "{logs}");
 }
 
-/// pt with each light selection against pt-naive on a scene lit by a map (with a sun) and a lamp:
-/// next-event estimation picks the environment by its distribution and the selector's pmf, and a
-/// BSDF ray that escapes is weighted by the pdf light sampling would have had. A pmf or pdf that does
-/// not match what is sampled biases the difference by far more than the 4 standard errors allowed.
-#[test]
-fn light_sampling_of_the_environment_is_unbiased_for_every_selection() {
-    let dir = temp_dir("unbiased");
+/// The outdoor scene under the sky map (rotated 40°, with its sun) and a lamp, in a temporary folder
+/// named after `name`, and pt-naive's image of it at 256 spp: the reference light sampling must meet.
+fn naive_under_the_sky_and_a_lamp(name: &str) -> (caustica::scene::Scene, RunFile, caustica::film::Image) {
+    let dir = temp_dir(name);
     write_sky(&dir);
     let path = outdoor_run_file(&dir, "file = \"sky.exr\"\nrotation_degrees = [0.0, 40.0, 0.0]");
     let (scene, mut run) = scene::load(&path).expect("loads");
@@ -198,6 +195,16 @@ fn light_sampling_of_the_environment_is_unbiased_for_every_selection() {
     run.render.seed = 1;
     let naive = common::render(scene.clone(), &run);
     assert!(naive.mean().min_element() > 0.05, "lit: {}", naive.mean());
+    (scene, run, naive)
+}
+
+/// pt with each light selection against pt-naive on a scene lit by a map (with a sun) and a lamp:
+/// next-event estimation picks the environment by its distribution and the selector's pmf, and a
+/// BSDF ray that escapes is weighted by the pdf light sampling would have had. A pmf or pdf that does
+/// not match what is sampled biases the difference by far more than the 4 standard errors allowed.
+#[test]
+fn light_sampling_of_the_environment_is_unbiased_for_every_selection() {
+    let (scene, run, naive) = naive_under_the_sky_and_a_lamp("unbiased");
     for selection in
         [LightSelection::Uniform, LightSelection::Power, LightSelection::Tree, LightSelection::Visibility]
     {
@@ -222,14 +229,7 @@ fn light_sampling_of_the_environment_is_unbiased_for_every_selection() {
 /// biases every block.
 #[test]
 fn bdpt_under_the_sky_and_a_lamp_is_unbiased() {
-    let dir = temp_dir("bdpt");
-    write_sky(&dir);
-    let path = outdoor_run_file(&dir, "file = \"sky.exr\"\nrotation_degrees = [0.0, 40.0, 0.0]");
-    let (scene, mut run) = scene::load(&path).expect("loads");
-    run.render.integrator = IntegratorKind::PtNaive;
-    run.render.spp = 256;
-    run.render.seed = 1;
-    let naive = common::render(scene.clone(), &run);
+    let (scene, mut run, naive) = naive_under_the_sky_and_a_lamp("bdpt");
     run.render.integrator = IntegratorKind::Bdpt;
     run.render.spp = 64;
     run.render.seed = 3;

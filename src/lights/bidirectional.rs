@@ -52,12 +52,7 @@ impl Lights {
         u: Vec2,
     ) -> Option<(u32, LightSample)> {
         let (index, pmf) = self.by_power.sample(u_select)?;
-        let mut s = match self.lights.get(index as usize) {
-            Some(light) => light.sample(p_ref, Vec3::ZERO, time, u)?,
-            None => self.environment.as_ref()?.sample(p_ref, Vec3::ZERO, u)?,
-        };
-        s.pdf *= pmf;
-        Some((index, s))
+        self.sample_chosen(index, pmf, p_ref, Vec3::ZERO, time, u)
     }
 
     /// Solid-angle density (selection included) with which [`Lights::sample_by_power`] from

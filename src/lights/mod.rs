@@ -201,6 +201,21 @@ impl Lights {
         u: Vec2,
     ) -> Option<(u32, LightSample)> {
         let (index, pmf) = self.select(p_ref, n_ref, u_select)?;
+        self.sample_chosen(index, pmf, p_ref, n_ref, time, u)
+    }
+
+    /// A point on light `index`, chosen with probability `pmf`, as seen from `p_ref` (normal
+    /// `n_ref`): its pdf per unit solid angle with the choice's probability in it.
+    #[inline]
+    fn sample_chosen(
+        &self,
+        index: u32,
+        pmf: f32,
+        p_ref: Vec3,
+        n_ref: Vec3,
+        time: f32,
+        u: Vec2,
+    ) -> Option<(u32, LightSample)> {
         let mut s = match self.lights.get(index as usize) {
             Some(light) => light.sample(p_ref, n_ref, time, u)?,
             None => self.environment.as_ref()?.sample(p_ref, n_ref, u)?,

@@ -238,18 +238,16 @@ pub fn light_sample_weight(
     weight(w_light, w_camera)
 }
 
-/// The weight of the connection of camera vertex `c` to light vertex `l` along `dir` (unit, from
-/// `c` to `l`) over `dist2`.
+/// The weight of the connection of camera vertex `c` to light vertex `l` over `dist2`, the segment's
+/// direction in each one's shading frame being `wi_c` (towards `l`) and `wi_l` (towards `c`).
 #[inline]
 pub fn connection_weight(
     factors: &MisFactors,
     c: &CameraVertex,
     l: &LightVertex,
-    dir: Vec3,
+    (wi_c, wi_l): (Vec3, Vec3),
     dist2: f32,
 ) -> f32 {
-    let wi_c = c.v.frame.to_local(dir);
-    let wi_l = l.frame.to_local(-dir);
     let (cos_c, cos_l) = (wi_c.z.abs(), wi_l.z.abs());
     let w_light =
         l.mis.towards(factors, to_area(c.v.bsdf.pdf(c.v.wo, wi_c), dist2, cos_l), l.bsdf.pdf(wi_l, l.wo));
@@ -288,7 +286,7 @@ pub fn connect_vertices(
         return None;
     }
     let contribution =
-        value * connection_weight(factors, c, l, dir, dist2) * c.media.transmittance(scene, dist);
+        value * connection_weight(factors, c, l, (wi_c, wi_l), dist2) * c.media.transmittance(scene, dist);
     if !positive(contribution.max_element()) || !contribution.is_finite() {
         return None;
     }
