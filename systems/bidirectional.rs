@@ -295,12 +295,10 @@ pub fn connect_to_light_vertices(
         store.connections.fetch_add(traced as u64, Ordering::Relaxed);
         let Some(grid) = store.grids.get(unit_in_pass as usize).filter(|_| factors.merges()) else { return };
         let (radius, mut merged, mut sum) = (factors.radius, 0u64, Vec3::ZERO);
-        grid.for_each_near(c.v.si.p, radius, |id| {
+        grid.for_each_within(c.v.si.p, radius, |id| {
             let l = &store.vertices[id as usize];
             // The merged vertex is both subpaths' last: c.depth + l.depth + 1 bounces.
-            if (l.p - c.v.si.p).length_squared() > radius * radius
-                || c.depth as u64 + l.depth as u64 + 1 > max_depth
-            {
+            if c.depth as u64 + l.depth as u64 + 1 > max_depth {
                 return;
             }
             sum += merge_vertices(&factors, &c, l);
