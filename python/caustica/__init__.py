@@ -26,9 +26,9 @@ import re
 from typing import Any, Union
 
 from ._caustica import (
-    CausticaError, RenderResult, Scene, Session, compare, has_denoiser, merge, read_exr, read_exr_channels,
-    write_image,
+    CausticaError, RenderResult, Scene, Session, compare, merge, read_exr, read_exr_channels, write_image,
 )
+from ._caustica import has_denoiser as _native_denoiser
 from ._caustica import load as _load
 from ._caustica import short_keys as _short_keys
 
@@ -41,6 +41,14 @@ __all__ = [
 # `--set spp=16` and `-D spp=16` take too; any other key is given dotted, as in the run file:
 # `caustica.load(path, **{"environment.strength": 2.0})`.
 _SECTION = dict(_short_keys())
+
+
+def has_denoiser() -> bool:
+    """Whether `RenderResult.denoised()` works here: a build with feature `denoise`, or the `pyoidn`
+    package (a dependency of this one) importable."""
+    from . import denoiser
+
+    return _native_denoiser() or denoiser.available()
 
 
 _KEY = re.compile(r"[A-Za-z0-9_-]+(\.[A-Za-z0-9_-]+)*")

@@ -6,11 +6,14 @@ from ._caustica import RenderResult as RenderResult
 from ._caustica import Scene as Scene
 from ._caustica import Session as Session
 from ._caustica import compare as compare
-from ._caustica import has_denoiser as has_denoiser
 from ._caustica import merge as merge
 from ._caustica import read_exr as read_exr
 from ._caustica import read_exr_channels as read_exr_channels
 from ._caustica import write_image as write_image
+
+def has_denoiser() -> bool:
+    """Whether ``RenderResult.denoised()`` works here: a build with feature ``denoise``, or ``pyoidn``
+    (a dependency of the package) importable."""
 
 def load(path: Union[str, os.PathLike[str]], **overrides: Any) -> Scene:
     """Load a glTF (.gltf, .glb) or run file (.toml), with the run file's keys as overrides:

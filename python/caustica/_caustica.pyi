@@ -23,8 +23,9 @@ class RenderResult:
         axis, 0 where the sample left the scene) height x width."""
     def denoised(self) -> npt.NDArray[np.float32]:
         """``color`` denoised by Intel Open Image Denoise, guided by the albedo and normal images
-        (the render must have made both). Needs a package built with feature ``denoise``
-        (``has_denoiser()``); otherwise raises ``CausticaError`` saying how to build one."""
+        (the render must have made both): natively in a package built with feature ``denoise``,
+        otherwise through ``pyoidn`` (a dependency of the package; ``caustica.denoiser``), the same
+        filter. Without either it raises ``CausticaError`` saying how to get one."""
     @property
     def stats(self) -> dict[str, Any]:
         """integrator, unit ("spp" or "passes"), done, target, seed, seconds, samples, rays,
@@ -100,7 +101,8 @@ def compare(image: npt.NDArray[np.float32], reference: npt.NDArray[np.float32]) 
 def short_keys() -> list[tuple[str, str]]:
     """The run-file keys an override may give without its table, with their tables."""
 def has_denoiser() -> bool:
-    """Whether this build has the denoiser (``RenderResult.denoised``)."""
+    """Whether this build has the native denoiser (feature ``denoise``); ``caustica.has_denoiser()``
+    also counts ``pyoidn``."""
 def read_exr_channels(path: Union[str, os.PathLike[str]]) -> dict[str, npt.NDArray[np.float32]]:
     """Every channel of an OpenEXR file by name (``R``, ``albedo.R``, ``N.X``, ``Z``, ...), each
     float32 height x width: the command line's ``--aov`` layers."""

@@ -245,32 +245,39 @@ pub(crate) struct RenderResult {
 #[pymethods]
 impl RenderResult {
     /// `color` denoised by Intel Open Image Denoise, guided by `aovs["albedo"]` and
-    /// `aovs["normal"]` (float32, height × width × 3), with the GIL released. Needs a build with
-    /// feature `denoise` and a render with those two feature images.
+    /// `aovs["normal"]` (float32, height × width × 3): natively, with the GIL released, in a build
+    /// with feature `denoise`; otherwise through the `pyoidn` package, a dependency of this one
+    /// (`caustica.denoiser`, the same filter), so that a plain `pip install` denoises.
     fn denoised<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        caustica::film::denoise::check_available().map_err(refused)?;
         let aovs = self.aovs.bind(py);
-        let guide = |name: &str| -> PyResult<caustica::film::Image> {
-            let array = aovs.get_item(name)?.ok_or_else(|| {
+        let guide = |name: &str| -> PyResult<Bound<'py, PyAny>> {
+            aovs.get_item(name)?.ok_or_else(|| {
                 refused(format!(
                     "cannot denoise: the render has no {name} image; render with aovs including \"albedo\" and \"normal\""
                 ))
-            })?;
-            image_of(&array.extract::<numpy::PyReadonlyArray3<'_, f32>>()?)
+            })
         };
+        let (albedo, normal) = (guide("albedo")?, guide("normal")?);
+        let color = self.color.bind(py);
+        if !caustica::film::denoise::AVAILABLE {
+            return py.import("caustica.denoiser")?.call_method1("denoise", (color, albedo, normal));
+        }
+        let image =
+            |array: &Bound<'py, PyAny>| image_of(&array.extract::<numpy::PyReadonlyArray3<'_, f32>>()?);
         let features = AovImages {
-            albedo: guide("albedo")?,
-            normal: guide("normal")?,
+            albedo: image(&albedo)?,
+            normal: image(&normal)?,
             depth: Vec::new(),
             spp: Vec::new(),
         };
-        let color = image_of(&self.color.bind(py).extract::<numpy::PyReadonlyArray3<'_, f32>>()?)?;
+        let color = image(color)?;
         let clean = py.detach(|| caustica::film::denoise::denoise(&color, &features)).map_err(refused)?;
         color_array(py, &clean)
     }
 }
 
-/// Whether this build of the package has the denoiser (`RenderResult.denoised`).
+/// Whether this build of the package has the native denoiser (feature `denoise`); the package's
+/// `has_denoiser()` also counts `pyoidn`.
 #[pyfunction]
 pub(crate) fn has_denoiser() -> bool {
     caustica::film::denoise::AVAILABLE

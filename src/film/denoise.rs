@@ -13,6 +13,12 @@ use crate::error::{Error, Result};
 /// Whether this build has the denoiser.
 pub const AVAILABLE: bool = cfg!(feature = "denoise");
 
+/// The one command that gets the denoiser's libraries (PyPI's pyoidn wheel carries them; Debian 12
+/// packages no OIDN 2) and builds the command line with them, from the repository's root.
+pub const BUILD_WITH_DENOISER: &str = "python3 -m venv ~/oidn && ~/oidn/bin/pip install pyoidn==2.5.1.0 && \
+     OIDN_DIR=$(~/oidn/bin/python -c 'import os, pyoidn; print(os.path.join(os.path.dirname(pyoidn.__file__), \"oidn\"))') \
+     cargo build --release --features denoise";
+
 /// Ok when this build has the denoiser; otherwise the error that says how to get one (checked
 /// before a render whose output would be denoised).
 pub fn check_available() -> Result<()> {
@@ -20,10 +26,9 @@ pub fn check_available() -> Result<()> {
         Ok(())
     } else {
         Err(Error::Denoise {
-            problem:
-                "this build has no denoiser: build with `--features denoise` and OIDN_DIR set to Open Image \
-                      Denoise 2.x (`pip install pyoidn`; README, \"Denoising\")"
-                    .into(),
+            problem: format!(
+                "this build has no denoiser; this one command builds one with Open Image Denoise 2.5 from PyPI: {BUILD_WITH_DENOISER}"
+            ),
         })
     }
 }
