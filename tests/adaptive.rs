@@ -1,7 +1,7 @@
 //! Adaptive sampling (`render.noise_threshold`): where the samples go, that the images stay
 //! bit-identical for any thread count and unbiased, what it reports, and the renders it refuses.
 
-mod common;
+use crate::common;
 
 use caustica::Renderer;
 use caustica::driver::init_thread_pools;

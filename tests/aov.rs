@@ -2,7 +2,7 @@
 //! layers of the EXR, checked on planes where each is known exactly, through a perfect mirror, and on
 //! the Cornell box's Lambertian walls.
 
-mod common;
+use crate::common;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

@@ -9,7 +9,7 @@
 //! Bounds as tests/light_tracing.rs's: 128×128 renders against the references' 2×2 block
 //! averages, 16 blocks' z-scores from the paired differences.
 
-mod common;
+use crate::common;
 
 use caustica::film::output::read_exr;
 use caustica::scene::{FilterKind, IntegratorKind, load};

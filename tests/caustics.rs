@@ -19,8 +19,6 @@
 //! planes' finite width loses is below the grazing cone they leave open, bounded in `finite_planes`.
 //! The rest is noise, from seed replicas.
 
-mod common;
-
 use caustica::Renderer;
 use caustica::camera::look_at;
 use caustica::driver::init_thread_pools;

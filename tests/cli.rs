@@ -1,6 +1,6 @@
 //! The command line: bad input fails with a message naming the file, leaves no output behind.
 
-mod common;
+use crate::common;
 
 use std::path::PathBuf;
 use std::process::{Command, Output};

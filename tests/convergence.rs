@@ -6,7 +6,7 @@
 //! the expected relMSE is Mitsuba's at the same spp: relMSE × spp ≈ 0.31 on cornell-box
 //! (shared/scenes/README).
 
-mod common;
+use crate::common;
 
 use caustica::film::compare::compare;
 use caustica::film::output::read_exr;

@@ -2,7 +2,7 @@
 //! licences in its README) renders without error, NaN or Inf, and not black, lit by the default
 //! environment these viewer-made files expect, from the file's camera or the automatic framing.
 
-mod common;
+use crate::common;
 
 use bevy_ecs::world::World;
 use caustica::Renderer;

@@ -2,7 +2,7 @@
 //! albedo and normal brings a Cornell box at 8 spp far closer to Mitsuba's reference; without it,
 //! the command refuses before rendering and says how to get a denoiser.
 
-mod common;
+use crate::common;
 
 use std::process::{Command, Output};
 

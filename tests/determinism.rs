@@ -1,6 +1,6 @@
 //! The same scene, seed and sample count give the same bits whatever the thread count.
 
-mod common;
+use crate::common;
 
 use caustica::film::output::read_exr;
 use std::process::Command;

@@ -1,7 +1,7 @@
 //! The environment light end to end: run files and flags that choose it, the default white one, bad
 //! maps, and unbiased next-event estimation and MIS with every light selection.
 
-mod common;
+use crate::common;
 
 use caustica::film::Image;
 use caustica::film::output::write_image;

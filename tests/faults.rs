@@ -3,7 +3,7 @@
 //! file and a rename, so a failed or killed writer leaves the previous file and nothing else; one
 //! failing output never stops the others; identical runs write identical bytes.
 
-mod common;
+use crate::common;
 
 use caustica::film::output::read_exr;
 use std::path::{Path, PathBuf};

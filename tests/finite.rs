@@ -1,7 +1,7 @@
 //! No NaN or infinity is produced: every scene with every integrator drops nothing at the film or at
 //! the hit points, and each source found has a regression case on the smallest input that showed it.
 
-mod common;
+use crate::common;
 
 use caustica::Renderer;
 use caustica::scene::{IntegratorKind, RunFile, Scene, load};

@@ -1,6 +1,6 @@
 //! Furnace tests: closed scenes whose radiance is known exactly.
 
-mod common;
+use crate::common;
 
 use caustica::film::Image;
 use caustica::scene::{IntegratorKind, RunFile};

@@ -2,9 +2,9 @@
 //! (tiny) to an image of finite pixels, or fail with an error naming the file; never a panic or a hang.
 //!
 //! Deterministic: proptest's default seed is replaced by a fixed one and no failures are persisted,
-//! so CI runs the same cases every time. `PROPTEST_CASES=N cargo test --test fuzz` runs more.
+//! so CI runs the same cases every time. `PROPTEST_CASES=N cargo test --test integration fuzz::` runs more.
 
-mod common;
+use crate::common;
 
 use caustica::film::Image;
 use caustica::scene::{IntegratorKind, RunFile, load, validate};

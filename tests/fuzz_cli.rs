@@ -4,9 +4,9 @@
 //! panic, an abort, a signal or a hang.
 //!
 //! Every case runs the real binary (a debug build under `cargo test`), so the case count is small;
-//! `PROPTEST_CASES=N cargo test --test fuzz_cli` runs more. The seed is fixed, as in `fuzz.rs`.
+//! `PROPTEST_CASES=N cargo test --test integration fuzz_cli::` runs more. The seed is fixed, as in `fuzz.rs`.
 
-mod common;
+use crate::common;
 
 use caustica::film::output::read_exr;
 use proptest::prelude::*;

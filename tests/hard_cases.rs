@@ -144,7 +144,7 @@ fn refracted_rays_enter_a_sphere_and_leave_from_the_far_side() {
 // Whole renders of hard scenes, for every integrator.
 // ---------------------------------------------------------------------------------------------
 
-mod common;
+use crate::common;
 
 use caustica::camera::look_at;
 use caustica::film::Image;

@@ -2,7 +2,7 @@
 //! bits of a file posed the same way, the identity puts it back, and a scene the plan was not built
 //! for is refused.
 
-mod common;
+use crate::common;
 
 use caustica::Renderer;
 use caustica::driver::init_thread_pools;

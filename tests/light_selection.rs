@@ -1,6 +1,6 @@
 //! Light selection: every selector is an unbiased choice of light, so all converge to the same image.
 
-mod common;
+use crate::common;
 
 use caustica::film::Image;
 use caustica::scene::{LightSelection, RunFile, load};

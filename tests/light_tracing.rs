@@ -12,7 +12,7 @@
 //! below are the same as `pt`'s, and a lost factor (the lens's cos θ, the BSDF's in importance
 //! transport, the subpath count) moves whole regions by far more.
 
-mod common;
+use crate::common;
 
 use caustica::film::output::read_exr;
 use caustica::scene::{IntegratorKind, load};

@@ -1,6 +1,6 @@
 //! Scene loader: the test scenes, Khronos samples, run files, and one test per kind of bad input.
 
-mod common;
+use crate::common;
 
 use caustica::Error;
 use caustica::geometry::{Ray, SurfaceHit};

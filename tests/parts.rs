@@ -1,7 +1,7 @@
 //! Partial renders: K shares of the samples, written as accumulators and merged, give the bits of one
 //! run; a merge refuses parts that do not make one render, by name.
 
-mod common;
+use crate::common;
 
 use caustica::Renderer;
 use caustica::driver::init_thread_pools;

@@ -1,6 +1,6 @@
 //! Photon mapping: flux bookkeeping, kernel normalization, convergence against the references.
 
-mod common;
+use crate::common;
 
 use caustica::Renderer;
 use caustica::density::Kernel;

@@ -39,7 +39,7 @@
 //! flux correction dropped from the shrinking rule (ppm, sppm). `PHOTON_REFERENCE_DUMP=DIR` writes
 //! each integrator's difference from the model as a PNG there.
 
-mod common;
+use crate::common;
 
 use caustica::Renderer;
 use caustica::components::{HitPoint, PathState};

@@ -1,7 +1,7 @@
 //! Progressive photon mapping: consistency against the Mitsuba references, the caustic, the radius
 //! rules on real scenes, and bad settings.
 
-mod common;
+use crate::common;
 
 use caustica::Renderer;
 use caustica::driver::init_thread_pools;

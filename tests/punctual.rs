@@ -3,7 +3,7 @@
 //! leaves the scene, so a pixel's radiance is exactly ρ/π · E(x) averaged over the pixel's footprint,
 //! with E the irradiance the extension's units give (I/683 · cos θ / d², E⊥/683 · cos θ).
 
-mod common;
+use crate::common;
 
 use caustica::camera::look_at;
 use caustica::film::Image;

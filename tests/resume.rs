@@ -2,7 +2,7 @@
 //! bits of one that never stopped; a checkpoint of another render, or a damaged one, is refused and
 //! nothing is overwritten.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};

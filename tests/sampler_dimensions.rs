@@ -13,7 +13,7 @@
 //! The unit tests in `src/kernel/dimensions.rs` check the layout itself; these check that the
 //! renderer's paths really get independent numbers.
 
-mod common;
+use crate::common;
 
 use caustica::camera::look_at;
 use caustica::film::Image;

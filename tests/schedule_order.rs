@@ -1,7 +1,7 @@
 //! Reorderable passes: any rotation of the per-bounce cycle, and photons before camera in a
 //! progressive pass, render the same bits as the default order; other orders are refused.
 
-mod common;
+use crate::common;
 
 use caustica::film::Image;
 use caustica::scene::schedule::{Pass, ScheduleSettings, Stage};

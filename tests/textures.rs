@@ -1,7 +1,7 @@
 //! Textures real glTF files carry, beyond base colour: emissive textures and alpha (MASK cut-outs,
 //! BLEND as stochastic transparency).
 
-mod common;
+use crate::common;
 
 use caustica::camera::look_at;
 use caustica::scene::{

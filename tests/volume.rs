@@ -1,7 +1,7 @@
 //! Beer–Lambert absorption inside closed transmissive meshes (KHR_materials_volume attenuation),
 //! for camera paths and photons.
 
-mod common;
+use crate::common;
 
 use caustica::camera::look_at;
 use caustica::film::Image;
