@@ -8,23 +8,10 @@ Run: python3 scenes/make_point_caustic.py (deterministic; no dependencies beyond
 
 import base64, json, math, os, struct
 
+from gltf_build import look_at_quaternion, sub
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 EYE, TARGET, YFOV_DEG = (0.0, 1.3, 2.4), (0.0, 0.35, 0.0), 40.0
-
-
-def look_at_quaternion(eye, target):
-    """The rotation that turns the camera's −Z towards the target with +Y up, as (x, y, z, w)."""
-    f = [t - e for t, e in zip(target, eye)]
-    n = math.sqrt(sum(c * c for c in f))
-    f = [c / n for c in f]
-    r = [f[1] * 0 - f[2] * 1, f[2] * 0 - f[0] * 0, f[0] * 1 - f[1] * 0]  # f x (0, 1, 0)
-    n = math.sqrt(sum(c * c for c in r))
-    r = [c / n for c in r]
-    u = [r[1] * f[2] - r[2] * f[1], r[2] * f[0] - r[0] * f[2], r[0] * f[1] - r[1] * f[0]]
-    b = [-c for c in f]
-    m = [[r[0], u[0], b[0]], [r[1], u[1], b[1]], [r[2], u[2], b[2]]]  # columns: right, up, back
-    w = math.sqrt(max(0.0, 1 + m[0][0] + m[1][1] + m[2][2])) / 2
-    return [(m[2][1] - m[1][2]) / (4 * w), (m[0][2] - m[2][0]) / (4 * w), (m[1][0] - m[0][1]) / (4 * w), w]
 
 
 def main():
@@ -79,7 +66,7 @@ def main():
             {"name": "floor", "mesh": 0},
             {"name": "glass ball", "mesh": 1, "translation": [0.0, 0.6, 0.0], "scale": [0.3, 0.3, 0.3]},
             {"name": "bulb", "translation": [0.0, 2.0, 0.0], "extensions": {"KHR_lights_punctual": {"light": 0}}},
-            {"name": "camera", "camera": 0, "translation": list(EYE), "rotation": look_at_quaternion(EYE, TARGET)},
+            {"name": "camera", "camera": 0, "translation": list(EYE), "rotation": look_at_quaternion(sub(TARGET, EYE), (0.0, 1.0, 0.0))},
         ],
         "cameras": [{"type": "perspective", "perspective": {"yfov": math.radians(YFOV_DEG),
                      "aspectRatio": 400 / 300, "znear": 0.01}}],
