@@ -219,9 +219,18 @@ pub struct RenderArgs {
     /// The environment light.
     #[command(flatten)]
     pub environment: EnvironmentArgs,
-    /// Output image(s), .exr (linear) or .png (sRGB); repeatable; overrides the run file.
+    /// Output image(s), .exr (linear) or .png (sRGB); repeatable; overrides the run file. With
+    /// --frames, a run of # in the name is the frame number, zero-padded to as many digits
+    /// (`out/frame-####.exr`); without one, `-NNNN` is added before the extension.
     #[arg(short, long, visible_alias = "outfile")]
     pub output: Vec<PathBuf>,
+    /// Render frames START to END (END not included) of the file's animations, one image each, frame
+    /// f at time f / fps: `--frames 0:48`; overrides the run file's `[frames]`.
+    #[arg(long, value_name = "START:END", value_parser = parse_frames)]
+    pub frames: Option<(u32, u32)>,
+    /// Frames per second of --frames (default 24).
+    #[arg(long)]
+    pub fps: Option<f32>,
     /// Set any run-file key, KEY=VALUE, as `render.spp=256` or `camera.eye=[0, 1, 3]` (a value that is
     /// not TOML is taken as a string: `render.integrator=sppm`); the common keys without their table
     /// (`spp=256`, `passes=64`, `width=800`: those Python's keyword overrides take); `-D` as in
@@ -357,6 +366,10 @@ impl RenderArgs {
         g.initial_radius = self.initial_radius.or(g.initial_radius);
         g.hit_points_per_pixel = self.hit_points_per_pixel.or(g.hit_points_per_pixel);
         run.output.write_every = self.write_every.or(run.output.write_every);
+        if let Some((start, end)) = self.frames {
+            (run.frames.start, run.frames.end) = (start, Some(end));
+        }
+        run.frames.fps = self.fps.unwrap_or(run.frames.fps);
         let p = &mut run.photons;
         p.photons = self.photons.unwrap_or(p.photons);
         p.caustic_photons = self.caustic_photons.unwrap_or(p.caustic_photons);
@@ -444,6 +457,18 @@ impl std::str::FromStr for Triple {
             _ => Err(format!("'{s}' must be three comma-separated numbers, got {}", values.len())),
         }
     }
+}
+
+/// `START:END`, END after START.
+fn parse_frames(text: &str) -> Result<(u32, u32), String> {
+    let (start, end) =
+        text.split_once(':').ok_or_else(|| format!("{text:?}: expected START:END, as 0:48"))?;
+    let number = |s: &str| s.trim().parse::<u32>().map_err(|e| format!("{s:?} in {text:?}: {e}"));
+    let (start, end) = (number(start)?, number(end)?);
+    if end <= start {
+        return Err(format!("{text:?}: END must be after START (END is not rendered)"));
+    }
+    Ok((start, end))
 }
 
 #[cfg(test)]

@@ -19,6 +19,7 @@ mod checkpoint;
 mod compare;
 mod density_plot;
 mod display;
+mod frames;
 mod logging;
 mod profile;
 mod render;

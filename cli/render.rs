@@ -65,6 +65,20 @@ pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>) -> Result<bool
             }
         }
     }
+    if let Some(range) = run.frames.range() {
+        let every_frame: Vec<PathBuf> =
+            range.flat_map(|f| all_outputs.iter().map(move |o| crate::frames::frame_path(o, f))).collect();
+        check_outputs(&every_frame, &inputs(args, &run, &scene_path))?;
+        return crate::frames::render_frames(
+            args,
+            &scene_path,
+            scene,
+            &run,
+            (&outputs, &written_aovs),
+            &denoised,
+            start,
+        );
+    }
     if args.part.is_some() {
         check_part_output(&outputs)?;
     }
@@ -364,7 +378,7 @@ fn show_progress(bar: &ProgressBar, progress: &caustica::Progress, seconds: f64)
 
 /// SIGINT and SIGTERM raise the renderer's interrupt flag: the render stops at its next step and the
 /// image so far is written. A second signal exits at once.
-fn watch_for_signals(renderer: &Renderer) {
+pub(crate) fn watch_for_signals(renderer: &Renderer) {
     let flag = renderer.interrupt_flag();
     let result = ctrlc::set_handler(move || {
         if flag.swap(true, std::sync::atomic::Ordering::Relaxed) {

@@ -138,6 +138,11 @@ impl Camera {
         self.forward
     }
 
+    /// The vertical field of view, in radians.
+    pub fn yfov(&self) -> f32 {
+        2.0 * self.tan_half_y.atan()
+    }
+
     /// Whether rays need a lens sample.
     pub fn has_lens(&self) -> bool {
         self.lens_radius > 0.0

@@ -22,6 +22,17 @@ pub struct RenderScene {
     pub textures: Vec<Texture>,
 }
 
+/// What following a frame cost ([`RenderScene::update`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SceneUpdate {
+    /// Seconds spent on the BVHs.
+    pub geometry_seconds: f64,
+    /// Seconds spent on the lights and their selection.
+    pub lights_seconds: f64,
+    /// Whether every BVH was built anew (not only the dynamic set's).
+    pub whole_build: bool,
+}
+
 impl RenderScene {
     /// BVHs, lights and materials of `scene`: also what a host that moves objects between frames
     /// rebuilds after editing its `Scene`.
@@ -32,12 +43,39 @@ impl RenderScene {
     }
 
     /// As [`RenderScene::build`], taking the materials and textures instead of copying them.
-    pub fn from_scene(mut scene: Scene, light_selection: LightSelection) -> Self {
-        let mut geometry = Geometry::build(&scene);
+    pub fn from_scene(scene: Scene, light_selection: LightSelection) -> Self {
+        Self::from_scene_dynamic(scene, light_selection, &[])
+    }
+
+    /// As [`RenderScene::from_scene`], the meshes `dynamic` marks in the geometry's dynamic set.
+    pub fn from_scene_dynamic(mut scene: Scene, light_selection: LightSelection, dynamic: &[bool]) -> Self {
+        let mut geometry = Geometry::build_dynamic(&scene, dynamic);
         let lights = scene_lights(&mut geometry, &scene, light_selection);
         let (materials, textures) =
             (std::mem::take(&mut scene.materials), std::mem::take(&mut scene.textures));
         Self { geometry, lights, materials, textures }
+    }
+
+    /// Follow a frame of `scene` (the scene this was built from, its meshes `changed` moved, its
+    /// lights maybe too): the geometry's dynamic set rebuilt alone when it can stand for a whole build,
+    /// else all of it with the meshes `dynamic` marks in that set; the lights and their selection
+    /// anew (emitters may have moved). Where the time went.
+    pub fn update(
+        &mut self,
+        scene: &Scene,
+        changed: &[usize],
+        dynamic: &[bool],
+        light_selection: LightSelection,
+    ) -> SceneUpdate {
+        let start = std::time::Instant::now();
+        let refit = self.geometry.update_dynamic(scene, changed);
+        if !refit {
+            self.geometry = Geometry::build_dynamic(scene, dynamic);
+        }
+        let geometry_seconds = start.elapsed().as_secs_f64();
+        let start = std::time::Instant::now();
+        self.lights = lights_of(&mut self.geometry, scene, light_selection, false);
+        SceneUpdate { geometry_seconds, lights_seconds: start.elapsed().as_secs_f64(), whole_build: !refit }
     }
 
     /// Resolve the material at a hit: textures looked up, vertex colour applied.
@@ -203,6 +241,11 @@ fn barycentric(p: Vec3, v: [Vec3; 3]) -> Vec3 {
 /// by a uniform white environment (radiance 1), as glTF viewers light files made for them, with a
 /// warning: a black image helps nobody.
 pub fn scene_lights(geometry: &mut Geometry, scene: &Scene, light_selection: LightSelection) -> Lights {
+    lights_of(geometry, scene, light_selection, true)
+}
+
+/// [`scene_lights`], warning of the white environment only when `warn` (once a render, not a frame).
+fn lights_of(geometry: &mut Geometry, scene: &Scene, light_selection: LightSelection, warn: bool) -> Lights {
     let lights = Lights::build(
         geometry,
         &scene.materials,
@@ -214,11 +257,13 @@ pub fn scene_lights(geometry: &mut Geometry, scene: &Scene, light_selection: Lig
     if !lights.is_empty() {
         return lights;
     }
-    tracing::warn!(
-        "{}: no emitters and no environment: lighting the scene with a uniform white environment \
+    if warn {
+        tracing::warn!(
+            "{}: no emitters and no environment: lighting the scene with a uniform white environment \
          (radiance 1); choose one with [environment] or --environment / --environment-color",
-        scene.source.display()
-    );
+            scene.source.display()
+        );
+    }
     let white = EnvironmentDesc::constant(Vec3::ONE);
     Lights::build(
         geometry,

@@ -53,7 +53,7 @@ pub fn resolution(scene: &Scene, run: &RunFile) -> Result<(u32, u32)> {
 }
 
 /// The camera `desc` of the scene read from `source`, or one that frames its bounds when the file has none.
-fn scene_camera(
+pub(crate) fn scene_camera(
     desc: Option<caustica_core::scene::CameraDesc>,
     source: &std::path::Path,
     run: &RunFile,
@@ -90,10 +90,16 @@ fn scene_camera(
 /// `RenderStats`, `PassRange`) and no entities or film yet ([`add_films`], once the memory the
 /// render will hold is checked with the scene built), and what the scene uses.
 pub fn scene_world(scene: Scene, run: &RunFile) -> Result<(World, SceneFeatures)> {
+    scene_world_dynamic(scene, run, &[])
+}
+
+/// As [`scene_world`], the meshes `dynamic` marks (by index) in the geometry's dynamic set, which
+/// a frame rebuilds alone.
+pub fn scene_world_dynamic(scene: Scene, run: &RunFile, dynamic: &[bool]) -> Result<(World, SceneFeatures)> {
     let settings = &run.render;
     let (width, height) = resolution(&scene, run)?;
     let (camera_desc, source) = (scene.camera.clone(), scene.source.clone());
-    let render_scene = RenderScene::from_scene(scene, settings.light_selection);
+    let render_scene = RenderScene::from_scene_dynamic(scene, settings.light_selection, dynamic);
     let camera = scene_camera(camera_desc, &source, run, &render_scene, width, height)?;
     let features = SceneFeatures::of(&camera, &render_scene);
     let mut world = World::new();

@@ -5,6 +5,7 @@
 
 mod adaptive;
 mod albedo;
+mod animation;
 mod aov;
 mod bench;
 mod bidirectional;

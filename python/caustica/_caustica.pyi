@@ -37,10 +37,26 @@ class Session:
     def step(self, units: Optional[int] = None) -> dict[str, Any]:
         """Add ``units`` samples per pixel (or passes, for the progressive photon mappers), with
         the GIL released; without an argument, run to the settings' target. Returns the stats."""
-    def set_transform(self, node: str, matrix: npt.ArrayLike) -> None:
+    def set_transform(self, node: str, matrix: npt.ArrayLike) -> dict[str, float | bool]:
         """Move glTF node ``node`` (its name, or its index as a string) by the 4 x 4 row-major
-        ``matrix``, applied to its geometry as loaded (the identity puts it back); the geometry is
-        rebuilt and the image starts over (``done`` is 0)."""
+        ``matrix``, applied to its geometry as posed (the identity puts it back); once a node has
+        moved, only the moving meshes' BVH is rebuilt; the image starts over (``done`` is 0).
+        Returns the seconds spent: ``pose``, ``bvh``, ``lights``."""
+    def advance(self, time: float) -> dict[str, float | bool]:
+        """Pose the file's glTF animations at ``time`` seconds (meshes, camera, lights) and start
+        the image over; ``pm`` keeps its photon maps when only the camera moved
+        (``photons_kept``). Returns the seconds spent: ``pose``, ``bvh``, ``lights``."""
+    def set_camera(
+        self,
+        eye: Sequence[float],
+        target: Sequence[float],
+        up: Sequence[float] = (0.0, 1.0, 0.0),
+        yfov_degrees: float | None = None,
+    ) -> None:
+        """Place the camera at ``eye`` looking at ``target``; the image starts over."""
+    @property
+    def duration(self) -> float:
+        """The file's animation length in seconds (0 without one)."""
     def image(self) -> npt.NDArray[np.float32]:
         """The image so far: linear RGB, float32, height x width x 3."""
     def aovs(self) -> dict[str, npt.NDArray[np.float32]]:

@@ -38,15 +38,48 @@ impl Session {
     }
 
     /// Move glTF node `node` (its name, or its index) by the 4 × 4 `matrix` (row-major, applied to
-    /// the node's geometry as loaded, so the identity puts it back), rebuild what the renderer
-    /// traces against, and start the image over: `done` is 0 again, and the next `step` renders
-    /// the moved scene.
-    fn set_transform(&mut self, py: Python<'_>, node: String, matrix: [[f32; 4]; 4]) -> PyResult<()> {
+    /// the node's geometry as posed, so the identity puts it back), update what the renderer traces
+    /// against (once a node has moved, only the moving meshes' BVH is rebuilt), and start the image
+    /// over: `done` is 0 again, and the next `step` renders the moved scene. Returns where the time
+    /// went (`pose`, `bvh`, `lights` seconds).
+    fn set_transform<'py>(
+        &mut self,
+        py: Python<'py>,
+        node: String,
+        matrix: [[f32; 4]; 4],
+    ) -> PyResult<Bound<'py, PyDict>> {
         let m = glam::Mat4::from_cols_array_2d(&matrix).transpose();
-        py.detach(|| self.renderer.move_node(&node, m)).map_err(|e| match e {
-            caustica::error::Error::Setting { .. } => PyValueError::new_err(e.to_string()),
-            e => refused(e),
-        })
+        let update = py.detach(|| self.renderer.move_node(&node, m)).map_err(setting_or_refused)?;
+        frame_dict(py, &update)
+    }
+
+    /// Pose the file's animations at `time` seconds (meshes, its camera, its lights) and start the
+    /// image over, the moved meshes' BVH rebuilt alone; `pm` keeps its photon maps when only the
+    /// camera moved. Returns where the time went (`pose`, `bvh`, `lights` seconds, `photons_kept`).
+    fn advance<'py>(&mut self, py: Python<'py>, time: f32) -> PyResult<Bound<'py, PyDict>> {
+        let update = py.detach(|| self.renderer.set_time(time)).map_err(setting_or_refused)?;
+        frame_dict(py, &update)
+    }
+
+    /// Place the camera at `eye` looking at `target`, `up` up, with vertical field of view
+    /// `yfov_degrees` (None keeps the current one), and start the image over.
+    #[pyo3(signature = (eye, target, up=[0.0, 1.0, 0.0], yfov_degrees=None))]
+    fn set_camera(
+        &mut self,
+        eye: [f32; 3],
+        target: [f32; 3],
+        up: [f32; 3],
+        yfov_degrees: Option<f32>,
+    ) -> PyResult<()> {
+        self.renderer
+            .set_camera(eye.into(), target.into(), up.into(), yfov_degrees.map(f32::to_radians))
+            .map_err(setting_or_refused)
+    }
+
+    /// The length of the file's animation in seconds (its last keyframe; 0 without one).
+    #[getter]
+    fn duration(&self) -> f32 {
+        self.renderer.animation_duration()
     }
 
     /// The image so far: float32, height × width × 3, linear.
@@ -73,4 +106,23 @@ impl Session {
     fn unit(&self) -> &'static str {
         if self.renderer.progress().unit == Unit::Samples { "spp" } else { "passes" }
     }
+}
+
+/// A bad value is a `ValueError`; anything else the renderer refuses as the module does.
+fn setting_or_refused(e: caustica::error::Error) -> PyErr {
+    match e {
+        caustica::error::Error::Setting { .. } => PyValueError::new_err(e.to_string()),
+        e => refused(e),
+    }
+}
+
+/// A frame update's times as a dict.
+fn frame_dict<'py>(py: Python<'py>, update: &caustica::driver::FrameUpdate) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("pose", update.pose_seconds + update.camera_seconds)?;
+    d.set_item("bvh", update.scene.geometry_seconds)?;
+    d.set_item("lights", update.scene.lights_seconds)?;
+    d.set_item("whole_build", update.scene.whole_build)?;
+    d.set_item("photons_kept", update.photons_kept)?;
+    Ok(d)
 }

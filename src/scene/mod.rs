@@ -3,6 +3,7 @@
 //! Everything here is plain data in world space. Loaders (`gltf`, `run_file`) fill it and `validate`
 //! checks it, so that the systems downstream can take it as valid and return nothing.
 
+pub mod animation;
 pub mod environment;
 pub mod fingerprint;
 pub mod gltf;
@@ -69,6 +70,9 @@ pub fn load_with_sets(
         }
     };
     validate(&mut scene, path)?;
+    if let Some(animation) = &mut scene.animation {
+        std::sync::Arc::make_mut(animation).resolve(&scene.meshes);
+    }
     Ok((scene, run))
 }
 
@@ -93,6 +97,8 @@ pub struct Scene {
     pub environment: Option<environment::EnvironmentDesc>,
     /// Point, spot and sun lights (KHR_lights_punctual, run files' `[[light]]`).
     pub punctual_lights: Vec<punctual::PunctualLightDesc>,
+    /// The glTF file's animations, when it has some: what [`animation::Animation::pose`] moves.
+    pub animation: Option<std::sync::Arc<animation::Animation>>,
 }
 
 /// A triangle mesh in world space.

@@ -1,10 +1,11 @@
 //! Meshes placed by a transform: the one function that maps a mesh's positions, normals, tangents
-//! and winding (the glTF loader places each node's meshes with it), and the moves a host gives a
-//! loaded scene's nodes (a simulation's next frame).
+//! and winding (the glTF loader places each node's meshes with it), and a scene from frame to
+//! frame: posed by its animations, its nodes moved by a host (a simulation's next frame).
 
 use super::{Mesh, Scene};
 use crate::error::{Error, Result};
 use glam::{Mat3, Mat4};
+use std::collections::HashMap;
 
 impl Mesh {
     /// Move the mesh by `m`: positions by the matrix, normals by its inverse transpose, tangents by its
@@ -46,49 +47,100 @@ impl Mesh {
     }
 }
 
-/// A loaded scene and the transforms a host has given its nodes, each applied to the node's
-/// geometry as loaded (so the identity puts a node back).
+/// A scene from frame to frame: posed by its file's animations at a time, its nodes moved by a host
+/// (each move applied to the node's geometry as posed, so the identity puts a node back), and which
+/// meshes either can move (they go to the geometry's dynamic set, rebuilt alone each frame).
 #[derive(Clone, Debug)]
-pub struct NodeMoves {
-    loaded: Scene,
+pub struct FrameScene {
+    scene: Scene,
+    /// The meshes a host moved that no animation poses, as loaded.
+    loaded: HashMap<usize, Mesh>,
     moves: Vec<(String, Mat4)>,
+    time: f32,
+    /// By mesh index: whether a frame can move the mesh.
+    pub dynamic: Vec<bool>,
 }
 
-impl NodeMoves {
-    /// No node moved yet.
-    pub fn new(loaded: Scene) -> Self {
-        Self { loaded, moves: Vec::new() }
+impl FrameScene {
+    /// `scene` at time 0 of its animation, no node moved: its animated meshes are dynamic.
+    pub fn new(scene: Scene) -> Self {
+        let mut dynamic = vec![false; scene.meshes.len()];
+        for i in scene.animation.iter().flat_map(|a| a.meshes.iter().filter_map(|m| m.index)) {
+            dynamic[i] = true;
+        }
+        let mut frames = Self { scene, loaded: HashMap::new(), moves: Vec::new(), time: 0.0, dynamic };
+        frames.refresh();
+        frames
     }
 
-    /// Give node `node` (its name, or its index) the transform `m`, replacing the one it had. The
-    /// matrix must be finite and invertible, and the node must have meshes.
-    pub fn set(&mut self, node: &str, m: Mat4) -> Result<()> {
+    /// The scene as it stands.
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    /// The time the animation is posed at, in seconds.
+    pub fn time(&self) -> f32 {
+        self.time
+    }
+
+    /// Pose the file's animations at time `t` (seconds); the meshes that changed.
+    pub fn set_time(&mut self, t: f32) -> Result<Vec<usize>> {
+        if !t.is_finite() {
+            return Err(Error::Setting { name: "time".into(), problem: format!("{t} is not finite") });
+        }
+        self.time = t;
+        Ok(self.refresh())
+    }
+
+    /// Give node `node` (its name, or its index) the transform `m`, replacing the one it had; the
+    /// meshes that changed. The matrix must be finite and invertible, and the node must have meshes.
+    pub fn move_node(&mut self, node: &str, m: Mat4) -> Result<Vec<usize>> {
         if !m.is_finite() || Mat3::from_mat4(m).determinant().abs() < 1e-12 {
             return Err(Error::Setting {
                 name: format!("the transform of node {node:?}"),
                 problem: "the matrix must be finite and invertible".into(),
             });
         }
-        if !self.loaded.meshes.iter().any(|mesh| mesh.is_of_node(node)) {
+        let meshes: Vec<usize> = self.meshes_of(node).collect();
+        if meshes.is_empty() {
             return Err(Error::InvalidScene {
-                path: self.loaded.source.clone(),
+                path: self.scene.source.clone(),
                 object: format!("node {node:?}"),
                 problem: "no mesh of a node named or numbered so".into(),
             });
         }
+        for i in meshes {
+            if !self.dynamic[i] {
+                self.dynamic[i] = true;
+                self.loaded.insert(i, self.scene.meshes[i].clone());
+            }
+        }
         self.moves.retain(|(name, _)| name != node);
         self.moves.push((node.to_owned(), m));
-        Ok(())
+        Ok(self.refresh())
     }
 
-    /// The scene with every node moved.
-    pub fn scene(&self) -> Scene {
-        let mut moved = self.loaded.clone();
+    fn meshes_of<'a>(&'a self, node: &'a str) -> impl Iterator<Item = usize> + 'a {
+        self.scene.meshes.iter().enumerate().filter(move |(_, m)| m.is_of_node(node)).map(|(i, _)| i)
+    }
+
+    /// Every dynamic mesh placed anew: posed (or as loaded), then moved; their indices.
+    fn refresh(&mut self) -> Vec<usize> {
+        let mut changed = match self.scene.animation.clone() {
+            Some(animation) => animation.pose(&mut self.scene, self.time),
+            None => Vec::new(),
+        };
+        for (&i, loaded) in &self.loaded {
+            self.scene.meshes[i] = loaded.clone();
+            changed.push(i);
+        }
         for (node, m) in &self.moves {
-            for mesh in moved.meshes.iter_mut().filter(|mesh| mesh.is_of_node(node)) {
+            for mesh in self.scene.meshes.iter_mut().filter(|mesh| mesh.is_of_node(node)) {
                 mesh.transform(*m);
             }
         }
-        moved
+        changed.sort_unstable();
+        changed.dedup();
+        changed
     }
 }

@@ -135,13 +135,7 @@ pub fn validate(scene: &mut Scene, path: &Path) -> Result<ValidationSummary> {
             .map_err(|problem| invalid(mesh_file, &mesh.name, problem))?;
         let emitter = emits(mesh.material);
         let before = mesh.indices.len();
-        let positions = &mesh.positions;
-        mesh.indices.retain(|&[a, b, c]| {
-            let (a, b, c) = (positions[a as usize], positions[b as usize], positions[c as usize]);
-            let area2 = (b - a).cross(c - a).length_squared();
-            area2 > 0.0 && area2.is_finite()
-        });
-        let dropped = before - mesh.indices.len();
+        let dropped = drop_degenerate_triangles(mesh);
         if dropped > 0 {
             let removed = if mesh.indices.is_empty() { "; no triangle left, mesh removed" } else { "" };
             let what = if emitter {
@@ -327,6 +321,23 @@ fn textures_of(m: &MaterialDesc) -> impl Iterator<Item = (&'static str, TextureR
 }
 
 /// Errors on what the renderer cannot take; zero normals are not an error but fall back to flat normals.
+/// Drop the triangles of zero or non-finite area (a ray cannot hit them, a light on them has no
+/// area); how many. Validation does it to a loaded mesh, an animation to each posed one, and
+/// clears the normals of a mesh with a zero-length one (flat shading) as validation does.
+pub fn drop_degenerate_triangles(mesh: &mut Mesh) -> usize {
+    if mesh.normals.as_ref().is_some_and(|n| n.iter().any(|v| v.length_squared() == 0.0)) {
+        mesh.normals = None;
+    }
+    let before = mesh.indices.len();
+    let positions = &mesh.positions;
+    mesh.indices.retain(|&[a, b, c]| {
+        let (a, b, c) = (positions[a as usize], positions[b as usize], positions[c as usize]);
+        let area2 = (b - a).cross(c - a).length_squared();
+        area2 > 0.0 && area2.is_finite()
+    });
+    before - mesh.indices.len()
+}
+
 fn check_mesh(mesh: &mut Mesh, materials: &[MaterialDesc], file: &Path) -> Result<(), String> {
     let n = mesh.positions.len();
     let material = materials.get(mesh.material as usize).ok_or_else(|| {

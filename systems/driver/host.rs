@@ -9,9 +9,11 @@ use crate::resources::{
 use caustica_core::error::{Error, Result};
 use caustica_core::film::accumulator::PartInfo;
 use caustica_core::render_scene::RenderScene;
-use caustica_core::scene::pose::NodeMoves;
+use caustica_core::render_scene::SceneUpdate;
+use caustica_core::scene::pose::FrameScene;
 use caustica_core::scene::{RunFile, Scene};
 use std::sync::atomic::Ordering;
+use std::time::Instant;
 
 impl Renderer {
     /// A renderer of share `part` (from 1) of `parts` of the render `run` sets up of `scene` (a
@@ -53,6 +55,13 @@ impl Renderer {
     /// Start over on the same entities: a black film, zero counters, no passes (a host's next
     /// frame, after it has moved things and replaced `SceneResource`).
     pub fn restart(&mut self) {
+        self.restart_frame(false);
+    }
+
+    /// As [`Renderer::restart`]; `light_unchanged` says that only the camera moved, and then what the
+    /// integrator traced from the lights alone, if it made it (`pm`'s photon maps), is kept.
+    fn restart_frame(&mut self, light_unchanged: bool) {
+        self.light_kept = light_unchanged && self.photons_built();
         let (width, height) = {
             let film = self.world.resource::<FilmResource>();
             (film.width, film.height)
@@ -70,7 +79,9 @@ impl Renderer {
         if self.world.contains_resource::<PhotonStats>() {
             self.world.insert_resource(PhotonStats::default());
         }
-        (self.plan.reset)(&mut self.world);
+        if !self.light_kept {
+            (self.plan.reset)(&mut self.world);
+        }
         self.passes = 0;
         self.done = self.first;
         self.stopped = false;
@@ -80,13 +91,10 @@ impl Renderer {
         self.phase_times.iter_mut().for_each(|t| (t.seconds, t.runs) = (0.0, 0));
     }
 
-    /// A renderer whose scene's nodes a host can move ([`Renderer::move_node`]): it keeps the scene
-    /// as loaded, which the moves apply to.
+    /// A renderer whose scene's nodes a host can move ([`Renderer::move_node`]): it keeps the scene,
+    /// which the moves apply to.
     pub fn movable(scene: Scene, run: &RunFile) -> Result<Self> {
-        let moves = NodeMoves::new(scene.clone());
-        let mut renderer = Self::new(scene, run)?;
-        renderer.moves = Some(moves);
-        Ok(renderer)
+        Self::with_frames(scene, run, true)
     }
 
     /// Render `scene` from here on, from a black film: the geometry, materials and lights a host has
@@ -97,7 +105,164 @@ impl Renderer {
     pub fn replace_scene(&mut self, scene: &Scene) -> Result<()> {
         (self.integrator.check)(scene, &self.run)?;
         let render_scene = RenderScene::build(scene, self.run.render.light_selection);
-        let features = SceneFeatures::of(self.world.resource::<CameraResource>(), &render_scene);
+        self.check_features(&render_scene)?;
+        self.world.insert_resource(SceneResource(render_scene));
+        self.restart();
+        Ok(())
+    }
+
+    /// Give glTF node `node` (its name, or its index) the transform `m`, applied to its geometry as
+    /// posed (the identity puts it back), and start the image over with the moved scene: only the
+    /// moving meshes' BVH is rebuilt once the node has moved before. For a renderer made by
+    /// [`Renderer::movable`] or of an animated file.
+    pub fn move_node(&mut self, node: &str, m: glam::Mat4) -> Result<FrameUpdate> {
+        let start = Instant::now();
+        let changed = self.frames_mut()?.move_node(node, m)?;
+        self.follow_frame(&changed, start.elapsed().as_secs_f64(), false)
+    }
+
+    /// Pose the file's animations at `time` (seconds: meshes, the file's camera, lights) and start
+    /// the image over: the next frame of an animation. For a renderer of an animated file (or made
+    /// by [`Renderer::movable`]).
+    pub fn set_time(&mut self, time: f32) -> Result<FrameUpdate> {
+        let start = Instant::now();
+        let changed = self.frames_mut()?.set_time(time)?;
+        let camera = self
+            .frames
+            .as_ref()
+            .and_then(|f| f.scene().animation.as_ref())
+            .is_some_and(|a| a.camera.is_some());
+        self.follow_frame(&changed, start.elapsed().as_secs_f64(), camera)
+    }
+
+    /// The animation's length in seconds (its last keyframe); 0 for a scene without one.
+    pub fn animation_duration(&self) -> f32 {
+        self.frames.as_ref().and_then(|f| f.scene().animation.as_ref()).map_or(0.0, |a| a.duration)
+    }
+
+    /// Whether the scene's animation moves only the camera, so that what light does is the same
+    /// every frame (`pm` keeps its photon map).
+    pub fn camera_only_animation(&self) -> bool {
+        self.frames
+            .as_ref()
+            .and_then(|f| f.scene().animation.as_ref())
+            .is_some_and(|a| a.moves_only_the_camera())
+    }
+
+    /// Place the camera: at `eye`, looking at `target`, `up` up, with vertical field of view `yfov`
+    /// (radians; `None` keeps the one it has); start the image over.
+    pub fn set_camera(
+        &mut self,
+        eye: glam::Vec3,
+        target: glam::Vec3,
+        up: glam::Vec3,
+        yfov: Option<f32>,
+    ) -> Result<()> {
+        let current = self.world.resource::<CameraResource>().0.clone();
+        let bad = |problem: &str| Error::Setting { name: "camera".into(), problem: problem.into() };
+        if !(eye.is_finite() && target.is_finite() && up.is_finite()) {
+            return Err(bad("eye, target and up must be finite"));
+        }
+        let forward = target - eye;
+        if forward.length_squared() == 0.0 || forward.cross(up).length_squared() == 0.0 {
+            return Err(bad("the eye must differ from the target, and up must not be along the view"));
+        }
+        if yfov.is_some_and(|y| !(y > 0.0 && y < std::f32::consts::PI)) {
+            return Err(bad("yfov must be in (0, π) radians"));
+        }
+        let view = caustica_core::camera::look_at(eye, target, up);
+        let desc = caustica_core::scene::CameraDesc {
+            name: "host camera".into(),
+            camera_to_world: view,
+            yfov: yfov.unwrap_or(current.yfov()),
+            aspect_ratio: None,
+        };
+        let mut run = self.run.clone();
+        run.camera.eye = None;
+        run.camera.target = None;
+        run.camera.up = None;
+        run.camera.yfov_degrees = None;
+        let camera = caustica_core::camera::Camera::new(
+            &desc,
+            &run.camera,
+            current.width,
+            current.height,
+            run.film.filter,
+        )
+        .map_err(|e| bad(&e.to_string()))?;
+        if camera.has_lens() != self.features.lens {
+            return Err(bad(
+                "the new camera has a lens where the render was planned without one, or the reverse",
+            ));
+        }
+        self.world.insert_resource(CameraResource(camera));
+        self.restart_frame(true);
+        Ok(())
+    }
+
+    /// Whether the plan made view-independent light tracing (`pm`'s photon maps) in a pass already
+    /// run, or kept from an earlier frame.
+    fn photons_built(&self) -> bool {
+        let view_independent =
+            self.plan.phases.iter().any(|p| p.when == crate::plan::When::FirstPassOfProcess);
+        view_independent && (self.passes > 0 || self.light_kept)
+    }
+
+    /// Whether this frame uses the light traced for an earlier one (`pm` after a camera-only move).
+    pub fn photons_kept(&self) -> bool {
+        self.light_kept
+    }
+
+    fn frames_mut(&mut self) -> Result<&mut FrameScene> {
+        self.frames.as_mut().ok_or_else(|| Error::Setting {
+            name: "node".into(),
+            problem: "this renderer does not keep its scene for frames: make it with Renderer::movable"
+                .into(),
+        })
+    }
+
+    /// The World follows the frame the scene now stands at, its meshes `changed` moved: the BVHs,
+    /// the lights, the camera when `camera` (the file's moved), and the image started over.
+    fn follow_frame(&mut self, changed: &[usize], pose_seconds: f64, camera: bool) -> Result<FrameUpdate> {
+        let frames = self.frames.as_ref().expect("called with frames");
+        let scene = frames.scene();
+        (self.integrator.check)(scene, &self.run)?;
+        let mut update = FrameUpdate { pose_seconds, ..FrameUpdate::default() };
+        let light_selection = self.run.render.light_selection;
+        let geometry_changed = !changed.is_empty() || !scene.punctual_lights.is_empty();
+        if geometry_changed {
+            let mut render_scene = self.world.remove_resource::<SceneResource>().expect("a scene").0;
+            update.scene = render_scene.update(scene, changed, &frames.dynamic, light_selection);
+            if let Err(e) = self.check_features(&render_scene) {
+                self.world.insert_resource(SceneResource(render_scene));
+                return Err(e);
+            }
+            self.world.insert_resource(SceneResource(render_scene));
+        }
+        if camera {
+            let start = Instant::now();
+            let current = &self.world.resource::<CameraResource>().0;
+            let (width, height) = (current.width, current.height);
+            let render_scene = &self.world.resource::<SceneResource>().0;
+            let camera = crate::world::scene_camera(
+                scene.camera.clone(),
+                &scene.source,
+                &self.run,
+                render_scene,
+                width,
+                height,
+            )?;
+            self.world.insert_resource(CameraResource(camera));
+            update.camera_seconds = start.elapsed().as_secs_f64();
+        }
+        // What light does is the same when only the camera moved.
+        self.restart_frame(!geometry_changed);
+        update.photons_kept = self.light_kept;
+        Ok(update)
+    }
+
+    fn check_features(&self, render_scene: &RenderScene) -> Result<()> {
+        let features = SceneFeatures::of(self.world.resource::<CameraResource>(), render_scene);
         if features != self.features {
             return Err(Error::Setting {
                 name: "scene".into(),
@@ -107,26 +272,21 @@ impl Renderer {
                 ),
             });
         }
-        self.world.insert_resource(SceneResource(render_scene));
-        self.restart();
         Ok(())
     }
+}
 
-    /// Give glTF node `node` (its name, or its index) the transform `m`, applied to its geometry as
-    /// loaded (the identity puts it back), and start the image over with the moved scene. For a
-    /// renderer made by [`Renderer::movable`].
-    pub fn move_node(&mut self, node: &str, m: glam::Mat4) -> Result<()> {
-        let Some(moves) = &mut self.moves else {
-            return Err(Error::Setting {
-                name: "node".into(),
-                problem: "this renderer does not keep its scene as loaded: make it with Renderer::movable"
-                    .into(),
-            });
-        };
-        moves.set(node, m)?;
-        let moved = moves.scene();
-        self.replace_scene(&moved)
-    }
+/// What following a frame cost ([`Renderer::set_time`], [`Renderer::move_node`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FrameUpdate {
+    /// Seconds posing the meshes (animations and moves).
+    pub pose_seconds: f64,
+    /// The BVHs and lights.
+    pub scene: SceneUpdate,
+    /// Seconds placing the camera.
+    pub camera_seconds: f64,
+    /// Whether the integrator kept what it had traced from the lights (`pm`'s photon map).
+    pub photons_kept: bool,
 }
 
 /// Why a share of the render `run` sets up cannot be rendered alone and merged, if it cannot: what a

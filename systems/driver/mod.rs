@@ -16,8 +16,9 @@ use crate::resources::{AdaptiveSampling, FilmResource, PassRange, RenderStats, S
 use bevy_ecs::prelude::*;
 use caustica_core::error::Result;
 use caustica_core::film::Image;
+use caustica_core::scene::pose::FrameScene;
 use caustica_core::scene::{RunFile, Scene};
-pub use host::share_refusal;
+pub use host::{FrameUpdate, share_refusal};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
@@ -46,8 +47,9 @@ pub struct Renderer {
     integrator: &'static Integrator,
     /// The settings it was made with.
     run: RunFile,
-    /// The scene as loaded and the nodes a host moved (`Renderer::movable`).
-    moves: Option<caustica_core::scene::pose::NodeMoves>,
+    /// The scene from frame to frame, when its file is animated or a host moves its nodes
+    /// (`Renderer::movable`).
+    frames: Option<FrameScene>,
     /// What the scene uses.
     pub features: SceneFeatures,
     /// Passes run.
@@ -80,15 +82,30 @@ pub struct Renderer {
     pass_end_requested: AtomicBool,
     /// The run asks for the `spp` feature image.
     spp_image: bool,
+    /// This frame reuses what an earlier one traced from the lights (`pm`'s photon maps: only the
+    /// camera moved).
+    light_kept: bool,
 }
 
 impl Renderer {
     /// Check the settings against the scene, build the World and the integrator's plan. The target is
     /// the run's `render.spp` or `progressive.passes`, by the integrator.
     pub fn new(scene: Scene, run: &RunFile) -> Result<Self> {
+        Self::with_frames(scene, run, false)
+    }
+
+    /// As [`Renderer::new`]; `keep_frames` keeps the scene for frames to come (a host's moves)
+    /// even when its file has no animation. A file's animations are posed at time 0.
+    pub(crate) fn with_frames(scene: Scene, run: &RunFile, keep_frames: bool) -> Result<Self> {
         let integrator = integrators::of_run(run);
+        let (scene, frames, dynamic) = if keep_frames || scene.animation.is_some() {
+            let frames = FrameScene::new(scene);
+            (frames.scene().clone(), Some(frames.clone()), frames.dynamic)
+        } else {
+            (scene, None, Vec::new())
+        };
         integrator.check(&scene, run)?;
-        let (mut world, features) = scene_world(scene, run)?;
+        let (mut world, features) = crate::world::scene_world_dynamic(scene, run, &dynamic)?;
         // With the scene built (what the process holds counts), before the film is allocated.
         let pixels = {
             let camera = world.resource::<crate::resources::CameraResource>();
@@ -109,7 +126,7 @@ impl Renderer {
             plan,
             integrator,
             run: run.clone(),
-            moves: None,
+            frames,
             features,
             passes: 0,
             done: 0,
@@ -126,6 +143,7 @@ impl Renderer {
             at_pass_boundary: true,
             pass_end_requested: AtomicBool::new(false),
             spp_image: run.film.aovs.contains(&caustica_core::film::aov::Aov::Spp),
+            light_kept: false,
         })
     }
 
@@ -298,7 +316,10 @@ impl Renderer {
         let mut cut = false;
         let _span = tracing::info_span!("pass", index).entered();
         for i in 0..self.plan.phases.len() {
-            if !self.plan.phases[i].when.includes(index, begin) {
+            let when = self.plan.phases[i].when;
+            if !when.includes(index, begin)
+                || (self.light_kept && when == crate::plan::When::FirstPassOfProcess)
+            {
                 continue;
             }
             let phase_start = Instant::now();

@@ -1,12 +1,13 @@
 //! Building the sets: the binary trees over the primitives' (swept) boxes, their flattening into
 //! wide trees with the leaf rules, the triangle packs, and the meshes' shading data.
 
-use super::{MeshShading, PrimitiveInfo, PrimitiveSet, PrimitiveShape};
+use super::{MeshShading, NO_LIGHT, PrimitiveInfo, PrimitiveKind, PrimitiveSet, PrimitiveShape};
+use crate::geometry::alpha::Cutouts;
 use crate::geometry::alpha::NO_CUTOUT;
 use crate::geometry::triangle_pack::{LANES, PackLanes, TrianglePack};
 use crate::geometry::wide_bvh::{LeafRule, WideBvh, build_bvh2};
 use crate::scene::{Mesh, Scene};
-use glam::{Vec3, Vec3A};
+use glam::{Vec2, Vec3, Vec3A};
 use obvhs::BvhBuildParams;
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;
@@ -103,29 +104,89 @@ impl SetBuilder {
     }
 }
 
-/// The binary trees of the static and the moving set (`[set][kind]`, triangles then spheres) and the
-/// bounds of everything. They are built from boxes alone, before any shape is copied out of the scene:
-/// a big mesh's peak memory is in the tree's build, and the shapes need not be alive for it.
-pub(super) fn binary_trees(scene: &Scene) -> ([[Option<Bvh2>; 2]; 2], Aabb) {
-    let mut boxes: [[Vec<Aabb>; 2]; 2] = Default::default();
-    for mesh in &scene.meshes {
+/// The binary trees of the static, the moving and the dynamic set (`[set][kind]`, triangles then
+/// spheres; see [`set_of`]) over the meshes `include` admits, and the bounds of each set. They are
+/// built from boxes alone, before any shape is copied out of the scene: a big mesh's peak memory is
+/// in the tree's build, and the shapes need not be alive for it.
+pub(super) fn binary_trees(
+    scene: &Scene,
+    dynamic: &[bool],
+    meshes_of: MeshesOf,
+) -> ([[Option<Bvh2>; 2]; SETS], [Aabb; SETS]) {
+    let mut boxes: [[Vec<Aabb>; 2]; SETS] = Default::default();
+    let include = |i: usize| meshes_of == MeshesOf::All || dynamic.get(i).copied().unwrap_or(false);
+    for (index, mesh) in scene.meshes.iter().enumerate().filter(|(i, _)| include(*i)) {
         let moving = mesh.motion.filter(|m| *m != Vec3::ZERO);
-        boxes[moving.is_some() as usize][0].extend(mesh.indices.iter().map(|tri| {
+        boxes[set_of(moving, dynamic, index)][0].extend(mesh.indices.iter().map(|tri| {
             swept(shape_aabb(&PrimitiveShape::Triangle(tri.map(|v| mesh.positions[v as usize]))), moving)
         }));
     }
-    for s in &scene.spheres {
+    for s in scene.spheres.iter().filter(|_| meshes_of == MeshesOf::All) {
         let moving = s.motion.filter(|m| *m != Vec3::ZERO);
         boxes[moving.is_some() as usize][1]
             .push(swept(shape_aabb(&PrimitiveShape::Sphere(s.center, s.radius)), moving));
     }
-    let bounds = boxes.iter().flatten().flatten().fold(Aabb::empty(), |acc, a| acc.union(a));
+    let bounds = boxes.each_ref().map(|set| set.iter().flatten().fold(Aabb::empty(), |acc, a| acc.union(a)));
     let trees = boxes.map(|[triangles, spheres]| {
         // A set holds its triangles first: its spheres' ids follow them.
         let first_sphere = triangles.len() as u32;
         [binary_tree(triangles, 0), binary_tree(spheres, first_sphere)]
     });
     (trees, bounds)
+}
+
+/// Which of a scene's primitives [`binary_trees`] builds over.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum MeshesOf {
+    /// Every mesh and sphere.
+    All,
+    /// The dynamic set's meshes alone.
+    Dynamic,
+}
+
+/// Push mesh `mesh_index`'s triangles, with their cut-outs when its material has a rule.
+pub(super) fn push_mesh(
+    builder: &mut SetBuilder,
+    mesh: &Mesh,
+    mesh_index: usize,
+    moving: Option<Vec3>,
+    cutout_material: Option<u32>,
+    cutouts: &mut Cutouts,
+) {
+    for (i, tri) in mesh.indices.iter().enumerate() {
+        let p = tri.map(|v| mesh.positions[v as usize]);
+        let cutout = cutout_material.map_or(NO_CUTOUT, |m| {
+            let set = |s: usize| mesh.uvs.get(s).map_or([Vec2::ZERO; 3], |uv| tri.map(|v| uv[v as usize]));
+            cutouts.add_triangle(m, [set(0), set(1)])
+        });
+        builder.push(
+            PrimitiveShape::Triangle(p),
+            PrimitiveInfo {
+                kind: PrimitiveKind::Triangle,
+                object: mesh_index as u32,
+                index: i as u32,
+                material: mesh.material,
+                light: NO_LIGHT,
+            },
+            moving,
+            cutout,
+        );
+    }
+}
+
+/// How many primitive sets there are: static, moving over the shutter, dynamic between frames.
+pub(super) const SETS: usize = 3;
+
+/// Which set mesh `index` goes to: the moving one when it moves over the shutter, else the dynamic
+/// one when a frame may move it (`dynamic[index]`), else the static one.
+pub(super) fn set_of(moving: Option<Vec3>, dynamic: &[bool], index: usize) -> usize {
+    if moving.is_some() {
+        1
+    } else if dynamic.get(index).copied().unwrap_or(false) {
+        2
+    } else {
+        0
+    }
 }
 
 /// Linear motion sweeps a box from its start to its end position: their union bounds it.

@@ -21,7 +21,7 @@ use super::triangle::triangle_point_error;
 use super::triangle_pack::{LANES, PackLanes, TrianglePack};
 use super::wide_bvh::{TraceCounts, WideBvh};
 use crate::scene::Scene;
-use build::{SetBuilder, binary_trees};
+use build::{MeshesOf, SETS, SetBuilder, binary_trees, push_mesh, set_of};
 use glam::{Vec2, Vec3, Vec4};
 use obvhs::aabb::Aabb;
 use query::{QueryRay, intersect_set, occluded_set};
@@ -64,6 +64,10 @@ pub struct PrimitiveInfo {
 pub const NO_LIGHT: u32 = u32::MAX;
 /// High bit of a primitive id: the primitive is in the moving set.
 const MOVING_BIT: u32 = 1 << 31;
+/// Next bit of a primitive id: the primitive is in the dynamic set.
+const DYNAMIC_BIT: u32 = 1 << 30;
+/// The set bits of a primitive id.
+const SET_BITS: u32 = MOVING_BIT | DYNAMIC_BIT;
 
 /// The primitives of one set and the trees over them: triangles in packs under one BVH, spheres
 /// under another.
@@ -150,8 +154,17 @@ struct MeshShading {
 pub struct Geometry {
     static_set: PrimitiveSet,
     moving_set: Option<PrimitiveSet>,
+    /// The meshes a frame may move (a file's animations, a host's moves): rebuilt alone when they
+    /// do, the static set's tree kept ([`Geometry::update_dynamic`]).
+    dynamic_set: Option<PrimitiveSet>,
+    /// Which meshes are in the dynamic set, by mesh index.
+    dynamic: Vec<bool>,
     meshes: Vec<MeshShading>,
     cutouts: Cutouts,
+    /// The cut-out rule of each material (`None`: opaque).
+    cutout_materials: Vec<Option<u32>>,
+    /// Bounds of each set.
+    set_bounds: [Aabb; SETS],
     bounds: Aabb,
     /// Time spent building BVHs.
     pub build_time: Duration,
@@ -160,35 +173,22 @@ pub struct Geometry {
 impl Geometry {
     /// Build the BVHs over a validated scene. Light indices are assigned later by [`Geometry::set_light`].
     pub fn build(scene: &Scene) -> Self {
+        Self::build_dynamic(scene, &[])
+    }
+
+    /// As [`Geometry::build`], the meshes `dynamic` marks (by index) in a set of their own that
+    /// [`Geometry::update_dynamic`] rebuilds alone when a frame moves them.
+    pub fn build_dynamic(scene: &Scene, dynamic: &[bool]) -> Self {
         let _span = tracing::info_span!("build_bvh").entered();
         let start = Instant::now();
-        let (trees, bounds) = binary_trees(scene);
-        let mut builders = [SetBuilder::default(), SetBuilder::default()];
+        let (trees, set_bounds) = binary_trees(scene, dynamic, MeshesOf::All);
+        let mut builders: [SetBuilder; SETS] = Default::default();
         let (mut cutouts, cutout_materials) = Cutouts::new(scene);
         for (mesh_index, mesh) in scene.meshes.iter().enumerate() {
             let moving = mesh.motion.filter(|m| *m != Vec3::ZERO);
-            let builder = &mut builders[moving.is_some() as usize];
             let cutout_material = cutout_materials.get(mesh.material as usize).copied().flatten();
-            for (i, tri) in mesh.indices.iter().enumerate() {
-                let p = tri.map(|v| mesh.positions[v as usize]);
-                let cutout = cutout_material.map_or(NO_CUTOUT, |m| {
-                    let set =
-                        |s: usize| mesh.uvs.get(s).map_or([Vec2::ZERO; 3], |uv| tri.map(|v| uv[v as usize]));
-                    cutouts.add_triangle(m, [set(0), set(1)])
-                });
-                builder.push(
-                    PrimitiveShape::Triangle(p),
-                    PrimitiveInfo {
-                        kind: PrimitiveKind::Triangle,
-                        object: mesh_index as u32,
-                        index: i as u32,
-                        material: mesh.material,
-                        light: NO_LIGHT,
-                    },
-                    moving,
-                    cutout,
-                );
-            }
+            let builder = &mut builders[set_of(moving, dynamic, mesh_index)];
+            push_mesh(builder, mesh, mesh_index, moving, cutout_material, &mut cutouts);
         }
         for (i, s) in scene.spheres.iter().enumerate() {
             let moving = s.motion.filter(|m| *m != Vec3::ZERO);
@@ -205,19 +205,61 @@ impl Geometry {
                 NO_CUTOUT,
             );
         }
-        let [static_builder, moving_builder] = builders;
-        let [static_trees, moving_trees] = trees;
+        let [static_builder, moving_builder, dynamic_builder] = builders;
+        let [static_trees, moving_trees, dynamic_trees] = trees;
         let static_set = static_builder.build(static_trees);
         let moving_set = (!moving_builder.shapes.is_empty()).then(|| moving_builder.build(moving_trees));
+        let dynamic_set = (!dynamic_builder.shapes.is_empty()).then(|| dynamic_builder.build(dynamic_trees));
         let build_time = start.elapsed();
         Self {
             static_set,
             moving_set,
+            dynamic_set,
+            dynamic: dynamic.to_vec(),
             meshes: scene.meshes.iter().map(MeshShading::from).collect(),
             cutouts,
-            bounds,
+            cutout_materials,
+            bounds: set_bounds.iter().fold(Aabb::empty(), |acc, b| acc.union(b)),
+            set_bounds,
             build_time,
         }
+    }
+
+    /// Rebuild the dynamic set from `scene`'s meshes (the scene this geometry was built from, its
+    /// dynamic meshes moved, nothing else changed): the static set's tree is kept. False, and
+    /// nothing changed, when that cannot stand for a whole build: a mesh outside the dynamic set,
+    /// one with alpha cut-outs, or one moving over the shutter is among them; then build anew.
+    pub fn update_dynamic(&mut self, scene: &Scene, changed: &[usize]) -> bool {
+        let cut_out = |m: &crate::scene::Mesh| {
+            self.cutout_materials.get(m.material as usize).copied().flatten().is_some()
+        };
+        let updatable = scene.meshes.len() == self.meshes.len()
+            && changed.iter().all(|&i| {
+                self.dynamic.get(i).copied().unwrap_or(false)
+                    && !cut_out(&scene.meshes[i])
+                    && scene.meshes[i].motion.is_none_or(|m| m == Vec3::ZERO)
+            });
+        if !updatable {
+            return false;
+        }
+        let _span = tracing::info_span!("update_bvh").entered();
+        let start = Instant::now();
+        let dynamic = &self.dynamic;
+        let is_dynamic = |i: usize| dynamic.get(i).copied().unwrap_or(false);
+        let (trees, set_bounds) = binary_trees(scene, dynamic, MeshesOf::Dynamic);
+        let [_, _, trees] = trees;
+        let mut builder = SetBuilder::default();
+        for (mesh_index, mesh) in scene.meshes.iter().enumerate().filter(|(i, _)| is_dynamic(*i)) {
+            push_mesh(&mut builder, mesh, mesh_index, None, None, &mut self.cutouts);
+        }
+        self.dynamic_set = (!builder.shapes.is_empty()).then(|| builder.build(trees));
+        for &i in changed {
+            self.meshes[i] = MeshShading::from(&scene.meshes[i]);
+        }
+        self.set_bounds[2] = set_bounds[2];
+        self.bounds = self.set_bounds.iter().fold(Aabb::empty(), |acc, b| acc.union(b));
+        self.build_time = start.elapsed();
+        true
     }
 
     /// Whether any primitive moves over the shutter.
@@ -232,7 +274,7 @@ impl Geometry {
 
     /// Number of primitives.
     pub fn len(&self) -> usize {
-        self.static_set.shapes.len() + self.moving_set.as_ref().map_or(0, |s| s.shapes.len())
+        self.sets().map(|(set, _)| set.shapes.len()).sum()
     }
 
     /// Whether there is no primitive at all.
@@ -242,12 +284,30 @@ impl Geometry {
 
     /// Every primitive id with its shape, info and motion (for building lights).
     pub fn primitives(&self) -> impl Iterator<Item = (u32, &PrimitiveShape, &PrimitiveInfo, Vec3)> {
-        let s = &self.static_set;
-        let statics = (0..s.shapes.len()).map(move |i| (i as u32, &s.shapes[i], &s.info[i], Vec3::ZERO));
-        let moving = self.moving_set.iter().flat_map(|m| {
-            (0..m.shapes.len()).map(move |i| (i as u32 | MOVING_BIT, &m.shapes[i], &m.info[i], m.motion[i]))
-        });
-        statics.chain(moving)
+        self.sets().flat_map(|(set, bits)| {
+            (0..set.shapes.len()).map(move |i| {
+                let motion = set.motion.get(i).copied().unwrap_or(Vec3::ZERO);
+                (i as u32 | bits, &set.shapes[i], &set.info[i], motion)
+            })
+        })
+    }
+
+    /// The sets there are, each with the bits its primitive ids carry.
+    fn sets(&self) -> impl Iterator<Item = (&PrimitiveSet, u32)> {
+        std::iter::once((&self.static_set, 0))
+            .chain(self.moving_set.iter().map(|s| (s, MOVING_BIT)))
+            .chain(self.dynamic_set.iter().map(|s| (s, DYNAMIC_BIT)))
+    }
+
+    /// The set primitive `prim` is in, and its index there.
+    #[inline]
+    fn set_of(&self, prim: u32) -> (&PrimitiveSet, usize) {
+        let i = (prim & !SET_BITS) as usize;
+        match prim & SET_BITS {
+            0 => (&self.static_set, i),
+            MOVING_BIT => (self.moving_set.as_ref().expect("moving primitive id without a moving set"), i),
+            _ => (self.dynamic_set.as_ref().expect("dynamic primitive id without a dynamic set"), i),
+        }
     }
 
     /// The texture coordinates of set `set` at triangle `prim`'s vertices (zero where the mesh has no
@@ -265,22 +325,19 @@ impl Geometry {
     /// Shape, info and displacement over the shutter of primitive `prim`.
     #[inline]
     pub fn primitive(&self, prim: u32) -> (&PrimitiveShape, &PrimitiveInfo, Vec3) {
-        if prim & MOVING_BIT == 0 {
-            let i = prim as usize;
-            (&self.static_set.shapes[i], &self.static_set.info[i], Vec3::ZERO)
-        } else {
-            let set = self.moving_set.as_ref().expect("moving primitive id without a moving set");
-            let i = (prim & !MOVING_BIT) as usize;
-            (&set.shapes[i], &set.info[i], set.motion[i])
-        }
+        let (set, i) = self.set_of(prim);
+        (&set.shapes[i], &set.info[i], set.motion.get(i).copied().unwrap_or(Vec3::ZERO))
     }
 
     /// Assign a light index to a primitive.
     pub fn set_light(&mut self, prim: u32, light: u32) {
-        let i = (prim & !MOVING_BIT) as usize;
-        if prim & MOVING_BIT == 0 {
-            self.static_set.info[i].light = light;
-        } else if let Some(set) = self.moving_set.as_mut() {
+        let i = (prim & !SET_BITS) as usize;
+        let set = match prim & SET_BITS {
+            0 => Some(&mut self.static_set),
+            MOVING_BIT => self.moving_set.as_mut(),
+            _ => self.dynamic_set.as_mut(),
+        };
+        if let Some(set) = set {
             set.info[i].light = light;
         }
     }
@@ -300,6 +357,9 @@ impl Geometry {
         if let Some(set) = &self.moving_set {
             intersect_set(set, &self.cutouts, ray, &rays, MOVING_BIT, &mut hit, counts);
         }
+        if let Some(set) = &self.dynamic_set {
+            intersect_set(set, &self.cutouts, ray, &rays, DYNAMIC_BIT, &mut hit, counts);
+        }
         if hit.is_hit() { hit } else { Hit::MISS }
     }
 
@@ -318,13 +378,16 @@ impl Geometry {
                 .moving_set
                 .as_ref()
                 .is_some_and(|set| occluded_set(set, &self.cutouts, ray, &rays, MOVING_BIT, counts))
+            || self
+                .dynamic_set
+                .as_ref()
+                .is_some_and(|set| occluded_set(set, &self.cutouts, ray, &rays, DYNAMIC_BIT, counts))
     }
 
     /// Bytes of the trees and the triangle packs (for the report on big meshes).
     pub fn acceleration_bytes(&self) -> usize {
-        std::iter::once(&self.static_set)
-            .chain(&self.moving_set)
-            .map(|s| {
+        self.sets()
+            .map(|(s, _)| {
                 s.triangles.bytes()
                     + s.spheres.bytes()
                     + s.packs.len() * size_of::<(TrianglePack, [u32; LANES])>()

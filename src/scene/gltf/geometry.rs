@@ -4,6 +4,7 @@
 use super::{Loader, label};
 use crate::error::{Error, Result};
 use crate::scene::Mesh;
+use crate::scene::animation::AnimatedMesh;
 use glam::{Mat4, Vec2, Vec3, Vec4};
 use gltf::Semantic;
 use gltf::accessor::{Accessor, DataType, Dimensions};
@@ -45,7 +46,15 @@ impl Loader<'_> {
         Ok(())
     }
 
-    pub(super) fn add_mesh(&mut self, node: &gltf::Node, mesh: &gltf::Mesh, world: Mat4) -> Result<()> {
+    /// Place `mesh`'s primitives by `world`; when an animation `moves` the node, keep each in the
+    /// node's space too, for posing.
+    pub(super) fn add_mesh(
+        &mut self,
+        node: &gltf::Node,
+        mesh: &gltf::Mesh,
+        world: Mat4,
+        moves: bool,
+    ) -> Result<()> {
         let weights = node.weights().or(mesh.weights());
         for primitive in mesh.primitives() {
             let name = format!(
@@ -55,12 +64,23 @@ impl Loader<'_> {
                 primitive.index()
             );
             let mut out = self.primitive(&primitive, weights, &name)?;
+            let local = moves.then(|| Mesh { name: name.clone(), ..out.clone() });
             out.transform(world);
             let normal_map = self
                 .scene
                 .materials
                 .get(out.material as usize)
                 .and_then(|m| m.normal_texture.or(m.clearcoat_normal_texture.map(|(t, _)| t)));
+            if let (Some(local), Some(animation)) = (local, &mut self.animation) {
+                animation.meshes.push(AnimatedMesh {
+                    index: None,
+                    node: node.index(),
+                    tangents_from_uv: normal_map
+                        .filter(|_| local.tangents.is_none())
+                        .map(|m| m.tex_coord as usize),
+                    local,
+                });
+            }
             if let (None, Some(map)) = (&out.tangents, normal_map) {
                 out.tangents = crate::scene::tangents::generate(&out, map.tex_coord as usize);
                 if out.tangents.is_none() {
@@ -217,7 +237,7 @@ impl Loader<'_> {
 }
 
 /// Rejects accessor layouts the reader would misread or panic on (it only debug-asserts them).
-fn check(
+pub(super) fn check(
     accessor: &Accessor,
     what: &str,
     dimensions: &[Dimensions],
@@ -309,7 +329,7 @@ const MAX_ZERO_ACCESSOR_COUNT: usize = 1 << 28;
 
 /// Collects an accessor's values; `values` is `None` when its data lies outside its buffer, or when it has no
 /// bufferView, which glTF defines as all zeros.
-fn read<T: Default + Clone>(
+pub(super) fn read<T: Default + Clone>(
     accessor: &Accessor,
     what: &str,
     values: Option<impl Iterator<Item = T>>,

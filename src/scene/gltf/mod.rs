@@ -5,6 +5,7 @@
 //!
 //! The result is not validated; [`super::load`] runs [`super::validate::validate`] on it.
 
+mod animation;
 mod geometry;
 mod import;
 mod materials;
@@ -14,6 +15,7 @@ pub use materials::srgb_to_linear;
 
 use super::Scene;
 use crate::error::{Error, Result};
+use crate::scene::animation::AnimatedLight;
 use glam::Mat4;
 use import::import;
 use nodes::CameraNode;
@@ -51,8 +53,10 @@ pub fn load_gltf_with_camera(path: &Path, camera: Option<&str>) -> Result<Scene>
         default_material: None,
         cameras: Vec::new(),
         morphed_primitives: 0,
+        animation: None,
     };
     loader.warn_unsupported(&document);
+    loader.animation = loader.read_animation()?;
     for material in document.materials() {
         let desc = loader.material(&material)?;
         loader.scene.materials.push(desc);
@@ -86,6 +90,10 @@ pub fn load_gltf_with_camera(path: &Path, camera: Option<&str>) -> Result<Scene>
         );
     }
     loader.pick_camera(camera)?;
+    if let Some(mut animation) = loader.animation.take() {
+        animation.resolve(&loader.scene.meshes);
+        loader.scene.animation = Some(std::sync::Arc::new(animation));
+    }
     Ok(loader.scene)
 }
 
@@ -137,6 +145,8 @@ struct Loader<'a> {
     default_material: Option<u32>,
     cameras: Vec<CameraNode>,
     morphed_primitives: usize,
+    /// The file's animations, filled in as the walk meets what they move.
+    animation: Option<crate::scene::animation::Animation>,
 }
 
 impl Loader<'_> {
@@ -151,10 +161,6 @@ impl Loader<'_> {
         if !ignored.is_empty() {
             warn!(file = %file, "glTF extensions not supported, ignored: {}", ignored.join(", "));
         }
-        let animations = document.animations().len();
-        if animations > 0 {
-            warn!(file = %file, "{animations} animation(s) ignored: the scene is loaded in its rest pose");
-        }
         let skins = document.skins().len();
         if skins > 0 {
             warn!(file = %file, "{skins} skin(s) ignored: skinned meshes are loaded unskinned, with their node transforms");
@@ -164,9 +170,11 @@ impl Loader<'_> {
     /// Depth-first, children in file order, so that "the first camera" is the one a reader of the file expects.
     fn walk(&mut self, scene: &gltf::Scene, node_count: usize) -> Result<()> {
         let mut visited = vec![false; node_count];
-        let mut stack: Vec<(gltf::Node, Mat4)> = scene.nodes().map(|n| (n, Mat4::IDENTITY)).collect();
+        // Each node with its parent's world transform and whether an animation moves that parent.
+        let mut stack: Vec<(gltf::Node, Mat4, bool)> =
+            scene.nodes().map(|n| (n, Mat4::IDENTITY, false)).collect();
         stack.reverse();
-        while let Some((node, parent)) = stack.pop() {
+        while let Some((node, parent, parent_moves)) = stack.pop() {
             let object = label("node", node.name(), node.index());
             // A cycle would otherwise loop forever; glTF requires a strict tree.
             if std::mem::replace(&mut visited[node.index()], true) {
@@ -181,17 +189,25 @@ impl Loader<'_> {
             if node.mesh().is_some() || node.camera().is_some() {
                 self.check_invertible(&world, &object)?;
             }
+            let moves = parent_moves || self.animation.as_ref().is_some_and(|a| a.drives(node.index()));
+            if let Some(animation) = &mut self.animation {
+                animation.order.push(node.index());
+            }
             if let Some(mesh) = node.mesh() {
-                self.add_mesh(&node, &mesh, world)?;
+                self.add_mesh(&node, &mesh, world, moves)?;
             }
             if let Some(light) = node.light() {
                 self.add_light(&light, world, &object)?;
+                if moves && let Some(animation) = &mut self.animation {
+                    let index = self.scene.punctual_lights.len() - 1;
+                    animation.lights.push(AnimatedLight { index, node: node.index() });
+                }
             }
             if let Some(camera) = node.camera() {
-                self.add_camera(&node, &camera, world, object);
+                self.add_camera(&node, &camera, world, object, moves);
             }
             let children: Vec<gltf::Node> = node.children().collect();
-            stack.extend(children.into_iter().rev().map(|child| (child, world)));
+            stack.extend(children.into_iter().rev().map(|child| (child, world, moves)));
         }
         Ok(())
     }

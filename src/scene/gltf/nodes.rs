@@ -4,6 +4,7 @@
 use super::{Loader, label};
 use crate::error::Result;
 use crate::scene::CameraDesc;
+use crate::scene::animation::{rigid, trs_matrix};
 use crate::scene::punctual::{PunctualKind, PunctualLightDesc};
 use glam::{Mat3, Mat4, Quat, Vec3};
 use tracing::warn;
@@ -16,6 +17,8 @@ pub(super) struct CameraNode {
     /// `None` for orthographic cameras.
     perspective: Option<(f32, Option<f32>)>,
     world: Mat4,
+    /// Its node's index, when an animation moves it.
+    animated_node: Option<usize>,
 }
 
 impl Loader<'_> {
@@ -31,12 +34,7 @@ impl Loader<'_> {
                 if !(t.is_finite() && q.is_finite() && s.is_finite()) {
                     return Err(non_finite());
                 }
-                // Exporters write quaternions rounded to a few digits; a non-unit one would also scale.
-                let length = q.length();
-                if length < 1e-6 {
-                    return Err(self.invalid(object, "rotation quaternion has zero length"));
-                }
-                Ok(Mat4::from_scale_rotation_translation(s, q / length, t))
+                trs_matrix(t, q, s).ok_or_else(|| self.invalid(object, "rotation quaternion has zero length"))
             }
         }
     }
@@ -101,6 +99,7 @@ impl Loader<'_> {
         camera: &gltf::Camera,
         world: Mat4,
         object: String,
+        moves: bool,
     ) {
         let perspective = match camera.projection() {
             gltf::camera::Projection::Perspective(p) => Some((p.yfov(), p.aspect_ratio())),
@@ -119,6 +118,7 @@ impl Loader<'_> {
             node_name: node.name().map(str::to_owned),
             perspective,
             world,
+            animated_node: moves.then_some(node.index()),
         });
     }
 
@@ -156,6 +156,9 @@ impl Loader<'_> {
                 Some(found)
             }
         };
+        if let (Some(animation), Some(c)) = (&mut self.animation, chosen) {
+            animation.camera = c.animated_node;
+        }
         self.scene.camera = chosen.and_then(|c| {
             let (yfov, aspect_ratio) = c.perspective?;
             let name =
@@ -164,14 +167,6 @@ impl Loader<'_> {
         });
         Ok(())
     }
-}
-
-/// The node's world transform without scale or shear: keeps the viewing direction (-Z) and then up (+Y) exact.
-fn rigid(world: &Mat4) -> Mat4 {
-    let z = world.z_axis.truncate().normalize();
-    let y = world.y_axis.truncate().reject_from_normalized(z).normalize();
-    let x = y.cross(z);
-    Mat4::from_cols(x.extend(0.0), y.extend(0.0), z.extend(0.0), world.w_axis.truncate().extend(1.0))
 }
 
 #[cfg(test)]

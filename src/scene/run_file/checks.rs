@@ -9,6 +9,15 @@ impl RunFile {
         let finite = |key: &str, values: &[f32]| {
             if values.iter().all(|v| v.is_finite()) { Ok(()) } else { Err(format!("{key} must be finite")) }
         };
+        let frames = &self.frames;
+        if !(frames.fps > 0.0 && frames.fps.is_finite()) {
+            return Err(format!("frames.fps is {}, must be finite and > 0", frames.fps));
+        }
+        if let Some(end) = frames.end
+            && end <= frames.start
+        {
+            return Err(format!("frames.end is {end}, must be after frames.start ({})", frames.start));
+        }
         if self.render.spp == 0 {
             return Err("render.spp is 0, must be at least 1".to_owned());
         }

@@ -107,6 +107,31 @@ pub struct CameraOverrides {
     pub shutter: Option<[f32; 2]>,
 }
 
+/// The `[frames]` table: an animation rendered frame by frame (`caustica render --frames`).
+#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[serde(default, deny_unknown_fields)]
+pub struct FrameSettings {
+    /// First frame (frame f is at time f / fps).
+    pub start: u32,
+    /// One past the last frame; `None`: no animation is rendered, one image is.
+    pub end: Option<u32>,
+    /// Frames per second.
+    pub fps: f32,
+}
+
+impl Default for FrameSettings {
+    fn default() -> Self {
+        Self { start: 0, end: None, fps: 24.0 }
+    }
+}
+
+impl FrameSettings {
+    /// The frames to render, when an animation is asked for.
+    pub fn range(&self) -> Option<std::ops::Range<u32>> {
+        self.end.map(|end| self.start..end)
+    }
+}
+
 /// The `[output]` table.
 #[derive(Clone, Debug, Default, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -281,6 +306,8 @@ pub struct RunFile {
     pub schedule: super::schedule::ScheduleSettings,
     /// Output files.
     pub output: OutputSettings,
+    /// An animation's frames.
+    pub frames: FrameSettings,
     /// The environment light.
     pub environment: super::environment::EnvironmentSettings,
     /// Analytic spheres.
