@@ -10,6 +10,7 @@ import pathlib
 import shutil
 import subprocess
 import threading
+import sys
 import time
 
 import numpy as np
@@ -330,3 +331,42 @@ def test_pyoidn_denoises_as_the_native_build_does():
     if _caustica.has_denoiser():
         native = result.denoised()
         assert np.array_equal(native, through_pyoidn), np.abs(native - through_pyoidn).max()
+
+
+def test_advance_poses_the_files_animation_and_starts_the_image_over():
+    session = caustica.load(ROOT / "tests/data/gltf-samples/AnimatedTriangle.gltf", width=16, height=16,
+                            spp=2).session(aovs=())
+    assert session.duration == pytest.approx(1.0)
+    session.step()
+    first = session.image().copy()
+    update = session.advance(0.25)
+    assert session.done == 0
+    assert not update["whole_build"] and update["bvh"] >= 0.0
+    session.step()
+    assert not np.array_equal(first, session.image()), "the quarter turn changed nothing"
+    with pytest.raises(ValueError, match="finite"):
+        session.advance(float("nan"))
+
+
+def test_set_camera_moves_the_view_and_refuses_a_degenerate_one():
+    session = caustica.load(ROOT / "scenes/cornell-box.gltf", width=16, height=16, spp=1).session(aovs=())
+    session.step()
+    before = session.image().copy()
+    session.set_camera(eye=(0.0, 0.27, 0.5), target=(0.0, 0.27, 0.0), yfov_degrees=60.0)
+    assert session.done == 0
+    session.step()
+    assert not np.array_equal(before, session.image())
+    with pytest.raises(ValueError, match="eye"):
+        session.set_camera(eye=(0.0, 0.0, 0.0), target=(0.0, 0.0, 0.0))
+
+
+def test_the_bouncing_block_example_writes_denoised_frames_of_a_moving_block(tmp_path):
+    script = ROOT / "examples/bouncing_block.py"
+    done = subprocess.run([sys.executable, str(script), "3"], cwd=tmp_path, capture_output=True, text=True,
+                          timeout=600)
+    assert done.returncode == 0, done.stderr
+    lines = [line for line in done.stdout.splitlines() if line.startswith("frame")]
+    assert len(lines) == 3 and all("BVH" in line and "denoise" in line for line in lines), done.stdout
+    frames = sorted((tmp_path / "out/bouncing").glob("frame-*.png"))
+    assert [f.name for f in frames] == ["frame-0000.png", "frame-0001.png", "frame-0002.png"]
+    assert frames[0].read_bytes() != frames[2].read_bytes(), "the block did not move"
