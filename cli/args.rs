@@ -231,6 +231,11 @@ pub struct RenderArgs {
     /// Frames per second of --frames (default 24).
     #[arg(long)]
     pub fps: Option<f32>,
+    /// With --frames: blur each frame by the animation over a shutter open this many frames,
+    /// centred on the frame's time (0.5: a 180° shutter), each sample per pixel (or pass) at its
+    /// own time in it; pt, sppm and the others that trace every pass anew (not pm or ppm).
+    #[arg(long, value_name = "FRAMES")]
+    pub shutter: Option<f32>,
     /// Set any run-file key, KEY=VALUE, as `render.spp=256` or `camera.eye=[0, 1, 3]` (a value that is
     /// not TOML is taken as a string: `render.integrator=sppm`); the common keys without their table
     /// (`spp=256`, `passes=64`, `width=800`: those Python's keyword overrides take); `-D` as in
@@ -370,6 +375,7 @@ impl RenderArgs {
             (run.frames.start, run.frames.end) = (start, Some(end));
         }
         run.frames.fps = self.fps.unwrap_or(run.frames.fps);
+        run.frames.shutter = self.shutter.unwrap_or(run.frames.shutter);
         let p = &mut run.photons;
         p.photons = self.photons.unwrap_or(p.photons);
         p.caustic_photons = self.caustic_photons.unwrap_or(p.caustic_photons);

@@ -126,10 +126,14 @@ pub fn render_frames(
             kept_photons += update.photons_kept as u32;
         }
         let render_start = Instant::now();
-        let report = renderer.run(run.render.time_limit, |r| {
+        let show = |r: &Renderer| {
             let p = r.progress();
             bar.set_message(format!("{:.1}/{} {}", p.done, p.target, p.unit.name()));
-        });
+        };
+        let report = match run.frames.shutter_of(frame) {
+            Some(shutter) => renderer.run_over_shutter(shutter, run.render.time_limit, show)?,
+            None => renderer.run(run.render.time_limit, show),
+        };
         times.render = render_start.elapsed().as_secs_f64();
         let image = renderer.image();
         let write_start = Instant::now();

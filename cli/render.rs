@@ -65,6 +65,9 @@ pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>) -> Result<bool
             }
         }
     }
+    if run.frames.shutter > 0.0 && run.frames.range().is_none() {
+        anyhow::bail!("--shutter blurs an animation's frames by its motion: give --frames START:END too");
+    }
     if let Some(range) = run.frames.range() {
         let every_frame: Vec<PathBuf> =
             range.flat_map(|f| all_outputs.iter().map(move |o| crate::frames::frame_path(o, f))).collect();

@@ -175,3 +175,52 @@ fn camera_dolly(dir: &Path) -> std::path::PathBuf {
     std::fs::write(&path, gltf.to_string()).unwrap();
     path
 }
+
+/// Motion blur by the animation: a frame rendered over the shutter holds, exactly, the sum of its
+/// samples each rendered alone with the scene posed at its own time in the shutter (the film's sums
+/// are exact, so the order does not matter); and it is not any one of those poses.
+#[test]
+fn a_blurred_frame_is_the_sum_of_its_samples_each_posed_at_its_own_time() {
+    init_thread_pools(None);
+    let (scene, mut run) = setup(&common::data("gltf-samples/AnimatedTriangle.gltf"));
+    run.render.spp = 4;
+    let (open, close) = (0.1f32, 0.35f32);
+    let mut blurred = Renderer::new(scene.clone(), &run).unwrap();
+    blurred.run_over_shutter((open, close), None, |_| {}).unwrap();
+    let pixels = (24 * 24) as u32;
+    let mut sums = vec![([0i128; 3], 0u32); pixels as usize];
+    for k in 0..4u32 {
+        let time = open + (k as f32 + 0.5) / 4.0 * (close - open);
+        let mut one = Renderer::new(scene.clone(), &run).unwrap();
+        one.set_time(time).unwrap();
+        one.set_samples(k..k + 1).unwrap();
+        one.run(None, |_| {});
+        for (pixel, sum) in sums.iter_mut().enumerate() {
+            let (s, n) = one.film().sums(pixel as u32);
+            for c in 0..3 {
+                sum.0[c] += s[c];
+            }
+            sum.1 += n;
+        }
+    }
+    for (pixel, sum) in sums.iter().enumerate() {
+        assert_eq!(blurred.film().sums(pixel as u32), *sum, "pixel {pixel}");
+    }
+    let mut sharp = Renderer::new(scene.clone(), &run).unwrap();
+    sharp.set_time(0.5 * (open + close)).unwrap();
+    sharp.run(None, |_| {});
+    assert_ne!(bits(&blurred.image()), bits(&sharp.image()), "the blur is the middle pose");
+}
+
+/// Integrators that trace something once a render would see one pose of the shutter: refused.
+#[test]
+fn the_shutter_is_refused_where_a_render_traces_its_light_once() {
+    init_thread_pools(None);
+    let (scene, mut run) = setup(&common::data("gltf-samples/AnimatedTriangle.gltf"));
+    for kind in [IntegratorKind::Pm, IntegratorKind::Ppm] {
+        run.render.integrator = kind;
+        let mut renderer = Renderer::new(scene.clone(), &run).unwrap();
+        let message = renderer.run_over_shutter((0.0, 0.1), None, |_| {}).unwrap_err().to_string();
+        assert!(message.contains(renderer.integrator().name()) && message.contains("once"), "{message}");
+    }
+}

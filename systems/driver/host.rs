@@ -3,6 +3,7 @@
 
 use super::Renderer;
 use crate::integrators;
+use crate::report::Report;
 use crate::resources::{
     AdaptiveSampling, CameraResource, FilmResource, PhotonStats, RenderStats, SceneFeatures, SceneResource,
 };
@@ -118,7 +119,7 @@ impl Renderer {
     pub fn move_node(&mut self, node: &str, m: glam::Mat4) -> Result<FrameUpdate> {
         let start = Instant::now();
         let changed = self.frames_mut()?.move_node(node, m)?;
-        self.follow_frame(&changed, start.elapsed().as_secs_f64(), false)
+        self.follow_frame(&changed, start.elapsed().as_secs_f64(), false, true)
     }
 
     /// Pose the file's animations at `time` (seconds: meshes, the file's camera, lights) and start
@@ -127,12 +128,69 @@ impl Renderer {
     pub fn set_time(&mut self, time: f32) -> Result<FrameUpdate> {
         let start = Instant::now();
         let changed = self.frames_mut()?.set_time(time)?;
-        let camera = self
-            .frames
-            .as_ref()
-            .and_then(|f| f.scene().animation.as_ref())
-            .is_some_and(|a| a.camera.is_some());
-        self.follow_frame(&changed, start.elapsed().as_secs_f64(), camera)
+        let camera = self.animated_camera();
+        self.follow_frame(&changed, start.elapsed().as_secs_f64(), camera, true)
+    }
+
+    /// Render the frame over the shutter `[open, close]` (seconds of the file's animation): unit k
+    /// of n (a sample per pixel, or a pass) traced with the scene posed at open + (k + ½)/n·(close −
+    /// open), the film kept across the poses. This is accumulation-buffer motion blur with one time
+    /// per unit, stratified over the shutter: the meshes, camera and lights move as the animation
+    /// moves them (rotations too), each pose costing a dynamic-set rebuild. Refused for integrators
+    /// that trace something once a render (`pm`'s photon maps, `ppm`'s visible points): they would
+    /// see one pose only.
+    pub fn run_over_shutter(
+        &mut self,
+        (open, close): (f32, f32),
+        time_limit: Option<f64>,
+        mut on_step: impl FnMut(&Renderer),
+    ) -> Result<Report> {
+        if !(open.is_finite() && close.is_finite() && open <= close) {
+            return Err(Error::Setting {
+                name: "shutter".into(),
+                problem: format!("[{open}, {close}] must be finite with open <= close"),
+            });
+        }
+        if let Some(phase) = self.plan.phases.iter().find(|p| {
+            matches!(p.when, crate::plan::When::FirstPassOfProcess | crate::plan::When::RenderStart)
+        }) {
+            return Err(Error::Setting {
+                name: "shutter".into(),
+                problem: format!(
+                    "{} traces its {} phase once a render, so it would see one pose of the shutter: use pt, sppm or vcm",
+                    self.integrator.name(),
+                    phase.name
+                ),
+            });
+        }
+        self.frames_mut()?;
+        let start = Instant::now();
+        let target = self.target;
+        let units = target.saturating_sub(self.done).max(1);
+        let first = self.done;
+        let mut report = self.report();
+        while self.done < target && !self.stopped {
+            let k = self.done - first;
+            let time = open + (k as f32 + 0.5) / units as f32 * (close - open);
+            let changed = self.frames_mut()?.set_time(time)?;
+            let camera = self.animated_camera();
+            self.follow_frame(&changed, 0.0, camera, false)?;
+            self.set_target(self.done + 1);
+            let left = time_limit.map(|limit| limit - start.elapsed().as_secs_f64());
+            if left.is_some_and(|l| l <= 0.0) {
+                break;
+            }
+            report = self.run(left, &mut on_step);
+            if report.stopped_by.is_some() {
+                break;
+            }
+        }
+        self.target = target;
+        Ok(report)
+    }
+
+    fn animated_camera(&self) -> bool {
+        self.frames.as_ref().and_then(|f| f.scene().animation.as_ref()).is_some_and(|a| a.camera.is_some())
     }
 
     /// The animation's length in seconds (its last keyframe); 0 for a scene without one.
@@ -222,8 +280,15 @@ impl Renderer {
     }
 
     /// The World follows the frame the scene now stands at, its meshes `changed` moved: the BVHs,
-    /// the lights, the camera when `camera` (the file's moved), and the image started over.
-    fn follow_frame(&mut self, changed: &[usize], pose_seconds: f64, camera: bool) -> Result<FrameUpdate> {
+    /// the lights, the camera when `camera` (the file's moved), and the image started over when
+    /// `restart` (else the film goes on accumulating: a pose within the shutter).
+    fn follow_frame(
+        &mut self,
+        changed: &[usize],
+        pose_seconds: f64,
+        camera: bool,
+        restart: bool,
+    ) -> Result<FrameUpdate> {
         let frames = self.frames.as_ref().expect("called with frames");
         let scene = frames.scene();
         (self.integrator.check)(scene, &self.run)?;
@@ -256,7 +321,9 @@ impl Renderer {
             update.camera_seconds = start.elapsed().as_secs_f64();
         }
         // What light does is the same when only the camera moved.
-        self.restart_frame(!geometry_changed);
+        if restart {
+            self.restart_frame(!geometry_changed);
+        }
         update.photons_kept = self.light_kept;
         Ok(update)
     }

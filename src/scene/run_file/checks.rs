@@ -13,6 +13,9 @@ impl RunFile {
         if !(frames.fps > 0.0 && frames.fps.is_finite()) {
             return Err(format!("frames.fps is {}, must be finite and > 0", frames.fps));
         }
+        if !(frames.shutter >= 0.0 && frames.shutter.is_finite()) {
+            return Err(format!("frames.shutter is {}, must be finite and >= 0 (in frames)", frames.shutter));
+        }
         if let Some(end) = frames.end
             && end <= frames.start
         {

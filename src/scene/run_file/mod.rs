@@ -117,15 +117,24 @@ pub struct FrameSettings {
     pub end: Option<u32>,
     /// Frames per second.
     pub fps: f32,
+    /// How long the shutter is open, in frames, centred on the frame's time (0.5: a 180° shutter;
+    /// 0: no motion blur): each frame is blurred by the animation over it.
+    pub shutter: f32,
 }
 
 impl Default for FrameSettings {
     fn default() -> Self {
-        Self { start: 0, end: None, fps: 24.0 }
+        Self { start: 0, end: None, fps: 24.0, shutter: 0.0 }
     }
 }
 
 impl FrameSettings {
+    /// The shutter interval of frame `frame`, in seconds of the animation; `None` without blur.
+    pub fn shutter_of(&self, frame: u32) -> Option<(f32, f32)> {
+        let (centre, half) = (frame as f32 / self.fps, 0.5 * self.shutter / self.fps);
+        (self.shutter > 0.0).then_some((centre - half, centre + half))
+    }
+
     /// The frames to render, when an animation is asked for.
     pub fn range(&self) -> Option<std::ops::Range<u32>> {
         self.end.map(|end| self.start..end)
