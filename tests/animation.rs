@@ -224,3 +224,59 @@ fn the_shutter_is_refused_where_a_render_traces_its_light_once() {
         assert!(message.contains(renderer.integrator().name()) && message.contains("once"), "{message}");
     }
 }
+
+fn caustica(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_caustica")).args(args).output().expect("caustica runs")
+}
+
+/// The command renders an animation's frames to a numbered pattern and says where each frame's
+/// time went; what cannot be played is refused before anything is written.
+#[test]
+fn the_command_renders_frames_and_refuses_what_it_cannot_play() {
+    let dir = tempfile::tempdir().unwrap();
+    let animated = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-animated.gltf");
+    let pattern = dir.path().join("f-##.png");
+    let args = ["render", animated.to_str().unwrap(), "--frames", "2:5", "--fps", "4", "--spp", "1"];
+    let out = caustica(
+        &[&args[..], &["--width", "16", "--height", "16", "-o", pattern.to_str().unwrap()]].concat(),
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    for frame in 2..5 {
+        assert!(dir.path().join(format!("f-0{frame}.png")).exists(), "frame {frame}: {stdout}");
+        assert!(stdout.contains(&format!("frame     {frame}  t {:.3} s", frame as f32 / 4.0)), "{stdout}");
+    }
+    assert!(!dir.path().join("f-05.png").exists() && !dir.path().join("f-01.png").exists());
+    assert!(stdout.contains("frames      3 of 3") && stdout.contains("BVH"), "{stdout}");
+
+    let still = common::data("cornell-box.gltf");
+    let refusals: [(&[&str], &str); 4] = [
+        (&["render", still.to_str().unwrap(), "--frames", "0:2"], "no animation"),
+        (&["render", animated.to_str().unwrap(), "--frames", "5:2"], "END must be after START"),
+        (&["render", animated.to_str().unwrap(), "--shutter", "0.5"], "--frames"),
+        (
+            &[
+                "render",
+                animated.to_str().unwrap(),
+                "--frames",
+                "0:2",
+                "--shutter",
+                "0.5",
+                "--integrator",
+                "pm",
+            ],
+            "once",
+        ),
+    ];
+    for (args, needle) in refusals {
+        let out_file = dir.path().join("refused-#.png");
+        let out = caustica(
+            &[args, &["-q", "--spp", "1", "--width", "8", "--height", "8", "-o", out_file.to_str().unwrap()]]
+                .concat(),
+        );
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && stderr.contains(needle), "{args:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{stderr}");
+        assert!(!dir.path().join("refused-0.png").exists(), "{args:?} wrote a frame");
+    }
+}
