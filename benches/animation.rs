@@ -1,18 +1,20 @@
 //! The cost of a frame outside sampling on a big scene with one moving object: scenes/dense-mesh.gltf
 //! (1.96 M triangles; `python3 scenes/make_dense_mesh.py` writes it) with its light moving, a
-//! 16-spp 256² `pt` frame beside it. Three ways to follow a move, side by side in one run:
-//! - rebuild: every BVH and the lights built anew from the moved scene (`Renderer::replace_scene`);
+//! 16-spp 256² `pt` frame beside it. The three ways to follow a move (`BvhUpdate`), side by side in
+//! one run, each with the render time of its frames (that its trees trace as fast):
 //! - two-level: the moving meshes in a dynamic set of their own, rebuilt alone, the static set's
-//!   tree kept (`Renderer::move_node` once the node has moved);
-//! and the render time of the frame with and without a dynamic set (that tracing two trees costs
-//! nothing measurable). Run: `cargo bench --bench animation`.
+//!   tree kept (the default);
+//! - refit: one tree, the moved triangles written in and every box recomputed;
+//! - rebuild: every BVH built anew.
+//!
+//! Run: `cargo bench --bench animation`.
 
 use caustica::Renderer;
 use caustica::driver::init_thread_pools;
+use caustica::render_scene::BvhUpdate;
 use caustica::scene::load;
 use glam::{Mat4, Vec3};
 use std::path::Path;
-use std::time::Instant;
 
 fn main() {
     init_thread_pools(None);
@@ -26,55 +28,54 @@ fn main() {
     (run.film.width, run.film.height) = (Some(256), Some(256));
     let triangles: usize = scene.meshes.iter().map(|m| m.indices.len()).sum();
     println!("scene {} ({triangles} triangles), moving node 'light', pt 16 spp 256x256", path.display());
-    let mut fixed = Renderer::new(scene.clone(), &run).expect("prepares");
-    let mut moving = Renderer::movable(scene.clone(), &run).expect("prepares");
-    // The first move puts the light in the dynamic set (a whole build); the frames after it are timed.
-    moving.move_node("light", Mat4::IDENTITY).expect("moves");
-    let frames = 8;
-    let (mut rebuild, mut two_level, mut render_fixed, mut render_moving) = (0.0, 0.0, 0.0, 0.0);
-    let mut whole_builds = 0;
-    let mut parts = [0.0f64; 3];
-    for frame in 0..frames {
-        let m = Mat4::from_translation(Vec3::new(0.02 * frame as f32, 0.0, 0.0));
-        let update = moving.move_node("light", m).expect("moves");
-        two_level += update.pose_seconds + update.scene.geometry_seconds + update.scene.lights_seconds;
-        whole_builds += update.scene.whole_build as u32;
-        parts[0] += update.pose_seconds;
-        parts[1] += update.scene.geometry_seconds;
-        parts[2] += update.scene.lights_seconds;
-        let mut moved = scene.clone();
-        for mesh in moved.meshes.iter_mut().filter(|mesh| mesh.is_of_node("light")) {
-            mesh.transform(m);
+    let ways = [BvhUpdate::TwoLevel, BvhUpdate::Refit, BvhUpdate::Rebuild];
+    let mut renderers: Vec<Renderer> = ways
+        .iter()
+        .map(|&how| {
+            let mut renderer = Renderer::movable(scene.clone(), &run).expect("prepares");
+            renderer.set_bvh_update(how).expect("sets");
+            // The first move may build anew (the light joins the dynamic set); the frames after it count.
+            renderer.move_node("light", Mat4::IDENTITY).expect("moves");
+            renderer
+        })
+        .collect();
+    let frames = 12;
+    // Per way: pose, BVH, lights, render (seconds, summed over the frames), whole builds.
+    let mut totals = vec![([0.0f64; 4], 0u32); ways.len()];
+    for frame in 1..=frames {
+        let m = Mat4::from_translation(Vec3::new(0.01 * frame as f32, 0.0, -0.01 * frame as f32));
+        // Interleaved, each way first in turn, so that the machine's drift falls on every way alike.
+        let mut order: Vec<usize> = (0..ways.len()).collect();
+        order.rotate_left(frame % ways.len());
+        for w in order {
+            let (renderer, (sums, builds)) = (&mut renderers[w], &mut totals[w]);
+            let update = renderer.move_node("light", m).expect("moves");
+            sums[0] += update.pose_seconds;
+            sums[1] += update.scene.geometry_seconds;
+            sums[2] += update.scene.lights_seconds;
+            sums[3] += renderer.run(None, |_| {}).seconds;
+            *builds += update.scene.whole_build as u32;
         }
-        let start = Instant::now();
-        fixed.replace_scene(&moved).expect("replaces");
-        rebuild += start.elapsed().as_secs_f64();
-        render_fixed += fixed.run(None, |_| {}).seconds;
-        render_moving += moving.run(None, |_| {}).seconds;
     }
     let n = frames as f64;
-    let (render, fixed_render) = (render_moving / n, render_fixed / n);
-    println!("per frame, mean of {frames}:");
-    println!("  render, one static set        {:8.1} ms", 1e3 * fixed_render);
+    println!("per frame, mean of {frames} frames (ms; % of the two-level frame's render):");
     println!(
-        "  render, static + dynamic sets {:8.1} ms ({:+.1}%)",
-        1e3 * render,
-        100.0 * (render / fixed_render - 1.0)
+        "  {:<10} {:>8} {:>10} {:>8} {:>10} {:>14}",
+        "way", "pose", "BVH", "lights", "render", "outside/render"
     );
-    println!(
-        "  rebuild everything            {:8.1} ms ({:.1}% of the frame)",
-        1e3 * rebuild / n,
-        100.0 * rebuild / n / fixed_render
-    );
-    println!(
-        "  two-level (dynamic set alone) {:8.3} ms ({:.3}% of the frame; {whole_builds} whole builds)",
-        1e3 * two_level / n,
-        100.0 * two_level / n / render
-    );
-    println!(
-        "    of which pose {:.3} ms, dynamic BVH {:.3} ms, lights {:.3} ms",
-        1e3 * parts[0] / n,
-        1e3 * parts[1] / n,
-        1e3 * parts[2] / n
-    );
+    let base_render = totals[0].0[3] / n;
+    for (how, (sums, builds)) in ways.iter().zip(&totals) {
+        let ms = |s: f64| 1e3 * s / n;
+        let outside = (sums[0] + sums[1] + sums[2]) / n;
+        println!(
+            "  {:<10} {:>8.3} {:>10.3} {:>8.3} {:>10.1} {:>13.2}%  ({builds} whole builds; render {:+.1}%)",
+            format!("{how:?}"),
+            ms(sums[0]),
+            ms(sums[1]),
+            ms(sums[2]),
+            ms(sums[3]),
+            100.0 * outside / (sums[3] / n),
+            100.0 * (sums[3] / n / base_render - 1.0)
+        );
+    }
 }

@@ -22,6 +22,26 @@ pub struct RenderScene {
     pub textures: Vec<Texture>,
 }
 
+/// How the BVHs follow meshes that moved between frames ([`RenderScene::update`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum BvhUpdate {
+    /// The meshes frames move are in a set of their own, rebuilt alone; the static set's tree is
+    /// kept (the default: the cheapest, and the trees stay as good as built).
+    #[default]
+    TwoLevel,
+    /// One set; the moved triangles written into it and every box refit, the tree's shape kept.
+    Refit,
+    /// One set, built anew.
+    Rebuild,
+}
+
+impl BvhUpdate {
+    /// The meshes that go to the dynamic set, of those a frame can move.
+    pub fn partition(self, dynamic: &[bool]) -> &[bool] {
+        if self == Self::TwoLevel { dynamic } else { &[] }
+    }
+}
+
 /// What following a frame cost ([`RenderScene::update`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct SceneUpdate {
@@ -38,6 +58,13 @@ impl RenderScene {
     /// rebuilds after editing its `Scene`.
     pub fn build(scene: &Scene, light_selection: LightSelection) -> Self {
         let mut geometry = Geometry::build(scene);
+        let lights = scene_lights(&mut geometry, scene, light_selection);
+        Self { geometry, lights, materials: scene.materials.clone(), textures: scene.textures.clone() }
+    }
+
+    /// As [`RenderScene::build`], the meshes `dynamic` marks in the geometry's dynamic set.
+    pub fn build_dynamic(scene: &Scene, light_selection: LightSelection, dynamic: &[bool]) -> Self {
+        let mut geometry = Geometry::build_dynamic(scene, dynamic);
         let lights = scene_lights(&mut geometry, scene, light_selection);
         Self { geometry, lights, materials: scene.materials.clone(), textures: scene.textures.clone() }
     }
@@ -66,16 +93,21 @@ impl RenderScene {
         changed: &[usize],
         dynamic: &[bool],
         light_selection: LightSelection,
+        how: BvhUpdate,
     ) -> SceneUpdate {
         let start = std::time::Instant::now();
-        let refit = self.geometry.update_dynamic(scene, changed);
-        if !refit {
-            self.geometry = Geometry::build_dynamic(scene, dynamic);
+        let kept = match how {
+            BvhUpdate::TwoLevel => self.geometry.update_dynamic(scene, changed),
+            BvhUpdate::Refit => self.geometry.refit(scene, changed),
+            BvhUpdate::Rebuild => false,
+        };
+        if !kept {
+            self.geometry = Geometry::build_dynamic(scene, how.partition(dynamic));
         }
         let geometry_seconds = start.elapsed().as_secs_f64();
         let start = std::time::Instant::now();
         self.lights = lights_of(&mut self.geometry, scene, light_selection, false);
-        SceneUpdate { geometry_seconds, lights_seconds: start.elapsed().as_secs_f64(), whole_build: !refit }
+        SceneUpdate { geometry_seconds, lights_seconds: start.elapsed().as_secs_f64(), whole_build: !kept }
     }
 
     /// Resolve the material at a hit: textures looked up, vertex colour applied.

@@ -66,7 +66,8 @@ impl Lights {
     ) -> Self {
         let mut lights = Vec::new();
         let mut ids = Vec::new();
-        for (prim, shape, info, motion) in geometry.primitives() {
+        let emits = |material: u32| materials[material as usize].emission.max_element() > 0.0;
+        for (prim, shape, info, motion) in geometry.primitives_of(emits) {
             let le = materials[info.material as usize].emission;
             if le.max_element() <= 0.0 {
                 continue;

@@ -10,7 +10,7 @@ use crate::resources::{
 use caustica_core::error::{Error, Result};
 use caustica_core::film::accumulator::PartInfo;
 use caustica_core::render_scene::RenderScene;
-use caustica_core::render_scene::SceneUpdate;
+use caustica_core::render_scene::{BvhUpdate, SceneUpdate};
 use caustica_core::scene::pose::FrameScene;
 use caustica_core::scene::{RunFile, Scene};
 use std::sync::atomic::Ordering;
@@ -271,6 +271,26 @@ impl Renderer {
         self.light_kept
     }
 
+    /// Follow moved meshes by `how` from here on (the default is [`BvhUpdate::TwoLevel`]; the others
+    /// are there to be measured against it: `benches/animation.rs`); the BVHs are built anew for it.
+    pub fn set_bvh_update(&mut self, how: BvhUpdate) -> Result<()> {
+        self.bvh_update = how;
+        let frames = self.frames.as_ref().ok_or_else(|| Error::Setting {
+            name: "bvh update".into(),
+            problem: "this renderer does not keep its scene for frames: make it with Renderer::movable"
+                .into(),
+        })?;
+        let render_scene = RenderScene::build_dynamic(
+            frames.scene(),
+            self.run.render.light_selection,
+            how.partition(&frames.dynamic),
+        );
+        self.check_features(&render_scene)?;
+        self.world.insert_resource(SceneResource(render_scene));
+        self.restart();
+        Ok(())
+    }
+
     fn frames_mut(&mut self) -> Result<&mut FrameScene> {
         self.frames.as_mut().ok_or_else(|| Error::Setting {
             name: "node".into(),
@@ -297,7 +317,8 @@ impl Renderer {
         let geometry_changed = !changed.is_empty() || !scene.punctual_lights.is_empty();
         if geometry_changed {
             let mut render_scene = self.world.remove_resource::<SceneResource>().expect("a scene").0;
-            update.scene = render_scene.update(scene, changed, &frames.dynamic, light_selection);
+            update.scene =
+                render_scene.update(scene, changed, &frames.dynamic, light_selection, self.bvh_update);
             if let Err(e) = self.check_features(&render_scene) {
                 self.world.insert_resource(SceneResource(render_scene));
                 return Err(e);

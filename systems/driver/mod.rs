@@ -85,6 +85,8 @@ pub struct Renderer {
     /// This frame reuses what an earlier one traced from the lights (`pm`'s photon maps: only the
     /// camera moved).
     light_kept: bool,
+    /// How the BVHs follow moved meshes.
+    bvh_update: caustica_core::render_scene::BvhUpdate,
 }
 
 impl Renderer {
@@ -144,6 +146,7 @@ impl Renderer {
             pass_end_requested: AtomicBool::new(false),
             spp_image: run.film.aovs.contains(&caustica_core::film::aov::Aov::Spp),
             light_kept: false,
+            bvh_update: Default::default(),
         })
     }
 

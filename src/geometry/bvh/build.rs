@@ -19,6 +19,7 @@ pub(super) struct SetBuilder {
     pub(super) shapes: Vec<PrimitiveShape>,
     info: Vec<PrimitiveInfo>,
     motion: Vec<Vec3>,
+    material_runs: Vec<(u32, u32)>,
 }
 
 impl SetBuilder {
@@ -29,6 +30,9 @@ impl SetBuilder {
         motion: Option<Vec3>,
         cutout: u32,
     ) {
+        if self.material_runs.last().is_none_or(|&(material, _)| material != info.material) {
+            self.material_runs.push((info.material, self.shapes.len() as u32));
+        }
         self.cutout.push(cutout);
         if let Some(m) = motion {
             self.motion.push(m);
@@ -100,6 +104,7 @@ impl SetBuilder {
             info: self.info,
             motion: self.motion,
             cutout,
+            material_runs: self.material_runs,
         }
     }
 }

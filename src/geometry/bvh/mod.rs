@@ -12,6 +12,7 @@
 
 mod build;
 mod query;
+mod refit;
 
 use super::Ray;
 use super::alpha::{Cutouts, NO_CUTOUT};
@@ -90,6 +91,9 @@ pub struct PrimitiveSet {
     pub motion: Vec<Vec3>,
     /// Alpha cut-out per primitive (`NO_CUTOUT`: opaque); empty when the set has none.
     pub cutout: Vec<u32>,
+    /// Runs of primitives of one material: the material and the run's first primitive id, so that
+    /// finding a material's primitives (the emitters) skips whole meshes.
+    material_runs: Vec<(u32, u32)>,
 }
 
 /// A ray's closest hit: which primitive, where on it.
@@ -288,6 +292,25 @@ impl Geometry {
             (0..set.shapes.len()).map(move |i| {
                 let motion = set.motion.get(i).copied().unwrap_or(Vec3::ZERO);
                 (i as u32 | bits, &set.shapes[i], &set.info[i], motion)
+            })
+        })
+    }
+
+    /// As [`Geometry::primitives`], only those whose material `wanted` takes (the emitters), in the
+    /// same order; whole runs of another material are skipped unread.
+    pub fn primitives_of(
+        &self,
+        wanted: impl Fn(u32) -> bool + Copy,
+    ) -> impl Iterator<Item = (u32, &PrimitiveShape, &PrimitiveInfo, Vec3)> {
+        self.sets().flat_map(move |(set, bits)| {
+            let runs = &set.material_runs;
+            (0..runs.len()).filter(move |&r| wanted(runs[r].0)).flat_map(move |r| {
+                let end = runs.get(r + 1).map_or(set.shapes.len() as u32, |next| next.1);
+                (runs[r].1..end).map(move |i| {
+                    let i = i as usize;
+                    let motion = set.motion.get(i).copied().unwrap_or(Vec3::ZERO);
+                    (i as u32 | bits, &set.shapes[i], &set.info[i], motion)
+                })
             })
         })
     }

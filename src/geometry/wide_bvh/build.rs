@@ -2,7 +2,8 @@
 //! surface area heuristic, and its flattening into nodes of eight children.
 
 use super::{
-    COUNT_SHIFT, DEEP_STACK, LEAF, MAX_ITEMS, MAX_LEAF_ITEMS, Node, SHALLOW_STACK, StackSize, WIDTH, WideBvh,
+    COUNT_SHIFT, DEEP_STACK, LEAF, MAX_ITEMS, MAX_LEAF_ITEMS, Node, SHALLOW_STACK, StackSize, TINY_STACK,
+    WIDTH, WideBvh,
 };
 use obvhs::BvhBuildParams;
 use obvhs::aabb::Aabb;
@@ -143,7 +144,9 @@ impl WideBvh {
         }
         // A node pushes at most WIDTH − 1 children, and the path down holds one node per level.
         let needed = (max_depth as usize) * (WIDTH - 1) + 1;
-        let stack = if needed <= SHALLOW_STACK {
+        let stack = if needed <= TINY_STACK {
+            StackSize::Tiny
+        } else if needed <= SHALLOW_STACK {
             StackSize::Shallow
         } else if needed <= DEEP_STACK {
             StackSize::Deep

@@ -38,6 +38,10 @@ pub const MAX_ITEMS: u32 = FIRST_MASK;
 /// deep ones (a 2 M-triangle mesh: 11); a deeper tree traverses with a heap stack. The array is
 /// zeroed for every ray, so it is no larger than the tree needs.
 const SHALLOW_STACK: usize = 64;
+/// The stack of trees of one or two levels (the Cornell box's, a moving object's dynamic set): the
+/// zeroing of a larger array is most of the traversal of such a tree (a dynamic set of two
+/// triangles cost 2% of a 2 M-triangle scene's frame with the 64-entry stack).
+const TINY_STACK: usize = 16;
 const DEEP_STACK: usize = 256;
 /// pbrt-v4's slack on a box's exit distance, so that rounding never culls a box the ray enters.
 const EXIT_SLACK: f32 = 1.0 + 2.0 * gamma(3);
@@ -63,6 +67,16 @@ impl Node {
         ],
         children: [u32::MAX; WIDTH],
     };
+
+    /// The box around all its children (empty lanes hold an empty box, which changes nothing).
+    fn bounds(&self) -> ([f32; 3], [f32; 3]) {
+        let min =
+            std::array::from_fn(|a| self.bounds[a].to_array().into_iter().fold(f32::INFINITY, f32::min));
+        let max = std::array::from_fn(|a| {
+            self.bounds[3 + a].to_array().into_iter().fold(f32::NEG_INFINITY, f32::max)
+        });
+        (min, max)
+    }
 
     /// Which children the ray enters before `t_max` (a bit each), and where.
     #[inline(always)]
@@ -128,6 +142,7 @@ pub struct WideBvh {
 /// Which traversal stack a tree needs.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 enum StackSize {
+    Tiny,
     #[default]
     Shallow,
     Deep,
@@ -145,6 +160,31 @@ impl WideBvh {
         self.nodes.len() * size_of::<Node>()
     }
 
+    /// Recompute every box from the boxes of the leaves (`leaf_box(first, count)`, as min and max),
+    /// the tree's shape kept: a refit after its items moved. Children come after their parent in
+    /// the node table, so one pass from the end sees every child's box before its parent's.
+    pub fn refit(&mut self, leaf_box: impl Fn(u32, u32) -> ([f32; 3], [f32; 3])) {
+        for n in (0..self.nodes.len()).rev() {
+            for lane in 0..WIDTH {
+                let code = self.nodes[n].children[lane];
+                if code == u32::MAX {
+                    continue;
+                }
+                let (min, max) = if code & LEAF != 0 {
+                    let (first, count) = leaf_range(code);
+                    leaf_box(first, count)
+                } else {
+                    self.nodes[code as usize].bounds()
+                };
+                let node = &mut self.nodes[n];
+                for a in 0..3 {
+                    node.bounds[a].as_mut_array()[lane] = min[a];
+                    node.bounds[3 + a].as_mut_array()[lane] = max[a];
+                }
+            }
+        }
+    }
+
     /// The nearest hit before `t_max`: `leaf(first, count, t_max)` tests a leaf's items and returns
     /// the new closest distance (`t_max` when nothing nearer was hit). Returns the closest distance.
     #[inline(always)]
@@ -159,6 +199,9 @@ impl WideBvh {
             return t_max;
         }
         match self.stack {
+            StackSize::Tiny => {
+                closest_with(self, ray, t_max, counts, &mut ArrayStack::<TINY_STACK>::new(), leaf)
+            }
             StackSize::Shallow => {
                 closest_with(self, ray, t_max, counts, &mut ArrayStack::<SHALLOW_STACK>::new(), leaf)
             }
@@ -183,6 +226,7 @@ impl WideBvh {
             return false;
         }
         match self.stack {
+            StackSize::Tiny => any_with(self, ray, t_max, counts, &mut ArrayStack::<TINY_STACK>::new(), leaf),
             StackSize::Shallow => {
                 any_with(self, ray, t_max, counts, &mut ArrayStack::<SHALLOW_STACK>::new(), leaf)
             }
