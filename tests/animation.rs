@@ -197,8 +197,8 @@ fn a_blurred_frame_is_the_sum_of_its_samples_each_posed_at_its_own_time() {
         one.run(None, |_| {});
         for (pixel, sum) in sums.iter_mut().enumerate() {
             let (s, n) = one.film().sums(pixel as u32);
-            for c in 0..3 {
-                sum.0[c] += s[c];
+            for (total, part) in sum.0.iter_mut().zip(s) {
+                *total += part;
             }
             sum.1 += n;
         }
@@ -278,5 +278,38 @@ fn the_command_renders_frames_and_refuses_what_it_cannot_play() {
         assert!(!out.status.success() && stderr.contains(needle), "{args:?}: {stderr}");
         assert!(!stderr.contains("panicked"), "{stderr}");
         assert!(!dir.path().join("refused-0.png").exists(), "{args:?} wrote a frame");
+    }
+}
+
+/// A malformed channel is refused with an error naming the file and the channel (the gltf crate's
+/// validation does not check a channel's target, and it unwraps it).
+#[test]
+fn malformed_channels_are_refused_naming_the_file_and_the_channel() {
+    let file = common::data("gltf-samples/BoxAnimated.gltf");
+    let original: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let cases: [(&str, serde_json::Value, &str); 5] = [
+        ("/animations/0/channels/0/target/node", 99.into(), "animation #0 channel 0 targets node #99"),
+        (
+            "/animations/0/channels/0/target/path",
+            "skew".into(),
+            "animation #0 channel 0 targets a path other",
+        ),
+        (
+            "/animations/1/samplers/0/interpolation",
+            "CUBICSPLINE".into(),
+            "of CubicSpline interpolation (it needs",
+        ),
+        ("/animations/1/samplers/0/output", 8.into(), "animation #1 channel 0"),
+        ("/animations/0/samplers/0/output", 9.into(), "animation #0 channel 0"),
+    ];
+    for (pointer, value, expected) in cases {
+        let mut gltf = original.clone();
+        *gltf.pointer_mut(pointer).unwrap() = value;
+        let path = dir.path().join("broken.gltf");
+        std::fs::write(&path, gltf.to_string()).unwrap();
+        let error = load(&path).map(|_| ()).expect_err(pointer).to_string();
+        assert!(error.contains(expected), "{pointer}: {error}");
+        assert!(error.contains("broken.gltf"), "{pointer}: {error}");
     }
 }

@@ -276,18 +276,21 @@ fn box_vertex_colors_are_read() {
 }
 
 #[test]
-fn animated_skinned_and_morphed_samples_load_in_rest_pose() {
-    for name in [
-        "AnimatedTriangle.gltf",
-        "SimpleSkin.gltf",
-        "SimpleMorph.gltf",
-        "BoxAnimated.gltf",
-        "RiggedSimple.gltf",
+fn animated_samples_load_their_channels_and_rigged_ones_their_rest_pose_with_a_warning() {
+    for name in ["AnimatedTriangle.gltf", "BoxAnimated.gltf"] {
+        let (scene, _) = scene::load(&sample(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let animation = scene.animation.as_ref().unwrap_or_else(|| panic!("{name}: animated"));
+        assert!(animation.duration > 0.0, "{name}: {}", animation.duration);
+    }
+    for (name, warning) in [
+        ("SimpleSkin.gltf", "loaded in their bind pose"),
+        ("RiggedSimple.gltf", "loaded in their bind pose"),
+        ("SimpleMorph.gltf", "default weights"),
     ] {
         let (result, logs) = common::capture_logs(|| scene::load(&sample(name)));
         let (scene, _) = result.unwrap_or_else(|e| panic!("{name}: {e}"));
         assert!(!scene.meshes.is_empty(), "{name}: has meshes");
-        assert!(logs.contains("rest pose") || logs.contains("default weights"), "{name}: warns: {logs}");
+        assert!(logs.contains(warning), "{name}: warns: {logs}");
     }
     // SimpleMorph's rest pose is the base plus 0.5 × each of its two targets.
     let scene = load_gltf(&sample("SimpleMorph.gltf")).expect("SimpleMorph loads");
@@ -1320,7 +1323,7 @@ fn cameras_are_picked_by_camera_or_node_name() {
 }
 
 #[test]
-fn skins_animations_and_morph_targets_are_warned_about_once_each() {
+fn skins_and_morph_targets_are_warned_about_once_each_naming_them() {
     let mut bin = Bin::default();
     let positions = bin.f32(&UNIT_TRIANGLE);
     let offsets = bin.f32(&[0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0]);
@@ -1337,12 +1340,13 @@ fn skins_animations_and_morph_targets_are_warned_about_once_each() {
         unit_triangle_accessor(0, 0)
     );
     let animation = r#"{"channels":[{"sampler":0,"target":{"node":3,"path":"translation"}}],"samplers":[{"input":2,"output":3}]}"#;
+    let wave = r#"{"name":"wave","channels":[{"sampler":0,"target":{"node":4,"path":"weights"}}],"samplers":[{"input":2,"output":2}]}"#;
     let text = format!(
         r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0,1,2,3,4,5,6]}}],
         "nodes":[{{"name":"s0","mesh":0,"skin":0}},{{"name":"s1","mesh":0,"skin":1}},{{"name":"s2","mesh":0,"skin":2}},
             {{"name":"joint"}},{{"name":"morphed","mesh":1}},{{"name":"again","mesh":1}},{{"name":"unweighted","mesh":2}}],
         "skins":[{{"joints":[3]}},{{"joints":[3]}},{{"joints":[3]}}],
-        "animations":[{animation},{animation}],
+        "animations":[{animation},{animation},{wave}],
         "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}}}}]}},
             {{"primitives":[{{"attributes":{{"POSITION":0}},"targets":[{{"POSITION":1}}]}}],"weights":[0.5]}},
             {{"primitives":[{{"attributes":{{"POSITION":0}},"targets":[{{"POSITION":1}}]}}]}}],
@@ -1353,9 +1357,11 @@ fn skins_animations_and_morph_targets_are_warned_about_once_each() {
     let (scene, logs) = common::capture_logs(|| load_gltf(&path).expect("loads"));
     assert_eq!(scene.meshes.len(), 6, "skinned and morphed meshes are kept");
     let lines = |needle: &str| logs.lines().filter(|l| l.contains(needle)).count();
-    assert_eq!(lines("skin(s) ignored"), 1, "one skin warning for three skinned meshes: {logs}");
-    assert!(logs.contains("3 skin(s)"), "{logs}");
-    assert_eq!(lines("animation(s) ignored"), 1, "{logs}");
+    assert_eq!(lines("loaded in their bind pose"), 1, "one skin warning for three skinned meshes: {logs}");
+    assert!(logs.contains("skin #0, skin #1, skin #2 ignored"), "{logs}");
+    assert_eq!(lines("morph-target weight channels ignored"), 1, "{logs}");
+    assert!(logs.contains("animation 'wave' (#2) on node 'morphed' (#4)"), "{logs}");
+    assert!(scene.animation.is_some(), "the joint's translation channels are an animation");
     assert_eq!(lines("morph targets"), 1, "{logs}");
     assert!(logs.contains("3 primitive(s) with morph targets"), "{logs}");
     // The rest pose: the mesh's default weights, none for the mesh without weights.

@@ -4,6 +4,9 @@
 //! Static primitives live in one set. Primitives that move over the shutter live in a second one built
 //! over their swept bounds, and are tested with the ray moved back by the primitive's displacement at
 //! the ray's time; a scene with nothing moving has no second set and pays nothing for motion.
+//! Meshes that frames move (a glTF animation, a host's `move_node`) live in a third, dynamic set whose
+//! tree alone is rebuilt when they move (`build_dynamic`, `update_dynamic`), the still sets' trees
+//! kept; `refit.rs` instead rewrites one set's triangles in place and recomputes its boxes.
 //! Primitive ids are positions in the order the scene lists them (triangles of each mesh, then
 //! spheres), whatever the trees' order.
 //!

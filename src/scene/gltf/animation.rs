@@ -28,7 +28,7 @@ impl Loader<'_> {
                 animation.nodes[child.index()].parent = Some(node.index());
             }
         }
-        let mut weights = 0;
+        let mut weights = Vec::new();
         for clip in self.document.animations() {
             let clip_label = label("animation", clip.name(), clip.index());
             for channel in clip.channels() {
@@ -37,7 +37,8 @@ impl Loader<'_> {
                     gltf::animation::Property::Rotation => Property::Rotation,
                     gltf::animation::Property::Scale => Property::Scale,
                     gltf::animation::Property::MorphTargetWeights => {
-                        weights += 1;
+                        let node = channel.target().node();
+                        weights.push(format!("{clip_label} on {}", label("node", node.name(), node.index())));
                         continue;
                     }
                 };
@@ -56,10 +57,11 @@ impl Loader<'_> {
                 animation.channels.push(read);
             }
         }
-        if weights > 0 {
+        if !weights.is_empty() {
             warn!(
                 file = %self.path.display(),
-                "{weights} morph-target weight channel(s) ignored: morphed meshes keep their default weights"
+                "morph-target weight channels ignored ({}): morphed meshes keep their default weights",
+                weights.join(", ")
             );
         }
         Ok((!animation.channels.is_empty()).then_some(animation))

@@ -37,6 +37,23 @@ pub(super) fn import(
             }
         }
     }
+    // Its validation checks a channel's sampler but not its target, which the gltf crate unwraps.
+    for (a, animation) in json.animations.iter().enumerate() {
+        for (c, channel) in animation.channels.iter().enumerate() {
+            let target = &channel.target;
+            let problem = if target.node.value() >= json.nodes.len() {
+                format!("targets node #{}, but the file has {} nodes", target.node.value(), json.nodes.len())
+            } else if !matches!(target.path, gltf::json::validation::Checked::Valid(_)) {
+                "targets a path other than translation, rotation, scale or weights".to_owned()
+            } else {
+                continue;
+            };
+            return Err(gltf_error(format!(
+                "{} channel {c} {problem}",
+                label("animation", animation.name.as_deref(), a)
+            )));
+        }
+    }
     let document = validate(document.into_json()).map_err(|e| gltf_error(describe(&e)))?;
     let version = &document.as_json().asset.version;
     if !version.starts_with("2.") {

@@ -161,9 +161,13 @@ impl Loader<'_> {
         if !ignored.is_empty() {
             warn!(file = %file, "glTF extensions not supported, ignored: {}", ignored.join(", "));
         }
-        let skins = document.skins().len();
-        if skins > 0 {
-            warn!(file = %file, "{skins} skin(s) ignored: skinned meshes are loaded unskinned, with their node transforms");
+        let skins: Vec<String> = document.skins().map(|s| label("skin", s.name(), s.index())).collect();
+        if !skins.is_empty() {
+            warn!(
+                file = %file,
+                "{} ignored: skinned meshes are loaded in their bind pose, with their node transforms",
+                skins.join(", ")
+            );
         }
     }
 
