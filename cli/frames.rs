@@ -105,7 +105,7 @@ pub fn render_frames(
         );
     }
     let mut renderer = Renderer::new(scene, run).context(format!("preparing {}", scene_path.display()))?;
-    crate::render::watch_for_signals(&renderer);
+    crate::signals::watch_for_signals(&renderer);
     let frames = range.len() as u64;
     let bar = if args.quiet { ProgressBar::hidden() } else { ProgressBar::new(frames) };
     bar.set_style(

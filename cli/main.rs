@@ -24,6 +24,7 @@ mod logging;
 mod profile;
 mod render;
 mod report;
+mod signals;
 
 use anyhow::Result;
 use args::{Cli, Command};
@@ -68,7 +69,7 @@ fn run() -> Result<()> {
             // Flush the trace before judging it.
             drop(_chrome_guard);
             if !finished {
-                std::process::exit(render::INTERRUPTED_EXIT);
+                std::process::exit(signals::INTERRUPTED_EXIT);
             }
             if logging::TRACE_FAILED.load(std::sync::atomic::Ordering::Relaxed) {
                 anyhow::bail!("the Chrome trace could not be written");

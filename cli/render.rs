@@ -25,10 +25,6 @@ fn default_scene() -> PathBuf {
     if here.exists() { here } else { Path::new(env!("CARGO_MANIFEST_DIR")).join(DEFAULT_SCENE) }
 }
 
-/// Exit status of a render that a signal stopped: the image so far was written, but the render is not
-/// what was asked for (128 + SIGINT, as shells report it).
-pub const INTERRUPTED_EXIT: i32 = 130;
-
 /// Render the scene `args` name (or the default one) and write its outputs. Returns whether the render
 /// ran to its end (false: a signal stopped it, and the image so far was written).
 pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>) -> Result<bool> {
@@ -138,7 +134,7 @@ pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>) -> Result<bool
     if profile.is_some() {
         renderer.world.insert_resource(TraceStatistics::default());
     }
-    watch_for_signals(&renderer);
+    crate::signals::watch_for_signals(&renderer);
     let mut display = args.display_server.as_deref().and_then(|address| {
         let report = renderer.report();
         let name = scene_path.file_name().map_or("caustica".into(), |n| n.to_string_lossy().into_owned());
@@ -377,26 +373,6 @@ fn show_progress(bar: &ProgressBar, progress: &caustica::Progress, seconds: f64)
     let rate = progress.done / seconds.max(1e-9);
     bar.set_message(format!("{:.1}{target} {unit}, {rate:.2} {unit}/s", progress.done));
     bar.set_position((progress.done * 100.0) as u64);
-}
-
-/// SIGINT and SIGTERM raise the renderer's interrupt flag: the render stops at its next step and the
-/// image so far is written. A second signal exits at once.
-pub(crate) fn watch_for_signals(renderer: &Renderer) {
-    let flag = renderer.interrupt_flag();
-    let result = ctrlc::set_handler(move || {
-        if flag.swap(true, std::sync::atomic::Ordering::Relaxed) {
-            eprintln!("\nstopped at once: nothing more is written");
-            // A write cut short leaves no partial file beside its output (the previous file stays).
-            caustica::film::partial::remove_all();
-            std::process::exit(INTERRUPTED_EXIT);
-        }
-        eprintln!(
-            "\nstopping: finishing the paths in flight and writing the image so far (again to quit now)"
-        );
-    });
-    if let Err(e) = result {
-        tracing::warn!("cannot watch for Ctrl-C: {e}; an interrupted render will not write its image");
-    }
 }
 
 /// The files a render reads: its outputs must not be any of them.
