@@ -71,6 +71,13 @@ impl Session {
         up: [f32; 3],
         yfov_degrees: Option<f32>,
     ) -> PyResult<()> {
+        if let Some(y) = yfov_degrees
+            && !(y > 0.0 && y < 180.0)
+        {
+            return Err(PyValueError::new_err(format!(
+                "set_camera: yfov_degrees must be in (0, 180), got {y}"
+            )));
+        }
         self.renderer
             .set_camera(eye.into(), target.into(), up.into(), yfov_degrees.map(f32::to_radians))
             .map_err(setting_or_refused)

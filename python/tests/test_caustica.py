@@ -358,6 +358,14 @@ def test_set_camera_moves_the_view_and_refuses_a_degenerate_one():
     assert not np.array_equal(before, session.image())
     with pytest.raises(ValueError, match="eye"):
         session.set_camera(eye=(0.0, 0.0, 0.0), target=(0.0, 0.0, 0.0))
+    # An eye so far away that the distance's square overflows is refused as such, not as a bad up.
+    with pytest.raises(ValueError, match="whose square is finite"):
+        session.set_camera(eye=(1e30, 0.0, 1.0), target=(0.0, 0.0, 0.0))
+    # The field of view is in degrees here, and the message says so.
+    for yfov in (0.0, 180.0, float("nan")):
+        with pytest.raises(ValueError, match=r"yfov_degrees must be in \(0, 180\)"):
+            session.set_camera(eye=(0.0, 0.27, 0.5), target=(0.0, 0.27, 0.0), yfov_degrees=yfov)
+    assert session.done == 1, "a refused camera changes nothing"
 
 
 def test_the_bouncing_block_example_writes_denoised_frames_of_a_moving_block(tmp_path):

@@ -448,10 +448,21 @@ IDENTITY = [[1.0, 0, 0, 0], [0, 1.0, 0, 0], [0, 0, 1.0, 0], [0, 0, 0, 1.0]]
 LIFTED = [[1.0, 0, 0, 0], [0, 1.0, 0, 0.1], [0, 0, 1.0, 0], [0, 0, 0, 1.0]]
 
 
+def _check_move(cases: Cases, case: str, moved, session, done: int):
+    """A move that was taken starts the image over and says what it cost; a refused one changes nothing."""
+    if isinstance(moved, BaseException):
+        cases.check(case, session.done == done, "a refused move changed the image")
+        return
+    cases.check(case, session.done == 0, "the image did not start over")
+    cases.check(case, isinstance(moved, dict) and {"pose", "bvh", "lights"} <= moved.keys()
+                and all(math.isfinite(moved[k]) and moved[k] >= 0 for k in ("pose", "bvh", "lights")),
+                f"the move's cost {moved!r}")
+
+
 def _session_op(cases: Cases, session, case: str, rng: random.Random, world: World, size):
     """One random method call on ``session``, and what must hold after it."""
     done = session.done
-    op = rng.choice(["step", "step", "set_transform", "image", "aovs"])
+    op = rng.choice(["step", "step", "set_transform", "advance", "set_camera", "image", "aovs"])
     hostile = rng.random() < 0.5
     if op == "step":
         label, units = rng.choice(world.adversarial) if hostile else rng.choice([("1", 1), ("2", 2), ("None", None)])
@@ -465,11 +476,21 @@ def _session_op(cases: Cases, session, case: str, rng: random.Random, world: Wor
         matrix = rng.choice(world.adversarial) if hostile else rng.choice([("identity", IDENTITY),
                                                                             ("lifted", LIFTED)])
         case = f"{case}.set_transform({node[0]}, {matrix[0]})"
-        moved = cases.call(case, session.set_transform, node[1], matrix[1])
-        if moved is None:
-            cases.check(case, session.done == 0, "the image did not start over")
+        _check_move(cases, case, cases.call(case, session.set_transform, node[1], matrix[1]), session, done)
+    elif op == "advance":
+        label, time = rng.choice(world.adversarial) if hostile else rng.choice([("0", 0.0), ("0.5", 0.5), ("-1", -1.0)])
+        case = f"{case}.advance({label})"
+        _check_move(cases, case, cases.call(case, session.advance, time), session, done)
+    elif op == "set_camera":
+        eye = rng.choice(world.adversarial) if hostile and rng.random() < 0.5 else ("eye", [0.0, 0.3, 0.9])
+        target = rng.choice(world.adversarial) if hostile and rng.random() < 0.5 else ("target", [0.0, 0.27, 0.0])
+        yfov = rng.choice(world.adversarial) if hostile and rng.random() < 0.5 else ("None", None)
+        case = f"{case}.set_camera({eye[0]}, {target[0]}, yfov_degrees={yfov[0]})"
+        placed = cases.call(case, session.set_camera, eye[1], target[1], yfov_degrees=yfov[1])
+        if isinstance(placed, BaseException):
+            cases.check(case, session.done == done, "a refused camera changed the image")
         else:
-            cases.check(case, session.done == done, "a refused move changed the image")
+            cases.check(case, session.done == 0, "the image did not start over")
     elif op == "image":
         case = f"{case}.image()"
         cases.image(case, cases.call(case, session.image), (*size, 3))

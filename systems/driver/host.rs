@@ -221,9 +221,12 @@ impl Renderer {
         if !(eye.is_finite() && target.is_finite() && up.is_finite()) {
             return Err(bad("eye, target and up must be finite"));
         }
-        let forward = target - eye;
-        if forward.length_squared() == 0.0 || forward.cross(up).length_squared() == 0.0 {
-            return Err(bad("the eye must differ from the target, and up must not be along the view"));
+        // Normalised first: a distance whose square overflows f32 is as unusable as none.
+        let forward = (target - eye).normalize_or_zero();
+        if forward == glam::Vec3::ZERO || forward.cross(up.normalize_or_zero()).length_squared() < 1e-12 {
+            return Err(bad(
+                "the eye must differ from the target (by a distance whose square is finite), and up must not be along the view",
+            ));
         }
         if yfov.is_some_and(|y| !(y > 0.0 && y < std::f32::consts::PI)) {
             return Err(bad("yfov must be in (0, π) radians"));
