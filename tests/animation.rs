@@ -268,7 +268,28 @@ fn the_command_renders_frames_and_refuses_what_it_cannot_play() {
             "once",
         ),
     ];
-    for (args, needle) in refusals {
+    // Hostile values of the frame flags: refused by name, nothing written.
+    let a = animated.to_str().unwrap();
+    let mut hostile: Vec<(Vec<String>, &str)> = Vec::new();
+    for fps in ["0", "-1", "NaN", "inf", "1e39"] {
+        hostile.push((vec!["--frames=0:2".into(), format!("--fps={fps}")], "frames.fps"));
+    }
+    for shutter in ["-1", "NaN", "inf", "1e39"] {
+        hostile.push((vec!["--frames=0:2".into(), format!("--shutter={shutter}")], "frames.shutter"));
+    }
+    for range in ["1:1", "-1:2", "0", ":", "a:b", "0:4294967296"] {
+        hostile.push((vec![format!("--frames={range}")], "--frames"));
+    }
+    let hostile: Vec<(Vec<&str>, &str)> = hostile
+        .iter()
+        .map(|(flags, needle)| {
+            let mut args = vec!["render", a];
+            args.extend(flags.iter().map(String::as_str));
+            (args, *needle)
+        })
+        .collect();
+    for (args, needle) in refusals.iter().map(|(a, n)| (a.to_vec(), *n)).chain(hostile) {
+        let args = &args[..];
         let out_file = dir.path().join("refused-#.png");
         let out = caustica(
             &[args, &["-q", "--spp", "1", "--width", "8", "--height", "8", "-o", out_file.to_str().unwrap()]]
