@@ -212,6 +212,23 @@ fn a_blurred_frame_is_the_sum_of_its_samples_each_posed_at_its_own_time() {
     assert_ne!(bits(&blurred.image()), bits(&sharp.image()), "the blur is the middle pose");
 }
 
+/// Adaptive sampling under a shutter: once every pixel has converged the blurred frame ends (a run
+/// that converged stops without a sample, and the shutter went on posing its next time forever).
+#[test]
+fn a_blurred_frame_with_adaptive_sampling_ends_when_its_pixels_converge() {
+    init_thread_pools(None);
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let (scene, mut run) = setup(&common::data("gltf-samples/AnimatedTriangle.gltf"));
+        (run.render.spp, run.render.noise_threshold, run.render.min_spp) = (1024, 0.5, 4);
+        let mut renderer = Renderer::new(scene, &run).unwrap();
+        renderer.run_over_shutter((0.1, 0.35), None, |_| {}).unwrap();
+        tx.send(renderer.units_done()).unwrap();
+    });
+    let done = rx.recv_timeout(std::time::Duration::from_secs(120)).expect("the blurred frame never ended");
+    assert!((4..1024).contains(&done), "{done} samples per pixel: the pixels should converge early");
+}
+
 /// Integrators that trace something once a render would see one pose of the shutter: refused.
 #[test]
 fn the_shutter_is_refused_where_a_render_traces_its_light_once() {

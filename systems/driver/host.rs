@@ -180,8 +180,11 @@ impl Renderer {
             if left.is_some_and(|l| l <= 0.0) {
                 break;
             }
+            let before = self.done;
             report = self.run(left, &mut on_step);
-            if report.stopped_by.is_some() {
+            // Adaptive sampling that has converged stops a run without a sample (and without a
+            // stop reason): the shutter's remaining times would be posed for nothing, forever.
+            if report.stopped_by.is_some() || self.done == before {
                 break;
             }
         }
