@@ -106,7 +106,14 @@ impl RenderScene {
         }
         let geometry_seconds = start.elapsed().as_secs_f64();
         let start = std::time::Instant::now();
-        self.lights = lights_of(&mut self.geometry, scene, light_selection, false);
+        // The white environment stands in for the lights of a scene that has none; a frame whose
+        // emitters are gone (scaled to nothing, moved away) is dark, not lit by it.
+        let lit_by_stand_in = scene.environment.is_none() && self.lights.environment.is_some();
+        self.lights = if lit_by_stand_in {
+            lights_of(&mut self.geometry, scene, light_selection, false)
+        } else {
+            own_lights(&mut self.geometry, scene, light_selection)
+        };
         SceneUpdate { geometry_seconds, lights_seconds: start.elapsed().as_secs_f64(), whole_build: !kept }
     }
 
@@ -278,14 +285,7 @@ pub fn scene_lights(geometry: &mut Geometry, scene: &Scene, light_selection: Lig
 
 /// [`scene_lights`], warning of the white environment only when `warn` (once a render, not a frame).
 fn lights_of(geometry: &mut Geometry, scene: &Scene, light_selection: LightSelection, warn: bool) -> Lights {
-    let lights = Lights::build(
-        geometry,
-        &scene.materials,
-        &scene.textures,
-        scene.environment.as_ref(),
-        &scene.punctual_lights,
-        light_selection,
-    );
+    let lights = own_lights(geometry, scene, light_selection);
     if !lights.is_empty() {
         return lights;
     }
@@ -302,6 +302,18 @@ fn lights_of(geometry: &mut Geometry, scene: &Scene, light_selection: LightSelec
         &scene.materials,
         &scene.textures,
         Some(&white),
+        &scene.punctual_lights,
+        light_selection,
+    )
+}
+
+/// The scene's own emitters, punctual lights and environment, and nothing in their place.
+fn own_lights(geometry: &mut Geometry, scene: &Scene, light_selection: LightSelection) -> Lights {
+    Lights::build(
+        geometry,
+        &scene.materials,
+        &scene.textures,
+        scene.environment.as_ref(),
         &scene.punctual_lights,
         light_selection,
     )

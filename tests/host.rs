@@ -130,3 +130,71 @@ fn every_way_of_following_a_move_renders_the_posed_file() {
         assert_eq!(rendered(&mut renderer), expected, "{how:?}");
     }
 }
+
+/// The Cornell box with an animation scaling `node` from 1 at 0 s to `to` at 1 s (STEP): written,
+/// with its keyframes in a .bin beside it, into `dir`.
+fn cornell_scaling(dir: &std::path::Path, node: &str, to: Vec3) -> std::path::PathBuf {
+    let mut gltf: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(common::data("cornell-box.gltf")).unwrap()).unwrap();
+    let index = gltf["nodes"].as_array().unwrap().iter().position(|n| n["name"] == node).unwrap();
+    let floats = [0.0f32, 1.0, 1.0, 1.0, 1.0, to.x, to.y, to.z];
+    let bytes: Vec<u8> = floats.iter().flat_map(|f| f.to_le_bytes()).collect();
+    std::fs::write(dir.join("keys.bin"), &bytes).unwrap();
+    let buffer = gltf["buffers"].as_array().unwrap().len();
+    gltf["buffers"].as_array_mut().unwrap().push(serde_json::json!({"uri": "keys.bin", "byteLength": 32}));
+    let view = gltf["bufferViews"].as_array().unwrap().len();
+    let views = gltf["bufferViews"].as_array_mut().unwrap();
+    views.push(serde_json::json!({"buffer": buffer, "byteOffset": 0, "byteLength": 8}));
+    views.push(serde_json::json!({"buffer": buffer, "byteOffset": 8, "byteLength": 24}));
+    let accessor = gltf["accessors"].as_array().unwrap().len();
+    let accessors = gltf["accessors"].as_array_mut().unwrap();
+    accessors.push(serde_json::json!({"bufferView": view, "componentType": 5126, "count": 2, "type": "SCALAR", "min": [0.0], "max": [1.0]}));
+    accessors
+        .push(serde_json::json!({"bufferView": view + 1, "componentType": 5126, "count": 2, "type": "VEC3"}));
+    gltf["animations"] = serde_json::json!([{
+        "channels": [{"sampler": 0, "target": {"node": index, "path": "scale"}}],
+        "samplers": [{"input": accessor, "output": accessor + 1, "interpolation": "STEP"}]
+    }]);
+    let path = dir.join(format!("scaling-{node}.gltf"));
+    std::fs::write(&path, gltf.to_string()).unwrap();
+    path
+}
+
+/// A frame whose only emitter an animation scales to nothing is dark, for every integrator: not
+/// lit by the white environment that stands in for the lights of a file that has none, and with no
+/// NaN; a flattening scale (singular, so the normals' inverse transpose is infinite) leaves no
+/// NaN normal.
+#[test]
+fn a_frame_whose_emitters_are_gone_is_dark_and_a_flattened_mesh_keeps_finite_normals() {
+    use caustica::scene::IntegratorKind;
+    init_thread_pools(None);
+    let dir = tempfile::tempdir().unwrap();
+    let (scene, mut run) = setup(&cornell_scaling(dir.path(), "light", Vec3::ZERO));
+    for integrator in [IntegratorKind::Pt, IntegratorKind::Pm, IntegratorKind::Sppm, IntegratorKind::Bdpt] {
+        run.render.integrator = integrator;
+        let mut renderer = Renderer::new(scene.clone(), &run).unwrap();
+        renderer.set_time(1.0).unwrap();
+        let report = renderer.run(None, |_| {});
+        assert_eq!(report.paths.nan_samples, 0, "{integrator:?}");
+        let lit = renderer.image().pixels.iter().filter(|p| **p != Vec3::ZERO).count();
+        assert_eq!(lit, 0, "{integrator:?}: {lit} pixels lit with the light gone");
+    }
+
+    let (scene, mut run) = setup(&cornell_scaling(dir.path(), "short_block", Vec3::new(1.0, 0.0, 1.0)));
+    let mut frames = caustica::scene::pose::FrameScene::new(scene.clone());
+    frames.set_time(1.0).unwrap();
+    let blocks: Vec<_> =
+        frames.scene().meshes.iter().filter(|m| m.node_name.as_deref() == Some("short_block")).collect();
+    assert!(!blocks.is_empty() && blocks.iter().all(|m| !m.indices.is_empty()), "its top and bottom remain");
+    // The collapsed sides' vertices get zero normals, so the mesh falls back to flat shading, as
+    // validation does; the inverse transpose made them NaN, which no check caught.
+    for mesh in blocks {
+        for n in mesh.normals.iter().flatten() {
+            assert!(n.is_finite(), "{}: normal {n}", mesh.name);
+        }
+    }
+    run.render.integrator = IntegratorKind::Pt;
+    let mut renderer = Renderer::new(scene, &run).unwrap();
+    renderer.set_time(1.0).unwrap();
+    assert_eq!(renderer.run(None, |_| {}).paths.nan_samples, 0);
+}

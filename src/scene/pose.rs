@@ -7,13 +7,26 @@ use crate::error::{Error, Result};
 use glam::{Mat3, Mat4};
 use std::collections::HashMap;
 
+/// The matrix normals map by: the inverse transpose of `linear`, or, when `linear` is singular (a
+/// scale to zero along an axis, which an animation can pass through), its cofactor matrix, which
+/// points the same way wherever the inverse exists and stays finite where it does not (the faces
+/// that keep an area keep their normals; the others collapse and are dropped).
+fn normal_matrix(linear: Mat3) -> Mat3 {
+    let inverse_transpose = linear.inverse().transpose();
+    if inverse_transpose.is_finite() {
+        return inverse_transpose;
+    }
+    let (a, b, c) = (linear.x_axis, linear.y_axis, linear.z_axis);
+    Mat3::from_cols(b.cross(c), c.cross(a), a.cross(b))
+}
+
 impl Mesh {
     /// Move the mesh by `m`: positions by the matrix, normals by its inverse transpose, tangents by its
     /// linear part with the bitangent's handedness flipped when `m` mirrors, and the triangles'
     /// winding reversed then, so that counter-clockwise stays the front face.
     pub fn transform(&mut self, m: Mat4) {
         let linear = Mat3::from_mat4(m);
-        let normal_matrix = linear.inverse().transpose();
+        let normal_matrix = normal_matrix(linear);
         let flip = m.determinant() < 0.0;
         for p in &mut self.positions {
             *p = m.transform_point3(*p);

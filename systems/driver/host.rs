@@ -357,7 +357,7 @@ impl Renderer {
 
     fn check_features(&self, render_scene: &RenderScene) -> Result<()> {
         let features = SceneFeatures::of(self.world.resource::<CameraResource>(), render_scene);
-        if features != self.features {
+        if !self.features.covers(features) {
             return Err(Error::Setting {
                 name: "scene".into(),
                 problem: format!(

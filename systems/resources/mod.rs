@@ -150,6 +150,18 @@ pub struct SceneFeatures {
 }
 
 impl SceneFeatures {
+    /// Whether a plan made for `self` renders a scene with `frame`'s features: the same camera, and
+    /// nothing the plan has no system for. A frame may lack what the plan has (its only emitter
+    /// scaled to nothing, its mirror moved out of the file): those systems then find no work.
+    pub fn covers(self, frame: Self) -> bool {
+        let within = |planned: bool, used: bool| planned || !used;
+        self.lens == frame.lens
+            && within(self.motion, frame.motion)
+            && within(self.lights, frame.lights)
+            && within(self.learns_visibility, frame.learns_visibility)
+            && within(self.specular, frame.specular)
+    }
+
     /// Features of a camera and scene.
     pub fn of(camera: &Camera, scene: &RenderScene) -> Self {
         Self {
