@@ -198,3 +198,22 @@ fn a_frame_whose_emitters_are_gone_is_dark_and_a_flattened_mesh_keeps_finite_nor
     renderer.set_time(1.0).unwrap();
     assert_eq!(renderer.run(None, |_| {}).paths.nan_samples, 0);
 }
+
+/// A pose the loader would have refused in a file (here the camera's node scaled to nothing: no
+/// orientation) is refused naming the file, the camera and the time, and the scene stays posed
+/// where it was.
+#[test]
+fn a_pose_without_a_camera_orientation_is_refused_and_the_frame_before_it_stays() {
+    init_thread_pools(None);
+    let dir = tempfile::tempdir().unwrap();
+    let (scene, run) = setup(&cornell_scaling(dir.path(), "camera", Vec3::ZERO));
+    let mut renderer = Renderer::new(scene, &run).unwrap();
+    let before = rendered(&mut renderer);
+    let error = renderer.set_time(1.0).expect_err("the camera has no orientation at 1 s").to_string();
+    assert!(
+        error.contains("scaling-camera.gltf") && error.contains("camera") && error.contains("at 1 s"),
+        "{error}"
+    );
+    renderer.set_time(0.5).unwrap();
+    assert_eq!(rendered(&mut renderer), before, "the pose before the refused one");
+}

@@ -101,8 +101,38 @@ impl FrameScene {
         if !t.is_finite() {
             return Err(Error::Setting { name: "time".into(), problem: format!("{t} is not finite") });
         }
+        let previous = self.time;
         self.time = t;
-        Ok(self.refresh())
+        let changed = self.refresh();
+        if let Some((object, problem)) = self.pose_problem() {
+            // Refused: the scene stays posed where it was.
+            self.time = previous;
+            self.refresh();
+            return Err(Error::InvalidScene {
+                path: self.scene.source.clone(),
+                object: format!("{object} at {t} s"),
+                problem,
+            });
+        }
+        Ok(changed)
+    }
+
+    /// What an animation's pose gives that the loader would have refused in a file: a camera or a
+    /// spot or sun light under a node scaled to nothing (no direction to look or shine along).
+    fn pose_problem(&self) -> Option<(String, String)> {
+        if let Some(camera) = &self.scene.camera
+            && !camera.camera_to_world.is_finite()
+        {
+            return Some((
+                format!("camera {:?}", camera.name),
+                "its node is scaled to nothing, so it has no orientation".into(),
+            ));
+        }
+        self.scene.punctual_lights.iter().enumerate().find_map(|(i, light)| {
+            light
+                .problem()
+                .map(|problem| (format!("light #{i}"), format!("{problem} (its node is scaled to nothing)")))
+        })
     }
 
     /// Give node `node` (its name, or its index) the transform `m`, replacing the one it had; the
