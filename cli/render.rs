@@ -65,9 +65,7 @@ pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>) -> Result<bool
         anyhow::bail!("--shutter blurs an animation's frames by its motion: give --frames START:END too");
     }
     if let Some(range) = run.frames.range() {
-        let every_frame: Vec<PathBuf> =
-            range.flat_map(|f| all_outputs.iter().map(move |o| crate::frames::frame_path(o, f))).collect();
-        check_outputs(&every_frame, &inputs(args, &run, &scene_path))?;
+        check_frame_outputs(&all_outputs, range, &inputs(args, &run, &scene_path))?;
         return crate::frames::render_frames(
             args,
             &scene_path,
@@ -397,6 +395,54 @@ fn check_outputs(outputs: &[PathBuf], inputs: &[PathBuf]) -> Result<()> {
             anyhow::bail!("{}: named twice as an output", path.display());
         }
         output::check_output_path(path)?;
+    }
+    Ok(())
+}
+
+/// Most frames one command renders: a million is 11.6 hours of film at 24 fps. (A range beyond it
+/// is a typo, and listing its outputs would stall before the first frame.)
+const MAX_FRAMES: usize = 1_000_000;
+
+/// [`check_outputs`] for an animation's frames: each pattern's first frame checked in full (the
+/// folder writable, no two patterns the same file), and every frame's name neither an input nor
+/// another output (`a.png` writes `a-0001.png` at frame 1, which `a-####.png` names too). Linear in
+/// the frames: the names are compared by their folder, resolved once a pattern, and file name.
+fn check_frame_outputs(patterns: &[PathBuf], range: std::ops::Range<u32>, inputs: &[PathBuf]) -> Result<()> {
+    if range.len() > MAX_FRAMES {
+        anyhow::bail!(
+            "--frames {}:{} asks for {} frames; one command renders at most {MAX_FRAMES}",
+            range.start,
+            range.end,
+            range.len()
+        );
+    }
+    let first: Vec<PathBuf> = patterns.iter().map(|p| crate::frames::frame_path(p, range.start)).collect();
+    check_outputs(&first, inputs)?;
+    let resolved: Vec<PathBuf> = patterns
+        .iter()
+        .map(|p| {
+            let folder = p.parent().filter(|f| !f.as_os_str().is_empty()).unwrap_or(Path::new("."));
+            folder.canonicalize().unwrap_or_else(|_| folder.to_path_buf())
+        })
+        .collect();
+    // Each pattern's folder as the first pattern's index with the same one.
+    let folders: Vec<usize> =
+        resolved.iter().map(|f| resolved.iter().position(|g| g == f).expect("itself")).collect();
+    let mut named = std::collections::HashSet::new();
+    for frame in range {
+        for (pattern, folder) in patterns.iter().zip(&folders) {
+            let path = crate::frames::frame_path(pattern, frame);
+            if let Some(input) = overwritten_input(&path, inputs.iter().map(PathBuf::as_path)) {
+                anyhow::bail!(
+                    "{} (frame {frame}): the output is also an input ({}): refusing to overwrite it",
+                    path.display(),
+                    input.display()
+                );
+            }
+            if !named.insert((*folder, path.file_name().map(|n| n.to_os_string()))) {
+                anyhow::bail!("{} (frame {frame}): named twice as an output", path.display());
+            }
+        }
     }
     Ok(())
 }

@@ -294,9 +294,17 @@ fn the_command_renders_frames_and_refuses_what_it_cannot_play() {
     for shutter in ["-1", "NaN", "inf", "1e39"] {
         hostile.push((vec!["--frames=0:2".into(), format!("--shutter={shutter}")], "frames.shutter"));
     }
-    for range in ["1:1", "-1:2", "0", ":", "a:b", "0:4294967296"] {
+    for range in ["1:1", "-1:2", "0", ":", "a:b", "0:4294967296", "0:4294967295"] {
         hostile.push((vec![format!("--frames={range}")], "--frames"));
     }
+    // Two patterns naming one file from some frame on: g-#.png and g-##.png both write g-10.png.
+    let (short, long) = (dir.path().join("g-#.png"), dir.path().join("g-##.png"));
+    hostile.push((
+        ["--frames=0:12", "-o", short.to_str().unwrap(), "-o", long.to_str().unwrap()]
+            .map(String::from)
+            .to_vec(),
+        "g-10.png (frame 10): named twice",
+    ));
     let hostile: Vec<(Vec<&str>, &str)> = hostile
         .iter()
         .map(|(flags, needle)| {
