@@ -217,3 +217,33 @@ fn a_pose_without_a_camera_orientation_is_refused_and_the_frame_before_it_stays(
     renderer.set_time(0.5).unwrap();
     assert_eq!(rendered(&mut renderer), before, "the pose before the refused one");
 }
+
+/// A mesh that rests at scale zero and that an animation scales up (an object that pops in) loads,
+/// and its frames have its triangles: it was refused as singular, or removed as empty.
+#[test]
+fn a_mesh_resting_at_scale_zero_appears_when_its_animation_scales_it_up() {
+    init_thread_pools(None);
+    let dir = tempfile::tempdir().unwrap();
+    let path = cornell_scaling(dir.path(), "short_block", Vec3::ONE);
+    let mut gltf: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    let node = gltf["nodes"].as_array_mut().unwrap().iter_mut().find(|n| n["name"] == "short_block").unwrap();
+    node["scale"] = serde_json::json!([0.0, 0.0, 0.0]);
+    std::fs::write(&path, gltf.to_string()).unwrap();
+    let (plain, _) = setup(&common::data("cornell-box.gltf"));
+    let (scene, run) = setup(&path);
+    let triangles = |scene: &Scene| -> usize {
+        scene
+            .meshes
+            .iter()
+            .filter(|m| m.node_name.as_deref() == Some("short_block"))
+            .map(|m| m.indices.len())
+            .sum()
+    };
+    assert!(triangles(&plain) > 0);
+    let mut frames = caustica::scene::pose::FrameScene::new(scene.clone());
+    assert_eq!(triangles(frames.scene()), triangles(&plain), "posed at 0 s, scale 1");
+    frames.set_time(0.5).unwrap();
+    assert_eq!(triangles(frames.scene()), triangles(&plain));
+    let mut renderer = Renderer::new(scene, &run).unwrap();
+    assert_eq!(renderer.run(None, |_| {}).paths.nan_samples, 0);
+}

@@ -169,7 +169,10 @@ pub fn validate(scene: &mut Scene, path: &Path) -> Result<ValidationSummary> {
         }
     }
     let before = scene.meshes.len();
-    scene.meshes.retain(|m| !m.indices.is_empty());
+    // A mesh an animation poses stays, empty or not: a frame can give it its triangles back.
+    let posed: std::collections::HashSet<&str> =
+        scene.animation.iter().flat_map(|a| a.meshes.iter().map(|m| m.local.name.as_str())).collect();
+    scene.meshes.retain(|m| !m.indices.is_empty() || posed.contains(m.name.as_str()));
     summary.removed_meshes = before - scene.meshes.len();
     summary.meshes = scene.meshes.len();
     summary.triangles = scene.meshes.iter().map(|m| m.indices.len()).sum();

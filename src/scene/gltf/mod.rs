@@ -190,10 +190,12 @@ impl Loader<'_> {
             if !world.is_finite() {
                 return Err(self.invalid(object, "world transform has a NaN or infinite entry (overflow)"));
             }
-            if node.mesh().is_some() || node.camera().is_some() {
+            let moves = parent_moves || self.animation.as_ref().is_some_and(|a| a.drives(node.index()));
+            // A mesh an animation moves may rest at scale zero (an object that pops in): its frames
+            // are checked as they are posed.
+            if node.camera().is_some() || (node.mesh().is_some() && !moves) {
                 self.check_invertible(&world, &object)?;
             }
-            let moves = parent_moves || self.animation.as_ref().is_some_and(|a| a.drives(node.index()));
             if let Some(animation) = &mut self.animation {
                 animation.order.push(node.index());
             }
