@@ -247,3 +247,18 @@ fn a_mesh_resting_at_scale_zero_appears_when_its_animation_scales_it_up() {
     let mut renderer = Renderer::new(scene, &run).unwrap();
     assert_eq!(renderer.run(None, |_| {}).paths.nan_samples, 0);
 }
+
+/// A node moved by its name and then put back by its index is back: the two name one node, so the
+/// second move replaces the first rather than adding to it.
+#[test]
+fn a_node_moved_by_name_is_put_back_by_its_index() {
+    let (scene, _) = setup(&common::data("cornell-box.gltf"));
+    let index =
+        scene.meshes.iter().find(|m| m.node_name.as_deref() == Some("short_block")).unwrap().node.unwrap();
+    let mut frames = caustica::scene::pose::FrameScene::new(scene.clone());
+    frames.move_node("short_block", Mat4::from_translation(Vec3::new(0.1, 0.0, 0.0))).unwrap();
+    frames.move_node(&index.to_string(), Mat4::IDENTITY).unwrap();
+    for (moved, loaded) in frames.scene().meshes.iter().zip(&scene.meshes) {
+        assert_eq!(moved.positions, loaded.positions, "{}", moved.name);
+    }
+}

@@ -211,7 +211,10 @@ impl Animation {
                 let (translation, rotation, scale) = self.node_trs(node, t);
                 // A spline can pass through a zero quaternion: the rotation is then the node's own.
                 trs_matrix(translation, rotation, scale).unwrap_or_else(|| {
-                    let (_, rest, _) = self.node_trs(node, f32::NEG_INFINITY);
+                    let rest = match self.nodes[node].local {
+                        LocalTransform::Trs(_, rotation, _) => rotation,
+                        LocalTransform::Matrix(m) => m.to_scale_rotation_translation().1,
+                    };
                     trs_matrix(translation, rest, scale).unwrap_or(Mat4::IDENTITY)
                 })
             }

@@ -152,13 +152,18 @@ impl FrameScene {
                 problem: "no mesh of a node named or numbered so".into(),
             });
         }
-        for i in meshes {
+        for &i in &meshes {
             if !self.dynamic[i] {
                 self.dynamic[i] = true;
                 self.loaded.insert(i, self.scene.meshes[i].clone());
             }
         }
-        self.moves.retain(|(name, _)| name != node);
+        // A node named once by its name and once by its index is one node: its new move replaces
+        // the old one (the identity puts it back whichever way it was named).
+        let same_node: Vec<bool> =
+            self.moves.iter().map(|(name, _)| self.meshes_of(name).eq(meshes.iter().copied())).collect();
+        let mut same = same_node.into_iter();
+        self.moves.retain(|_| !same.next().expect("one per move"));
         self.moves.push((node.to_owned(), m));
         Ok(self.refresh())
     }
