@@ -118,62 +118,55 @@ fn animated_triangle_frames_are_the_file_posed_at_their_time() {
 fn pm_keeps_its_photon_maps_when_only_the_camera_moves() {
     init_thread_pools(None);
     let dir = tempfile::tempdir().unwrap();
-    let file = camera_dolly(dir.path());
-    let (scene, mut run) = load(&file).unwrap();
-    run.render.integrator = IntegratorKind::Pm;
-    run.render.spp = 2;
-    (run.film.width, run.film.height) = (Some(24), Some(24));
-    (run.photons.photons, run.photons.caustic_photons) = (4000, 0);
-    let mut renderer = Renderer::new(scene.clone(), &run).unwrap();
-    assert!(renderer.camera_only_animation());
-    renderer.run(None, |_| {});
-    for t in [0.5, 1.0] {
-        let update = renderer.set_time(t).unwrap();
-        assert!(update.photons_kept, "at {t} s the photon maps were traced again");
-        let report = renderer.run(None, |_| {});
-        let photon_phase = report.phases.iter().find(|p| p.name == "photons").map_or(0, |p| p.runs);
-        assert_eq!(photon_phase, 0, "at {t} s a photon pass ran");
-        // A renderer of the same file posed at t, from scratch, traces the same maps.
-        let mut fresh = Renderer::new(scene.clone(), &run).unwrap();
-        fresh.set_time(t).unwrap();
-        fresh.run(None, |_| {});
-        assert_eq!(bits(&renderer.image()), bits(&fresh.image()), "at {t} s");
+    // The box lit by its ceiling alone, and with a still point light too (a punctual light that
+    // does not move keeps the maps as well).
+    for file in [camera_dolly(dir.path(), false), camera_dolly(dir.path(), true)] {
+        let (scene, mut run) = load(&file).unwrap();
+        run.render.integrator = IntegratorKind::Pm;
+        run.render.spp = 2;
+        (run.film.width, run.film.height) = (Some(24), Some(24));
+        (run.photons.photons, run.photons.caustic_photons) = (4000, 0);
+        let mut renderer = Renderer::new(scene.clone(), &run).unwrap();
+        renderer.run(None, |_| {});
+        for t in [0.5, 1.0] {
+            let update = renderer.set_time(t).unwrap();
+            assert!(update.photons_kept, "{}: at {t} s the photon maps were traced again", file.display());
+            let report = renderer.run(None, |_| {});
+            let photon_phase = report.phases.iter().find(|p| p.name == "photons").map_or(0, |p| p.runs);
+            assert_eq!(photon_phase, 0, "at {t} s a photon pass ran");
+            // A renderer of the same file posed at t, from scratch, traces the same maps.
+            let mut fresh = Renderer::new(scene.clone(), &run).unwrap();
+            fresh.set_time(t).unwrap();
+            fresh.run(None, |_| {});
+            assert_eq!(bits(&renderer.image()), bits(&fresh.image()), "{}: at {t} s", file.display());
+        }
     }
 }
 
-/// tests/data/cornell-box.gltf with its camera dollying 0.5 m towards the box over one second.
-fn camera_dolly(dir: &Path) -> std::path::PathBuf {
-    let source = common::data("cornell-box.gltf");
-    let mut gltf: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(source).unwrap()).unwrap();
-    let nodes = gltf["nodes"].as_array().unwrap();
-    let camera = nodes.iter().position(|n| n.get("camera").is_some()).unwrap();
-    let start: Vec<f32> = serde_json::from_value(nodes[camera]["translation"].clone()).unwrap();
+/// tests/data/cornell-box.gltf with its camera dollying 0.5 m towards the box over one second, and
+/// with a still point light above the blocks when `bulb`.
+fn camera_dolly(dir: &Path, bulb: bool) -> std::path::PathBuf {
+    let gltf: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(common::data("cornell-box.gltf")).unwrap()).unwrap();
+    let camera = gltf["nodes"].as_array().unwrap().iter().find(|n| n.get("camera").is_some()).unwrap();
+    let start: [f32; 3] = serde_json::from_value(camera["translation"].clone()).unwrap();
+    let name = camera["name"].as_str().unwrap().to_owned();
     let end = [start[0], start[1], start[2] - 0.5];
-    let mut bytes = Vec::new();
-    for v in [0.0f32, 1.0].into_iter().chain(start.iter().copied()).chain(end) {
-        bytes.extend_from_slice(&v.to_le_bytes());
-    }
-    std::fs::write(dir.join("dolly.bin"), &bytes).unwrap();
-    let buffer = gltf["buffers"].as_array().unwrap().len();
-    gltf["buffers"].as_array_mut().unwrap().push(serde_json::json!({"uri": "dolly.bin", "byteLength": 32}));
-    let view = gltf["bufferViews"].as_array().unwrap().len();
-    gltf["bufferViews"].as_array_mut().unwrap().extend([
-        serde_json::json!({"buffer": buffer, "byteOffset": 0, "byteLength": 8}),
-        serde_json::json!({"buffer": buffer, "byteOffset": 8, "byteLength": 24}),
-    ]);
-    let accessor = gltf["accessors"].as_array().unwrap().len();
-    gltf["accessors"].as_array_mut().unwrap().extend([
-        serde_json::json!({"bufferView": view, "componentType": 5126, "count": 2, "type": "SCALAR", "min": [0.0], "max": [1.0]}),
-        serde_json::json!({"bufferView": view + 1, "componentType": 5126, "count": 2, "type": "VEC3"}),
-    ]);
-    gltf["animations"] = serde_json::json!([{
-        "channels": [{"sampler": 0, "target": {"node": camera, "path": "translation"}}],
-        "samplers": [{"input": accessor, "output": accessor + 1, "interpolation": "LINEAR"}],
-    }]);
-    let path = dir.join("dolly.gltf");
-    std::fs::write(&path, gltf.to_string()).unwrap();
-    path
+    let add_bulb = |gltf: &mut serde_json::Value| {
+        if !bulb {
+            return;
+        }
+        gltf["extensionsUsed"] = serde_json::json!(["KHR_lights_punctual"]);
+        gltf["extensions"] =
+            serde_json::json!({"KHR_lights_punctual": {"lights": [{"type": "point", "intensity": 0.5}]}});
+        let nodes = gltf["nodes"].as_array_mut().unwrap();
+        nodes.push(serde_json::json!({"name": "bulb", "translation": [0.0, 0.4, 0.0],
+            "extensions": {"KHR_lights_punctual": {"light": 0}}}));
+        let bulb_node = nodes.len() - 1;
+        gltf["scenes"][0]["nodes"].as_array_mut().unwrap().push(bulb_node.into());
+    };
+    let file = if bulb { "dolly-bulb.gltf" } else { "dolly.gltf" };
+    common::keyframed_cornell(dir, file, (&name, "translation"), [start, end], "LINEAR", add_bulb)
 }
 
 /// Motion blur by the animation: a frame rendered over the shutter holds, exactly, the sum of its

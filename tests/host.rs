@@ -131,33 +131,10 @@ fn every_way_of_following_a_move_renders_the_posed_file() {
     }
 }
 
-/// The Cornell box with an animation scaling `node` from 1 at 0 s to `to` at 1 s (STEP): written,
-/// with its keyframes in a .bin beside it, into `dir`.
+/// The Cornell box with an animation scaling `node` from 1 at 0 s to `to` at 1 s (STEP), in `dir`.
 fn cornell_scaling(dir: &std::path::Path, node: &str, to: Vec3) -> std::path::PathBuf {
-    let mut gltf: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(common::data("cornell-box.gltf")).unwrap()).unwrap();
-    let index = gltf["nodes"].as_array().unwrap().iter().position(|n| n["name"] == node).unwrap();
-    let floats = [0.0f32, 1.0, 1.0, 1.0, 1.0, to.x, to.y, to.z];
-    let bytes: Vec<u8> = floats.iter().flat_map(|f| f.to_le_bytes()).collect();
-    std::fs::write(dir.join("keys.bin"), &bytes).unwrap();
-    let buffer = gltf["buffers"].as_array().unwrap().len();
-    gltf["buffers"].as_array_mut().unwrap().push(serde_json::json!({"uri": "keys.bin", "byteLength": 32}));
-    let view = gltf["bufferViews"].as_array().unwrap().len();
-    let views = gltf["bufferViews"].as_array_mut().unwrap();
-    views.push(serde_json::json!({"buffer": buffer, "byteOffset": 0, "byteLength": 8}));
-    views.push(serde_json::json!({"buffer": buffer, "byteOffset": 8, "byteLength": 24}));
-    let accessor = gltf["accessors"].as_array().unwrap().len();
-    let accessors = gltf["accessors"].as_array_mut().unwrap();
-    accessors.push(serde_json::json!({"bufferView": view, "componentType": 5126, "count": 2, "type": "SCALAR", "min": [0.0], "max": [1.0]}));
-    accessors
-        .push(serde_json::json!({"bufferView": view + 1, "componentType": 5126, "count": 2, "type": "VEC3"}));
-    gltf["animations"] = serde_json::json!([{
-        "channels": [{"sampler": 0, "target": {"node": index, "path": "scale"}}],
-        "samplers": [{"input": accessor, "output": accessor + 1, "interpolation": "STEP"}]
-    }]);
-    let path = dir.join(format!("scaling-{node}.gltf"));
-    std::fs::write(&path, gltf.to_string()).unwrap();
-    path
+    let name = format!("scaling-{node}.gltf");
+    common::keyframed_cornell(dir, &name, (node, "scale"), [[1.0; 3], to.to_array()], "STEP", |_| {})
 }
 
 /// A frame whose only emitter an animation scales to nothing is dark, for every integrator: not
@@ -224,11 +201,19 @@ fn a_pose_without_a_camera_orientation_is_refused_and_the_frame_before_it_stays(
 fn a_mesh_resting_at_scale_zero_appears_when_its_animation_scales_it_up() {
     init_thread_pools(None);
     let dir = tempfile::tempdir().unwrap();
-    let path = cornell_scaling(dir.path(), "short_block", Vec3::ONE);
-    let mut gltf: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
-    let node = gltf["nodes"].as_array_mut().unwrap().iter_mut().find(|n| n["name"] == "short_block").unwrap();
-    node["scale"] = serde_json::json!([0.0, 0.0, 0.0]);
-    std::fs::write(&path, gltf.to_string()).unwrap();
+    let rest_at_zero = |gltf: &mut serde_json::Value| {
+        let nodes = gltf["nodes"].as_array_mut().unwrap();
+        nodes.iter_mut().find(|n| n["name"] == "short_block").unwrap()["scale"] =
+            serde_json::json!([0.0, 0.0, 0.0]);
+    };
+    let path = common::keyframed_cornell(
+        dir.path(),
+        "pop-in.gltf",
+        ("short_block", "scale"),
+        [[1.0; 3]; 2],
+        "STEP",
+        rest_at_zero,
+    );
     let (plain, _) = setup(&common::data("cornell-box.gltf"));
     let (scene, run) = setup(&path);
     let triangles = |scene: &Scene| -> usize {

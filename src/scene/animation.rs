@@ -267,11 +267,6 @@ impl Animation {
             animated.index = by_name.get(animated.local.name.as_str()).copied();
         }
     }
-
-    /// Whether the animation moves only the camera (then what the light does is the same every frame).
-    pub fn moves_only_the_camera(&self) -> bool {
-        self.meshes.iter().all(|m| m.index.is_none()) && self.lights.is_empty()
-    }
 }
 
 /// A camera's world transform without scale or shear: keeps the viewing direction (-Z) and then

@@ -201,15 +201,6 @@ impl Renderer {
         self.frames.as_ref().and_then(|f| f.scene().animation.as_ref()).map_or(0.0, |a| a.duration)
     }
 
-    /// Whether the scene's animation moves only the camera, so that what light does is the same
-    /// every frame (`pm` keeps its photon map).
-    pub fn camera_only_animation(&self) -> bool {
-        self.frames
-            .as_ref()
-            .and_then(|f| f.scene().animation.as_ref())
-            .is_some_and(|a| a.moves_only_the_camera())
-    }
-
     /// Place the camera: at `eye`, looking at `target`, `up` up, with vertical field of view `yfov`
     /// (radians; `None` keeps the one it has); start the image over.
     pub fn set_camera(
@@ -320,7 +311,8 @@ impl Renderer {
         (self.integrator.check)(scene, &self.run)?;
         let mut update = FrameUpdate { pose_seconds, ..FrameUpdate::default() };
         let light_selection = self.run.render.light_selection;
-        let geometry_changed = !changed.is_empty() || !scene.punctual_lights.is_empty();
+        let lights_moved = scene.animation.as_ref().is_some_and(|a| !a.lights.is_empty());
+        let geometry_changed = !changed.is_empty() || lights_moved;
         if geometry_changed {
             let mut render_scene = self.world.remove_resource::<SceneResource>().expect("a scene").0;
             update.scene =

@@ -13,6 +13,46 @@ pub fn data(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(name)
 }
 
+/// tests/data/cornell-box.gltf with one animation channel: node `node`'s `path` ("translation",
+/// "rotation" needs four values, so "translation" or "scale") from `values[0]` at 0 s to `values[1]`
+/// at 1 s by `interpolation`, its keyframes in a .bin beside it; written into `dir` as `name`.
+/// `edit` changes the file's JSON before it is written (a light added, a rest scale).
+pub fn keyframed_cornell(
+    dir: &Path,
+    name: &str,
+    (node, path): (&str, &str),
+    values: [[f32; 3]; 2],
+    interpolation: &str,
+    edit: impl FnOnce(&mut serde_json::Value),
+) -> PathBuf {
+    let mut gltf: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(data("cornell-box.gltf")).unwrap()).unwrap();
+    let index = gltf["nodes"].as_array().unwrap().iter().position(|n| n["name"] == node).unwrap();
+    let keys = format!("{name}.bin");
+    let floats = [0.0f32, 1.0].into_iter().chain(values.into_iter().flatten());
+    std::fs::write(dir.join(&keys), floats.flat_map(f32::to_le_bytes).collect::<Vec<u8>>()).unwrap();
+    let buffer = gltf["buffers"].as_array().unwrap().len();
+    gltf["buffers"].as_array_mut().unwrap().push(serde_json::json!({"uri": keys, "byteLength": 32}));
+    let view = gltf["bufferViews"].as_array().unwrap().len();
+    gltf["bufferViews"].as_array_mut().unwrap().extend([
+        serde_json::json!({"buffer": buffer, "byteOffset": 0, "byteLength": 8}),
+        serde_json::json!({"buffer": buffer, "byteOffset": 8, "byteLength": 24}),
+    ]);
+    let accessor = gltf["accessors"].as_array().unwrap().len();
+    gltf["accessors"].as_array_mut().unwrap().extend([
+        serde_json::json!({"bufferView": view, "componentType": 5126, "count": 2, "type": "SCALAR", "min": [0.0], "max": [1.0]}),
+        serde_json::json!({"bufferView": view + 1, "componentType": 5126, "count": 2, "type": "VEC3"}),
+    ]);
+    gltf["animations"] = serde_json::json!([{
+        "channels": [{"sampler": 0, "target": {"node": index, "path": path}}],
+        "samplers": [{"input": accessor, "output": accessor + 1, "interpolation": interpolation}],
+    }]);
+    edit(&mut gltf);
+    let file = dir.join(name);
+    std::fs::write(&file, gltf.to_string()).unwrap();
+    file
+}
+
 /// A proptest runner with a fixed seed and no persisted failures, so CI runs the same cases every
 /// time; `PROPTEST_CASES=N` runs N cases instead of `default_cases`.
 pub fn fuzz_runner(default_cases: u32) -> TestRunner {

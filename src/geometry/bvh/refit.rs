@@ -55,8 +55,8 @@ fn refit_set(set: &mut PrimitiveSet) {
         PrimitiveShape::Sphere(..) => unreachable!("packs hold triangles"),
     };
     set.packs.par_iter_mut().for_each(|(pack, ids)| {
-        let vertices: Vec<[Vec3; 3]> = ids[..lanes_used(ids)].iter().map(|&p| triangle(p)).collect();
-        *pack = TrianglePack::new(&vertices);
+        let vertices: [[Vec3; 3]; LANES] = ids.map(triangle);
+        *pack = TrianglePack::new(&vertices[..lanes_used(ids)]);
     });
     let packs = &set.packs;
     set.triangles.refit(|first, count| {
