@@ -57,9 +57,7 @@ impl RenderScene {
     /// BVHs, lights and materials of `scene`: also what a host that moves objects between frames
     /// rebuilds after editing its `Scene`.
     pub fn build(scene: &Scene, light_selection: LightSelection) -> Self {
-        let mut geometry = Geometry::build(scene);
-        let lights = scene_lights(&mut geometry, scene, light_selection);
-        Self { geometry, lights, materials: scene.materials.clone(), textures: scene.textures.clone() }
+        Self::build_dynamic(scene, light_selection, &[])
     }
 
     /// As [`RenderScene::build`], the meshes `dynamic` marks in the geometry's dynamic set.

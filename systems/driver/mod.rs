@@ -102,7 +102,8 @@ impl Renderer {
         let integrator = integrators::of_run(run);
         let (scene, frames, dynamic) = if keep_frames || scene.animation.is_some() {
             let frames = FrameScene::new(scene);
-            (frames.scene().clone(), Some(frames.clone()), frames.dynamic)
+            let (posed, dynamic) = (frames.scene().clone(), frames.dynamic.clone());
+            (posed, Some(frames), dynamic)
         } else {
             (scene, None, Vec::new())
         };
