@@ -58,11 +58,17 @@ pub fn print_report(scene: &Path, report: &Report, total_seconds: f64) {
         paths.shadow_rays
     );
     if report.unit == Unit::Samples {
+        // Sharded paths count the rows each step ran over; one wavefront, its size every step.
+        let slot_steps = if paths.slot_steps > 0 {
+            paths.slot_steps as f64
+        } else {
+            paths.steps as f64 * report.wavefront as f64
+        };
         outln!(
             "wavefront   {} paths, {} steps, {:.0}% busy",
             report.wavefront,
             paths.steps,
-            100.0 * paths.rays as f64 / (paths.steps as f64 * report.wavefront as f64).max(1.0)
+            100.0 * paths.rays as f64 / slot_steps.max(1.0)
         );
     }
     if paths.lookups > 0 {

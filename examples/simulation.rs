@@ -1,33 +1,35 @@
 //! A host application that renders with Caustica inside its own bevy_ecs World and Schedule.
 //!
 //! It loads the Cornell box and builds Caustica's plan for `pt`, puts a resource of its own into the
-//! same World and a system of its own (a bounce counter) into the plan's bounce phase, slides the
-//! short block across the floor from frame to frame, and writes each frame to out/simulation-N.png.
+//! same World and a system of its own (a counter of the bounces of every camera path) into the
+//! plan's bounce phase, where it runs on every shard's paths, slides the short block across the
+//! floor from frame to frame, and writes each frame to out/simulation-N.png.
 //!
 //! ```sh
 //! cargo run --release --example simulation
 //! ```
 
 use bevy_ecs::prelude::*;
+use caustica::camera_paths::PathQueues;
 use caustica::film::output::write_image;
-use caustica::resources::RenderStats;
 use caustica::scene::{IntegratorKind, load};
+use caustica::shards::ShardLink;
 use caustica::{PassSystems, Renderer};
 use glam::{Mat4, Vec3};
 use std::path::Path;
 
-/// The host's own state, a resource of the same World.
+/// The host's own state, a resource of the same World (and of every shard's, folded back after
+/// each round).
 #[derive(Resource, Default)]
 struct Simulation {
-    /// Bounce steps run in this frame.
-    bounces: u32,
+    /// Path vertices shaded in this frame: one per camera path per bounce.
+    bounces: u64,
 }
 
-/// The host's system, run in the same Schedule after Caustica's gather stage.
-fn count_bounces(mut sim: ResMut<Simulation>, stats: Res<RenderStats>) {
-    if stats.active_paths > 0 {
-        sim.bounces += 1;
-    }
+/// The host's system, run on every shard's chunk of paths after Caustica's trace stage: it reads
+/// the queue of paths whose rays were just traced.
+fn count_bounces(mut sim: ResMut<Simulation>, queues: Res<PathQueues>) {
+    sim.bounces += queues.active.len() as u64;
 }
 
 const FRAMES: u32 = 4;
@@ -48,7 +50,10 @@ fn main() -> anyhow::Result<()> {
     let mut renderer = Renderer::movable(scene, &run)?;
     renderer.world.insert_resource(Simulation::default());
     let bounce = renderer.plan.phase_mut("bounce").expect("pt has a bounce phase");
-    bounce.schedule.add_systems(count_bounces.after(PassSystems::Gather));
+    bounce.add_path_systems(|schedule| {
+        schedule.add_systems(count_bounces.after(PassSystems::Trace).before(PassSystems::Scatter));
+    });
+    bounce.add_link(ShardLink::merge::<Simulation>(|total, shard| total.bounces += shard.bounces));
 
     std::fs::create_dir_all("out")?;
     for frame in 0..FRAMES {

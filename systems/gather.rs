@@ -11,9 +11,9 @@
 //! | `gather_photons_into_hit_points` (`_into_chi2_cells`, `_with_laplacian`) | `PassPhotons` | `HitPoint::m`, `phi` (`Chi2Cells`, `AdaptiveStats`) |
 //!
 //! The splat runs on every thread: the film's sums are fixed point, so their bits do not depend on
-//! the order samples arrive in. The photon store and the learning run on one thread on purpose:
-//! visiting entities in order makes the photon maps and the learned grid bit-identical whatever the
-//! thread count. Each does no more than an add per finished photon or shadow ray.
+//! the order samples arrive in; nor do the learned grid's, which are integer counts. The photon store
+//! runs on one thread on purpose: visiting entities in order makes the photon maps bit-identical
+//! whatever the thread count. It does no more than an append per finished photon.
 
 use super::components::{
     AdaptiveStats, Chi2Cells, HitPoint, PathAov, PathState, PathStatus, PhotonState, ShadowRay,
@@ -212,7 +212,7 @@ pub fn store_photons(
 
 /// Visibility-aware light selection: learn from every shadow ray traced this step which light
 /// clusters are visible from where.
-pub fn learn_light_visibility(mut scene: ResMut<SceneResource>, mut shadows: Query<&mut ShadowRay>) {
+pub fn learn_light_visibility(scene: Res<SceneResource>, mut shadows: Query<&mut ShadowRay>) {
     if !scene.lights.is_learning() {
         return;
     }
@@ -343,7 +343,7 @@ mod tests {
         let mut world = World::new();
         world.insert_resource(PassRange::default());
         world.insert_resource(Workload::new(4, 0, 1, 4));
-        world.insert_resource(FilmResource(Film::new(2, 2)));
+        world.insert_resource(FilmResource::new(Film::new(2, 2)));
         world.insert_resource(RenderStats::default());
         let finished = |pixel, l: Vec3, first_bad| {
             let mut state = PathState::new(pixel, 7);

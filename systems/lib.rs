@@ -33,18 +33,24 @@
 //! ```
 //!
 //! ## Embedding in a host's World and Schedule
-//! The World is the host's to extend: its resources go in `renderer.world`, its systems into a
-//! phase of the plan, where they run with Caustica's (see `examples/simulation.rs`, which also moves
-//! an object between frames).
+//! The World is the host's to extend: its resources go in `renderer.world`. `pt` and `pt-naive` run
+//! their bounces on shards, a World per worker with a chunk of the camera paths each
+//! ([`shards`]): a host's system given to `Phase::add_path_systems` runs in every shard, every
+//! bounce, on every path of its chunk, placed by the stage sets; a resource it writes there is each
+//! shard's own, folded into the main World's after every round by a [`shards::ShardLink`]. (See
+//! `examples/simulation.rs`, which also moves an object between frames.)
 //! ```
 //! use bevy_ecs::prelude::*;
-//! use caustica::{PassSystems, Renderer, resources::RenderStats};
+//! use caustica::camera_paths::PathQueues;
+//! use caustica::shards::ShardLink;
+//! use caustica::{PassSystems, Renderer};
 //!
+//! /// Camera paths that ended, counted by the host.
 //! #[derive(Resource, Default)]
-//! struct Bounces(u32);
+//! struct Ended(u64);
 //!
-//! fn count(mut bounces: ResMut<Bounces>, stats: Res<RenderStats>) {
-//!     bounces.0 += (stats.active_paths > 0) as u32;
+//! fn count(mut ended: ResMut<Ended>, queues: Res<PathQueues>) {
+//!     ended.0 += queues.finished.len() as u64;
 //! }
 //!
 //! caustica::driver::init_thread_pools(Some(1));
@@ -52,10 +58,14 @@
 //! let (scene, mut run) = caustica::scene::load(std::path::Path::new(path)).unwrap();
 //! (run.render.spp, run.film.width, run.film.height) = (1, Some(16), Some(16));
 //! let mut renderer = Renderer::new(scene, &run).unwrap();
-//! renderer.world.insert_resource(Bounces::default());
-//! renderer.plan.phase_mut("bounce").unwrap().schedule.add_systems(count.after(PassSystems::Gather));
+//! renderer.world.insert_resource(Ended::default());
+//! let bounce = renderer.plan.phase_mut("bounce").unwrap();
+//! bounce.add_path_systems(|schedule| {
+//!     schedule.add_systems(count.before(PassSystems::Gather).after(PassSystems::Shadow));
+//! });
+//! bounce.add_link(ShardLink::merge::<Ended>(|total, shard| total.0 += shard.0));
 //! renderer.run(None, |_| {});
-//! assert!(renderer.world.resource::<Bounces>().0 > 0);
+//! assert_eq!(renderer.world.resource::<Ended>().0, 16 * 16);
 //! ```
 //!
 //! ## Systems
@@ -90,6 +100,7 @@
 
 pub mod aov;
 pub mod bidirectional;
+pub mod camera_paths;
 pub mod components;
 pub mod driver;
 pub mod emit;
@@ -102,6 +113,7 @@ pub mod plan;
 pub mod report;
 pub mod resources;
 pub mod scatter;
+pub mod shards;
 pub mod trace;
 pub mod update;
 pub mod workload;

@@ -4,6 +4,7 @@
 
 use crate::report::Report;
 pub use crate::report::Unit;
+use crate::shards::Shards;
 use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::{ScheduleLabel, SingleThreadedExecutor};
 use caustica_core::film::Image;
@@ -63,6 +64,9 @@ pub struct Phase {
     /// phases do not run, the pass does not count): for work that is long, precedes anything the film
     /// or a checkpoint holds, and is worthless cut short (`pm`'s photon maps).
     pub dropped_on_stop: bool,
+    /// The phase runs its stages on shards, a World per worker with a chunk of the paths each
+    /// ([`crate::shards`]); `schedule` then runs on the main World once per round.
+    pub shards: Option<Shards>,
 }
 
 impl Phase {
@@ -83,6 +87,31 @@ impl Phase {
             when,
             repeat,
             dropped_on_stop: false,
+            shards: None,
+        }
+    }
+
+    /// A phase whose stages run on `shards` until every shard is idle.
+    pub fn sharded(name: &'static str, when: When, shards: Shards) -> Self {
+        Self { shards: Some(shards), ..Self::new(name, when, Repeat::WhileBusy(|_| false)) }
+    }
+
+    /// Add systems that run on every path of the phase, every bounce: to each shard's schedule in a
+    /// sharded phase, to `schedule` otherwise. Place them with a stage's set
+    /// (`.after(PassSystems::Gather)`, `.in_set(PassSystems::Scatter)`).
+    pub fn add_path_systems(&mut self, systems: impl Fn(&mut Schedule) + Send + Sync + 'static) {
+        match &mut self.shards {
+            Some(shards) => shards.add_systems(systems),
+            None => systems(&mut self.schedule),
+        }
+    }
+
+    /// Lend a host's resource to the shards of a sharded phase for every round, or fold what they
+    /// counted in theirs back into the main World's ([`crate::shards::ShardLink`]); nothing to do
+    /// in a phase that runs on the main World.
+    pub fn add_link(&mut self, link: crate::shards::ShardLink) {
+        if let Some(shards) = &mut self.shards {
+            shards.add_link(link);
         }
     }
 

@@ -27,10 +27,13 @@ use caustica_core::geometry::bvh::Hit;
 use caustica_core::kernel::aov::FirstSurface;
 use caustica_core::kernel::dimensions::photon_sampler;
 use caustica_core::kernel::photon::scatter_photon;
-use caustica_core::kernel::{Arrival, EmissionWeight, Quantity, continue_path, sample_light};
+use caustica_core::kernel::{
+    Arrival, CameraPath, EmissionWeight, Quantity, ShadowSample, continue_path, sample_light,
+};
 use caustica_core::photon::estimate::radiance_estimate;
 use caustica_core::photon::{Neighbors, PhotonMap};
 use caustica_core::render_scene::RenderScene;
+use caustica_core::sampling::Sampler;
 
 /// Scatter every active path. `NEE` selects `pt` (light sampling + MIS) over `pt-naive`.
 pub fn scatter_paths<const NEE: bool>(
@@ -42,7 +45,19 @@ pub fn scatter_paths<const NEE: bool>(
         |(hit, mut ray, mut state, mut shadow, mut aov)| {
             let aov = aov.as_deref_mut().map(|a| &mut a.0);
             advance(&mut state, |state| {
-                path_vertex::<NEE>(&scene, &config, &hit.0, &mut ray.0, state, &mut shadow, aov)
+                let (continues, light_sample) = path_vertex::<NEE>(
+                    &scene,
+                    &config,
+                    &hit.0,
+                    &mut ray.0,
+                    &mut state.path,
+                    state.sampler,
+                    aov,
+                );
+                if let Some(sample) = light_sample {
+                    shadow.queue(sample);
+                }
+                continues
             });
         },
     );
@@ -60,30 +75,30 @@ fn advance(state: &mut PathState, vertex: impl FnOnce(&mut PathState) -> bool) {
     }
 }
 
-/// One vertex of `pt` or `pt-naive`; false when the path ends.
+/// One vertex of `pt` or `pt-naive` (the path's random numbers from `sampler`): whether the path
+/// goes on (its next ray in `ray`), and the light sample to test, if it took one.
 #[inline]
-fn path_vertex<const NEE: bool>(
+pub(crate) fn path_vertex<const NEE: bool>(
     scene: &RenderScene,
     config: &RenderConfig,
     hit: &Hit,
     ray: &mut Ray,
-    state: &mut PathState,
-    shadow: &mut ShadowRay,
+    path: &mut CameraPath,
+    sampler: Sampler,
     aov: Option<&mut FirstSurface>,
-) -> bool {
+) -> (bool, Option<ShadowSample>) {
     let arrival = Arrival {
         emission: Some(if NEE { EmissionWeight::Mis } else { EmissionWeight::One }),
         last_depth: config.limits.max_depth,
     };
-    arrival.arrive(scene, ray, hit, &mut state.path, state.sampler, aov, |path, ray, v, u| {
-        if NEE
-            && !v.bsdf.is_delta()
-            && let Some(sample) = sample_light(scene, v, path, ray.time, u, true)
-        {
-            shadow.queue(sample);
+    let mut light_sample = None;
+    let continues = arrival.arrive(scene, ray, hit, path, sampler, aov, |path, ray, v, u| {
+        if NEE && !v.bsdf.is_delta() {
+            light_sample = sample_light(scene, v, path, ray.time, u, true);
         }
         continue_from(ray, continue_path(path, v, ray.time, u, config.limits))
-    })
+    });
+    (continues, light_sample)
 }
 
 /// Store the continuation's ray; false when there is none.

@@ -92,6 +92,14 @@ pub struct TraversalTotals {
 }
 
 impl TraversalTotals {
+    fn plus(&self, other: &TraversalTotals) -> TraversalTotals {
+        TraversalTotals {
+            rays: self.rays + other.rays,
+            nodes: self.nodes + other.nodes,
+            leaves: self.leaves + other.leaves,
+        }
+    }
+
     fn add(&mut self, counts: TraceCounts) {
         self.rays += 1;
         self.nodes += u64::from(counts.nodes);
@@ -115,6 +123,30 @@ pub struct TraceStatistics {
 }
 
 impl TraceStatistics {
+    /// Run a camera-path query, counting its ray and the BVH work it took.
+    #[inline]
+    pub fn count_paths<R>(&self, query: impl FnOnce(&mut TraceCounts) -> R) -> R {
+        self.count(&self.paths, query)
+    }
+
+    /// Run a shadow-ray query, counting as [`TraceStatistics::count_paths`] does.
+    #[inline]
+    pub fn count_shadow<R>(&self, query: impl FnOnce(&mut TraceCounts) -> R) -> R {
+        self.count(&self.shadow, query)
+    }
+
+    /// Add what another (a shard's) counted.
+    pub fn absorb(&mut self, mut other: TraceStatistics) {
+        for (mine, theirs) in [
+            (&self.paths, &mut other.paths),
+            (&self.shadow, &mut other.shadow),
+            (&self.photons, &mut other.photons),
+        ] {
+            let total = theirs.iter_mut().fold(TraversalTotals::default(), |a, b| a.plus(b));
+            mine.scope(|t| *t = t.plus(&total));
+        }
+    }
+
     fn count<R>(&self, stage: &Parallel<TraversalTotals>, query: impl FnOnce(&mut TraceCounts) -> R) -> R {
         let mut counts = TraceCounts::default();
         let result = query(&mut counts);
@@ -125,11 +157,7 @@ impl TraceStatistics {
     /// The totals of each stage so far, named after its system: camera-path rays, shadow rays, photons.
     pub fn totals(&mut self) -> [(&'static str, TraversalTotals); 3] {
         let sum = |stage: &mut Parallel<TraversalTotals>| {
-            stage.iter_mut().fold(TraversalTotals::default(), |a, b| TraversalTotals {
-                rays: a.rays + b.rays,
-                nodes: a.nodes + b.nodes,
-                leaves: a.leaves + b.leaves,
-            })
+            stage.iter_mut().fold(TraversalTotals::default(), |a, b| a.plus(b))
         };
         [
             ("trace_paths", sum(&mut self.paths)),

@@ -61,9 +61,40 @@ impl PixelOrder {
     }
 }
 
-/// The samples of one pass of a sample integrator.
-#[derive(Resource, Debug)]
-pub struct Workload {
+/// The samples of one pass of a sample integrator, shared: a clone hands out from the same counters
+/// (each shard of a chunked render holds one).
+#[derive(Resource, Clone, Debug)]
+pub struct Workload(Arc<WorkItems>);
+
+impl std::ops::Deref for Workload {
+    type Target = WorkItems;
+    fn deref(&self) -> &WorkItems {
+        &self.0
+    }
+}
+
+impl Workload {
+    /// Work for `pixels` pixels and samples `spp_begin..spp_end` on `wavefront` entities, none handed
+    /// out yet.
+    pub fn new(pixels: u32, spp_begin: u32, spp_end: u32, wavefront: u32) -> Self {
+        Self(Arc::new(WorkItems::new(pixels, spp_begin, spp_end, wavefront)))
+    }
+
+    /// Work for the pixels of `order` only (adaptive sampling), samples `spp_begin..spp_end` of each.
+    pub fn over(order: Arc<PixelOrder>, spp_begin: u32, spp_end: u32, wavefront: u32) -> Self {
+        Self(Arc::new(WorkItems::over(order, spp_begin, spp_end, wavefront)))
+    }
+
+    /// Work with nothing left to hand out (the progressive integrators' camera passes assign their
+    /// samples themselves).
+    pub fn exhausted(pixels: u32) -> Self {
+        Self::new(pixels, 0, 0, pixels)
+    }
+}
+
+/// The items of a [`Workload`] and the counters that hand them out.
+#[derive(Debug)]
+pub struct WorkItems {
     /// Pixels the pass renders (the image's, or adaptive sampling's list of them).
     pub pixels: u32,
     /// Which pixels, when not the whole image: item `k` is pixel `order[k % pixels]`.
@@ -84,29 +115,8 @@ pub struct Workload {
     limit: AtomicU64,
 }
 
-impl Clone for Workload {
-    fn clone(&self) -> Self {
-        let lanes = self.lanes.iter().map(|c| LaneCounter(c.0.load(Ordering::Relaxed).into())).collect();
-        let (open, limit) =
-            (self.open.load(Ordering::Relaxed).into(), self.limit.load(Ordering::Relaxed).into());
-        Self {
-            pixels: self.pixels,
-            order: self.order.clone(),
-            spp_begin: self.spp_begin,
-            spp_end: self.spp_end,
-            wavefront: self.wavefront,
-            entity_block: self.entity_block,
-            lanes,
-            open,
-            limit,
-        }
-    }
-}
-
-impl Workload {
-    /// Work for `pixels` pixels and samples `spp_begin..spp_end` on `wavefront` entities, none handed
-    /// out yet.
-    pub fn new(pixels: u32, spp_begin: u32, spp_end: u32, wavefront: u32) -> Self {
+impl WorkItems {
+    fn new(pixels: u32, spp_begin: u32, spp_end: u32, wavefront: u32) -> Self {
         let entity_block = ENTITY_BLOCK.min(wavefront.max(1));
         let count = (wavefront / entity_block).clamp(1, MAX_LANES);
         let entity_block = wavefront.div_ceil(count).max(1);
@@ -116,8 +126,7 @@ impl Workload {
         Self { pixels, order: None, spp_begin, spp_end, wavefront, entity_block, lanes, open, limit }
     }
 
-    /// Work for the pixels of `order` only (adaptive sampling), samples `spp_begin..spp_end` of each.
-    pub fn over(order: Arc<PixelOrder>, spp_begin: u32, spp_end: u32, wavefront: u32) -> Self {
+    fn over(order: Arc<PixelOrder>, spp_begin: u32, spp_end: u32, wavefront: u32) -> Self {
         Self { order: Some(order.clone()), ..Self::new(order.len(), spp_begin, spp_end, wavefront) }
     }
 
@@ -127,10 +136,14 @@ impl Workload {
         self.order.as_ref().map_or(place, |order| order.pixels[place as usize])
     }
 
-    /// Work with nothing left to hand out (the progressive integrators' camera passes assign their
-    /// samples themselves).
-    pub fn exhausted(pixels: u32) -> Self {
-        Self::new(pixels, 0, 0, pixels)
+    /// How many lanes hand items out.
+    pub fn lane_count(&self) -> usize {
+        self.lanes.len()
+    }
+
+    /// Whether every lane has run out (no item will be handed out any more).
+    pub fn is_exhausted(&self) -> bool {
+        self.open.load(Ordering::Relaxed) == 0
     }
 
     /// Total camera samples.

@@ -112,7 +112,7 @@ pub fn scene_world_dynamic(scene: Scene, run: &RunFile, dynamic: &[bool]) -> Res
         strata: 1,
     });
     world.insert_resource(CameraResource(camera));
-    world.insert_resource(SceneResource(render_scene));
+    world.insert_resource(SceneResource::new(render_scene));
     world.insert_resource(RenderStats::default());
     world.insert_resource(PassRange::default());
     Ok((world, features))
@@ -124,9 +124,9 @@ pub fn add_films(world: &mut World, run: &RunFile) {
         let camera = world.resource::<CameraResource>();
         (camera.width, camera.height)
     };
-    world.insert_resource(FilmResource(Film::new(width, height)));
+    world.insert_resource(FilmResource::new(Film::new(width, height)));
     if run.film.aovs.iter().any(|aov| aov.needs_surface()) {
-        world.insert_resource(AovFilmResource(AovFilm::new(width, height)));
+        world.insert_resource(AovFilmResource::new(AovFilm::new(width, height)));
     }
 }
 

@@ -66,3 +66,46 @@ fn one_two_and_three_threads_give_bit_identical_images() {
     }
     std::fs::remove_dir_all(dir).ok();
 }
+
+/// `pt` and `pt-naive` run on shards of `render.chunk` camera paths each, one shard per thread:
+/// the image is the same bits for any chunk size and thread count, with feature images, adaptive
+/// sampling and visibility-aware light selection too (each adds a column or a shared resource).
+#[test]
+fn chunk_sizes_and_thread_counts_give_bit_identical_path_traced_images() {
+    let dir = std::env::temp_dir().join(format!("caustica-chunks-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = common::data("cornell-spheres.gltf");
+    let render = |threads: u32, chunk: u32, extra: &[&str], name: &str| {
+        let out = dir.join(format!("{name}-{threads}-{chunk}.exr"));
+        let status = Command::new(env!("CARGO_BIN_EXE_caustica"))
+            .arg("render")
+            .arg(&scene)
+            .args(["--spp", "6", "--width", "40", "--height", "30", "--quiet", "--seed", "3"])
+            .args(["--threads", &threads.to_string(), "--set", &format!("render.chunk={chunk}"), "-o"])
+            .arg(&out)
+            .args(extra)
+            .status()
+            .expect("caustica runs");
+        assert!(status.success(), "{name}: {threads} threads, chunk {chunk} failed");
+        let image = read_exr(&out).unwrap();
+        image.pixels.iter().map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>()
+    };
+    for (name, extra) in [
+        ("pt", &[][..]),
+        ("pt-naive", &["--integrator", "pt-naive"][..]),
+        ("pt-visibility", &["--light-selection", "visibility"][..]),
+        (
+            "pt-adaptive-aov",
+            &["--noise-threshold", "0.2", "--min-spp", "2", "--aov", "albedo,normal,depth"][..],
+        ),
+    ] {
+        let first = render(1, 4096, extra, name);
+        for (threads, chunk) in [(1, 1), (1, 7), (2, 64), (3, 13), (2, 4096)] {
+            assert!(
+                render(threads, chunk, extra, name) == first,
+                "{name}: {threads} threads with chunks of {chunk} paths differ from one thread with 4096"
+            );
+        }
+    }
+    std::fs::remove_dir_all(dir).ok();
+}

@@ -247,3 +247,45 @@ fn a_node_moved_by_name_is_put_back_by_its_index() {
         assert_eq!(moved.positions, loaded.positions, "{}", moved.name);
     }
 }
+
+/// A host's system inserted into a stage runs on every shard, every bounce, on every path: placed
+/// after the trace stage it sees each camera ray the renderer traced, and before the splat each
+/// sample that ends; its counts, folded from the shards into the main World, are the report's.
+#[test]
+fn a_host_system_in_a_stage_sees_every_path_of_every_shard() {
+    use bevy_ecs::prelude::*;
+    use caustica::PassSystems;
+    use caustica::camera_paths::PathQueues;
+    use caustica::shards::ShardLink;
+
+    #[derive(Resource, Default)]
+    struct Seen {
+        traced: u64,
+        ended: u64,
+    }
+    fn after_trace(mut seen: ResMut<Seen>, queues: Res<PathQueues>) {
+        seen.traced += queues.active.len() as u64;
+    }
+    fn before_splat(mut seen: ResMut<Seen>, queues: Res<PathQueues>) {
+        seen.ended += queues.finished.len() as u64;
+    }
+
+    init_thread_pools(None);
+    let (scene, mut run) = setup(&common::data("cornell-box.gltf"));
+    run.render.chunk = 37;
+    let mut renderer = Renderer::new(scene, &run).unwrap();
+    renderer.world.insert_resource(Seen::default());
+    let bounce = renderer.plan.phase_mut("bounce").unwrap();
+    bounce.add_path_systems(|schedule| {
+        schedule.add_systems(after_trace.after(PassSystems::Trace).before(PassSystems::Scatter));
+        schedule.add_systems(before_splat.after(PassSystems::Shadow).before(PassSystems::Gather));
+    });
+    bounce.add_link(ShardLink::merge::<Seen>(|total, shard| {
+        total.traced += shard.traced;
+        total.ended += shard.ended;
+    }));
+    let report = renderer.run(None, |_| {});
+    let seen = renderer.world.resource::<Seen>();
+    assert_eq!(seen.ended, 24 * 24 * 3, "every sample's path ends once");
+    assert_eq!(seen.traced, report.paths.rays, "every traced camera ray");
+}

@@ -36,11 +36,11 @@ fn path_tracing_profile_lists_every_system_and_the_trace_has_one_event_per_run()
         .and_then(|s| s.parse().ok())
         .expect("the summary reports the steps");
     let systems = [
-        "emit_camera_paths<false, false>",
+        "emit_paths<false, false>",
         "trace_paths",
         "scatter_paths<true>",
         "trace_shadow_rays",
-        "splat_paths_to_film",
+        "splat_paths",
     ];
     for system in systems {
         let row =

@@ -278,12 +278,12 @@ impl Lights {
 
     /// Learn from a shadow ray from `p` (normal `n` on the shaded side) to light `index`: whether it
     /// got through.
-    pub fn record_visibility(&mut self, p: Vec3, n: Vec3, index: u32, unoccluded: bool) {
+    pub fn record_visibility(&self, p: Vec3, n: Vec3, index: u32, unoccluded: bool) {
         // Infinite lights are selected beside the tree, so the grid has nothing to learn about them.
         if self.is_infinite(index) {
             return;
         }
-        if let (Some(tree), Some(grid)) = (&self.tree, &mut self.visibility) {
+        if let (Some(tree), Some(grid)) = (&self.tree, &self.visibility) {
             grid.record(p, n, tree.cluster(index, visibility::CLUSTER_DEPTH), unoccluded);
         }
     }

@@ -16,6 +16,7 @@
 use super::LightTree;
 use crate::sampling::ONE_MINUS_EPSILON;
 use glam::{UVec3, Vec3};
+use std::sync::atomic::{AtomicU32, Ordering};
 
 /// Share of samples drawn from the plain tree.
 pub const DEFENSIVE: f32 = 0.25;
@@ -28,20 +29,38 @@ const CELLS_LONGEST: f32 = 16.0;
 const MIN_SAMPLES: u32 = 16;
 
 /// The learned per-cell visibility of each light cluster.
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct VisibilityGrid {
     min: Vec3,
     inv_cell: f32,
     dims: UVec3,
-    /// Per (cell, cluster): shadow rays traced and unoccluded while learning.
-    traced: Vec<u32>,
-    unoccluded: Vec<u32>,
+    /// Per (cell, cluster): shadow rays traced and unoccluded while learning. Counters, so that every
+    /// worker records into the one grid and the counts do not depend on the order rays arrive in.
+    traced: Vec<AtomicU32>,
+    unoccluded: Vec<AtomicU32>,
     /// Per (cell, cluster) after learning: the cumulative distribution over clusters (all zero where
     /// the cell learned nothing).
     cdf: Vec<f32>,
     /// The tree node of each cluster id (`u32::MAX`: none).
     cluster_nodes: Vec<u32>,
     ready: bool,
+}
+
+impl Clone for VisibilityGrid {
+    fn clone(&self) -> Self {
+        let copy =
+            |counts: &[AtomicU32]| counts.iter().map(|n| AtomicU32::new(n.load(Ordering::Relaxed))).collect();
+        Self {
+            min: self.min,
+            inv_cell: self.inv_cell,
+            dims: self.dims,
+            traced: copy(&self.traced),
+            unoccluded: copy(&self.unoccluded),
+            cdf: self.cdf.clone(),
+            cluster_nodes: self.cluster_nodes.clone(),
+            ready: self.ready,
+        }
+    }
 }
 
 impl VisibilityGrid {
@@ -55,8 +74,8 @@ impl VisibilityGrid {
             min,
             inv_cell: 1.0 / cell,
             dims,
-            traced: vec![0; cells * CLUSTERS],
-            unoccluded: vec![0; cells * CLUSTERS],
+            traced: (0..cells * CLUSTERS).map(|_| AtomicU32::new(0)).collect(),
+            unoccluded: (0..cells * CLUSTERS).map(|_| AtomicU32::new(0)).collect(),
             cdf: Vec::new(),
             cluster_nodes: tree.cluster_nodes(CLUSTER_DEPTH),
             ready: false,
@@ -80,13 +99,15 @@ impl VisibilityGrid {
 
     /// Record one shadow ray from `p` (normal `n` on the shaded side) towards a light of `cluster`,
     /// and whether it got through. Ignored once learning is over.
-    pub fn record(&mut self, p: Vec3, n: Vec3, cluster: u32, unoccluded: bool) {
+    pub fn record(&self, p: Vec3, n: Vec3, cluster: u32, unoccluded: bool) {
         if self.ready || !p.is_finite() || !n.is_finite() {
             return;
         }
         let i = self.cell(p, n) * CLUSTERS + cluster as usize % CLUSTERS;
-        self.traced[i] += 1;
-        self.unoccluded[i] += unoccluded as u32;
+        self.traced[i].fetch_add(1, Ordering::Relaxed);
+        if unoccluded {
+            self.unoccluded[i].fetch_add(1, Ordering::Relaxed);
+        }
     }
 
     /// End learning: weigh every cluster of every cell by its importance at the cell's centre times
@@ -100,7 +121,7 @@ impl VisibilityGrid {
         self.cdf = vec![0.0; self.traced.len()];
         for cell in 0..cells {
             let traced = &self.traced[cell * CLUSTERS..(cell + 1) * CLUSTERS];
-            if traced.iter().sum::<u32>() < MIN_SAMPLES {
+            if traced.iter().map(|n| n.load(Ordering::Relaxed)).sum::<u32>() < MIN_SAMPLES {
                 continue;
             }
             let (x, rest) = (cell as u32 % self.dims.x, cell as u32 / self.dims.x);
@@ -111,7 +132,9 @@ impl VisibilityGrid {
             for (c, &node) in self.cluster_nodes.iter().enumerate() {
                 if node != u32::MAX {
                     let i = cell * CLUSTERS + c;
-                    let visibility = (self.unoccluded[i] as f64 + 1.0) / (self.traced[i] as f64 + 2.0);
+                    let (unoccluded, traced) =
+                        (self.unoccluded[i].load(Ordering::Relaxed), self.traced[i].load(Ordering::Relaxed));
+                    let visibility = (unoccluded as f64 + 1.0) / (traced as f64 + 2.0);
                     acc += tree.node_importance(node, centre, Vec3::ZERO) as f64 * visibility;
                 }
                 row[c] = acc as f32;

@@ -67,10 +67,10 @@ impl Renderer {
             let film = self.world.resource::<FilmResource>();
             (film.width, film.height)
         };
-        self.world.insert_resource(FilmResource(caustica_core::film::Film::new(width, height)));
+        self.world.insert_resource(FilmResource::new(caustica_core::film::Film::new(width, height)));
         if self.has_aovs() {
             let film = caustica_core::film::aov::AovFilm::new(width, height);
-            self.world.insert_resource(crate::resources::AovFilmResource(film));
+            self.world.insert_resource(crate::resources::AovFilmResource::new(film));
         }
         self.world.insert_resource(RenderStats::default());
         if let Some(mut adaptive) = self.world.get_resource_mut::<AdaptiveSampling>() {
@@ -107,7 +107,7 @@ impl Renderer {
         (self.integrator.check)(scene, &self.run)?;
         let render_scene = RenderScene::build(scene, self.run.render.light_selection);
         self.check_features(&render_scene)?;
-        self.world.insert_resource(SceneResource(render_scene));
+        self.world.insert_resource(SceneResource::new(render_scene));
         self.restart();
         Ok(())
     }
@@ -283,7 +283,7 @@ impl Renderer {
             how.partition(&frames.dynamic),
         );
         self.check_features(&render_scene)?;
-        self.world.insert_resource(SceneResource(render_scene));
+        self.world.insert_resource(SceneResource::new(render_scene));
         self.restart();
         Ok(())
     }
@@ -314,20 +314,21 @@ impl Renderer {
         let lights_moved = scene.animation.as_ref().is_some_and(|a| !a.lights.is_empty());
         let geometry_changed = !changed.is_empty() || lights_moved;
         if geometry_changed {
-            let mut render_scene = self.world.remove_resource::<SceneResource>().expect("a scene").0;
+            let mut render_scene =
+                self.world.remove_resource::<SceneResource>().expect("a scene").into_inner();
             update.scene =
                 render_scene.update(scene, changed, &frames.dynamic, light_selection, self.bvh_update);
             if let Err(e) = self.check_features(&render_scene) {
-                self.world.insert_resource(SceneResource(render_scene));
+                self.world.insert_resource(SceneResource::new(render_scene));
                 return Err(e);
             }
-            self.world.insert_resource(SceneResource(render_scene));
+            self.world.insert_resource(SceneResource::new(render_scene));
         }
         if camera {
             let start = Instant::now();
             let current = &self.world.resource::<CameraResource>().0;
             let (width, height) = (current.width, current.height);
-            let render_scene = &self.world.resource::<SceneResource>().0;
+            let render_scene = &**self.world.resource::<SceneResource>();
             let camera = crate::world::scene_camera(
                 scene.camera.clone(),
                 &scene.source,

@@ -25,6 +25,10 @@ use std::time::Instant;
 
 pub use crate::world::{DEFAULT_RESOLUTION, MAX_WAVEFRONT, init_thread_pools, resolution, scene_world};
 
+/// How long the shards of a sharded phase run between two meetings with the driver (progress, time
+/// limit, interrupts): long enough that the meeting costs nothing, short enough to stop promptly.
+const ROUND: std::time::Duration = std::time::Duration::from_millis(100);
+
 /// How far a render has come, for a progress bar.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Progress {
@@ -329,13 +333,28 @@ impl Renderer {
             let phase_start = Instant::now();
             let mut runs = 0;
             self.plan.phases[i].begin.run(&mut self.world);
+            // A sharded phase's shards are taken out while it runs, so that `on_step` can see the
+            // renderer whole.
+            let mut shards = self.plan.phases[i].shards.take();
             loop {
-                self.plan.phases[i].schedule.run(&mut self.world);
-                runs += 1;
-                let Repeat::WhileBusy(busy) = self.plan.phases[i].repeat else { break };
+                let busy = match shards.as_mut() {
+                    Some(shards) => {
+                        let round = shards.run_round(&mut self.world, ROUND);
+                        runs += round.steps;
+                        self.world.resource_mut::<RenderStats>().active_paths = round.in_flight;
+                        self.plan.phases[i].schedule.run(&mut self.world);
+                        round.in_flight > 0
+                    }
+                    None => {
+                        self.plan.phases[i].schedule.run(&mut self.world);
+                        runs += 1;
+                        let Repeat::WhileBusy(busy) = self.plan.phases[i].repeat else { break };
+                        busy(&self.world)
+                    }
+                };
                 let whole_passes = self.whole_passes || self.integrator.whole_passes;
                 if let Some(reason) = self.should_stop(deadline) {
-                    if self.plan.phases[i].dropped_on_stop && busy(&self.world) {
+                    if self.plan.phases[i].dropped_on_stop && busy {
                         // Nothing of this pass is in the film yet: stop now, not at the phase's end.
                         self.stopped = true;
                         self.stopped_by.get_or_insert(reason);
@@ -343,6 +362,7 @@ impl Renderer {
                         self.phase_times[i].runs += runs;
                         self.at_pass_boundary = true;
                         self.seconds += pass_start.elapsed().as_secs_f64();
+                        self.plan.phases[i].shards = shards;
                         on_step(self);
                         return;
                     }
@@ -363,10 +383,11 @@ impl Renderer {
                     cut = true;
                 }
                 on_step(self);
-                if !busy(&self.world) {
+                if !busy {
                     break;
                 }
             }
+            self.plan.phases[i].shards = shards;
             self.plan.phases[i].end.run(&mut self.world);
             let time = &mut self.phase_times[i];
             time.seconds += phase_start.elapsed().as_secs_f64();
@@ -404,10 +425,12 @@ impl Renderer {
     /// What the render did so far.
     pub fn report(&self) -> Report {
         let film = self.world.resource::<FilmResource>();
-        let wavefront = self
-            .world
-            .try_query::<&crate::components::PathState>()
-            .map_or(0, |mut q| q.iter(&self.world).count() as u32);
+        let sharded: u32 = self.plan.phases.iter().filter_map(|p| p.shards.as_ref()).map(|s| s.paths()).sum();
+        let wavefront = sharded
+            + self
+                .world
+                .try_query::<&crate::components::PathState>()
+                .map_or(0, |mut q| q.iter(&self.world).count() as u32);
         let mut report = Report {
             integrator: self.integrator.kind,
             width: film.width,

@@ -101,7 +101,7 @@ impl Renderer {
             let with_hits = self.traces_visible_points_once();
             crate::hit_point_state::restore(&mut self.world, state, with_hits)?;
         }
-        self.world.insert_resource(FilmResource(film));
+        self.world.insert_resource(FilmResource::new(film));
         (self.first, self.done) = (done, done);
         Ok(())
     }

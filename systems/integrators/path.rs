@@ -22,15 +22,13 @@
 //! no light.
 
 use super::descriptor::{Integrator, LightSampling, MemoryNeed, Setting, no_checks, one_sample_per_unit};
-use super::{configure_stages, film_image, paths_busy, stage_order};
+use super::{configure_stages, film_image, stage_order};
 use crate::PassSystems;
-use crate::emit::emit_camera_paths_for;
-use crate::gather::{learn_light_visibility, splat_paths_to_film};
+use crate::camera_paths::{PathExtras, spawn_chunk};
 use crate::passes::{finish_light_learning, hand_out_samples, select_unconverged_pixels};
-use crate::plan::{Phase, Plan, Repeat, Unit, When};
+use crate::plan::{Phase, Plan, Unit, When};
 use crate::resources::{AdaptiveSampling, SceneFeatures};
-use crate::scatter::scatter_paths;
-use crate::trace::{trace_paths, trace_shadow_rays};
+use crate::shards::{ShardLink, ShardPlan, Shards};
 use bevy_ecs::prelude::*;
 use caustica_core::error::Result;
 use caustica_core::scene::schedule::Stage;
@@ -52,7 +50,7 @@ const PATH_TRACER: Integrator = Integrator {
     takes: &[Setting::NoiseThreshold],
     default_hit_points_per_pixel: 0,
     camera_samples_per_unit: one_sample_per_unit,
-    memory: |_, pixels, run| paths(pixels, run),
+    memory: |_, pixels, run| chunked_paths(pixels, run),
     check: no_checks,
     plan,
 };
@@ -67,10 +65,46 @@ pub fn paths(pixels: u64, run: &RunFile) -> MemoryNeed {
         components.push(size_of::<PathAov>());
     }
     let paths = pixels.min(crate::world::MAX_WAVEFRONT as u64) * super::memory::entity_bytes(&components);
+    MemoryNeed {
+        bytes: paths + adaptive_bytes(pixels, run),
+        what: format!("a {pixels}-pixel film and its paths"),
+    }
+}
+
+/// Adaptive sampling's state per pixel, when the run asks for it.
+fn adaptive_bytes(pixels: u64, run: &RunFile) -> u64 {
     const ADAPTIVE_BYTES_PER_PIXEL: u64 =
         caustica_core::film::Film::BYTES_PER_PIXEL + 2 * size_of::<u32>() as u64;
-    let adaptive = if run.is_adaptive() { pixels * ADAPTIVE_BYTES_PER_PIXEL } else { 0 };
-    MemoryNeed { bytes: paths + adaptive, what: format!("a {pixels}-pixel film and its paths") }
+    if run.is_adaptive() { pixels * ADAPTIVE_BYTES_PER_PIXEL } else { 0 }
+}
+
+/// What `pt`'s and `pt-naive`'s shards hold: a chunk of camera paths per worker (their columns and
+/// queues), with adaptive sampling's state per pixel.
+fn chunked_paths(pixels: u64, run: &RunFile) -> MemoryNeed {
+    use crate::camera_paths::{PathSample, PathSampler, PathShadow, PathThroughput, ShadowLearning};
+    use crate::components::{PathAov, PathHit, PathRay};
+    let mut components = vec![
+        size_of::<PathRay>(),
+        size_of::<PathHit>(),
+        size_of::<PathThroughput>(),
+        size_of::<PathSample>(),
+        size_of::<PathSampler>(),
+        size_of::<PathShadow>(),
+    ];
+    if !run.film.aovs.is_empty() {
+        components.push(size_of::<PathAov>());
+    }
+    if run.render.light_selection == caustica_core::scene::LightSelection::Visibility {
+        components.push(size_of::<ShadowLearning>());
+    }
+    // The queues: a row in at most two of them, each a u32, and scatter's spare.
+    const QUEUE_BYTES: u64 = 3 * size_of::<u32>() as u64;
+    let rows = run.render.chunk as u64 * crate::shards::workers() as u64;
+    let paths = rows * (super::memory::entity_bytes(&components) + QUEUE_BYTES);
+    MemoryNeed {
+        bytes: paths + adaptive_bytes(pixels, run),
+        what: format!("a {pixels}-pixel film and its paths"),
+    }
 }
 
 /// The plan of `pt` or `pt-naive` for the scene in `world`.
@@ -85,15 +119,32 @@ fn plan(this: &Integrator, world: &mut World, run: &RunFile, features: SceneFeat
     } else {
         super::without_visibility_learning(world, features, "using the light tree")
     };
-    super::spawn_path_wavefront(world);
+    let extras = PathExtras {
+        aov: world.contains_resource::<crate::resources::AovFilmResource>(),
+        learning: features.learns_visibility,
+    };
+    let chunk = run.render.chunk;
+    // The Workload the pass's first schedule replaces: its lanes follow the paths in flight.
+    let in_flight = chunk.saturating_mul(crate::shards::workers() as u32);
+    let pixels = {
+        let film = world.resource::<crate::resources::FilmResource>();
+        film.width * film.height
+    };
+    world.insert_resource(crate::resources::Workload::new(pixels, 0, 0, in_flight));
 
     let mut phases = Vec::new();
     if features.learns_visibility {
         phases.push(Phase::once("learning", When::LaterPasses, finish_light_learning));
     }
-    let mut bounce =
-        Phase::new("bounce", When::EveryPass, Repeat::WhileBusy(paths_busy)).with_begin(hand_out_samples(1));
-    add_bounce_systems(&mut bounce.schedule, features, stage_order(run), nee);
+    let order = stage_order(run);
+    let shards = Shards::new(ShardPlan {
+        chunk,
+        spawn: Box::new(move |world, rows, index, count| spawn_chunk(world, rows, index, count, extras)),
+        in_flight: crate::camera_paths::in_flight,
+        systems: Box::new(move |schedule| add_bounce_systems(schedule, features, order, nee)),
+        links: camera_path_links(),
+    });
+    let mut bounce = Phase::sharded("bounce", When::EveryPass, shards).with_begin(hand_out_samples(1));
     if run.is_adaptive() {
         let film = world.resource::<crate::resources::FilmResource>();
         let pixels = film.width as usize * film.height as usize;
@@ -127,21 +178,48 @@ fn warn_unseen_delta_lights(world: &World) {
     }
 }
 
-/// Add one bounce of path tracing to `schedule` (the plan's, or a host's own): the stages in `order`
-/// (a rotation of the cycle), light sampling with MIS when `nee` and the scene has lights.
+/// What a shard of camera paths reads from the main World for a round, and counts into it.
+pub fn camera_path_links() -> Vec<ShardLink> {
+    use crate::resources::{
+        AdaptiveSquares, AovFilmResource, CameraResource, FilmResource, PassRange, RenderConfig, RenderStats,
+        SceneResource, Workload,
+    };
+    vec![
+        ShardLink::share::<SceneResource>(),
+        ShardLink::share::<CameraResource>(),
+        ShardLink::share::<RenderConfig>(),
+        ShardLink::share::<PassRange>(),
+        ShardLink::share::<Workload>(),
+        ShardLink::share::<FilmResource>(),
+        ShardLink::share::<AovFilmResource>(),
+        ShardLink::custom(
+            |main, shard| match main.get_resource::<AdaptiveSampling>() {
+                Some(adaptive) => shard.insert_resource(AdaptiveSquares(adaptive.squares.clone())),
+                None => {
+                    shard.remove_resource::<AdaptiveSquares>();
+                }
+            },
+            |shard, _| {
+                shard.remove_resource::<AdaptiveSquares>();
+            },
+        ),
+        ShardLink::merge::<RenderStats>(RenderStats::absorb),
+        ShardLink::merge::<crate::trace::TraceStatistics>(crate::trace::TraceStatistics::absorb),
+    ]
+}
+
+/// Add one bounce of path tracing over a chunk of camera paths to `schedule` (a shard's): the stages
+/// in `order` (a rotation of the cycle), light sampling with MIS when `nee` and the scene has lights.
 pub fn add_bounce_systems(schedule: &mut Schedule, features: SceneFeatures, order: [Stage; 5], nee: bool) {
+    use crate::camera_paths::{emit_paths_for, scatter_paths, splat_paths, trace_paths, trace_shadow_rays};
     configure_stages(schedule, order);
-    schedule.add_systems(emit_camera_paths_for(features).in_set(PassSystems::Emit));
+    schedule.add_systems(emit_paths_for(features).in_set(PassSystems::Emit));
     schedule.add_systems(trace_paths.in_set(PassSystems::Trace));
     if nee && features.lights {
         schedule.add_systems(scatter_paths::<true>.in_set(PassSystems::Scatter));
         schedule.add_systems(trace_shadow_rays.in_set(PassSystems::Shadow));
-        if features.learns_visibility {
-            schedule
-                .add_systems(learn_light_visibility.before(splat_paths_to_film).in_set(PassSystems::Gather));
-        }
     } else {
         schedule.add_systems(scatter_paths::<false>.in_set(PassSystems::Scatter));
     }
-    schedule.add_systems(splat_paths_to_film.in_set(PassSystems::Gather));
+    schedule.add_systems(splat_paths.in_set(PassSystems::Gather));
 }

@@ -11,8 +11,8 @@ pub struct AdaptiveSampling {
     pub threshold: f64,
     /// Samples every pixel takes first.
     pub min_spp: u32,
-    /// The samples' squares, beside the film's sums.
-    pub squares: caustica_core::film::adaptive::SampleSquares,
+    /// The samples' squares, beside the film's sums (shared with the shards that add to them).
+    pub squares: std::sync::Arc<caustica_core::film::adaptive::SampleSquares>,
     /// The pixels the next pass samples; `None`: every pixel (the first pass).
     pub next: Option<std::sync::Arc<PixelOrder>>,
 }
@@ -20,7 +20,7 @@ pub struct AdaptiveSampling {
 impl AdaptiveSampling {
     /// Fresh state for an image of `pixels` pixels.
     pub fn new(threshold: f64, min_spp: u32, pixels: usize) -> Self {
-        let squares = caustica_core::film::adaptive::SampleSquares::new(pixels);
+        let squares = std::sync::Arc::new(caustica_core::film::adaptive::SampleSquares::new(pixels));
         Self { threshold, min_spp, squares, next: None }
     }
 
@@ -38,3 +38,7 @@ impl AdaptiveSampling {
         end.min(target)
     }
 }
+
+/// The samples' squares as a shard holds them (lent from [`AdaptiveSampling`] for a round).
+#[derive(Resource, Clone, Debug)]
+pub struct AdaptiveSquares(pub std::sync::Arc<caustica_core::film::adaptive::SampleSquares>);

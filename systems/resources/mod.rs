@@ -5,7 +5,7 @@ mod adaptive;
 mod photons;
 mod progressive;
 
-pub use adaptive::AdaptiveSampling;
+pub use adaptive::{AdaptiveSampling, AdaptiveSquares};
 pub use photons::{PassPhotons, PhotonBuffer, PhotonMapSummary, PhotonMaps, PhotonStats, PhotonWork};
 pub use progressive::ProgressiveConfig;
 
@@ -38,7 +38,43 @@ macro_rules! resource_of {
     };
 }
 
-resource_of!(
+/// A core type shared by the main World and the shards' (`crate::shards`): a clone shares it, and
+/// a change through `DerefMut` copies it first if a shard still holds it (the driver takes the
+/// shards' copies back after every round, so between rounds it changes in place).
+macro_rules! shared_resource_of {
+    ($(#[$doc:meta])* $name:ident($inner:ty)) => {
+        $(#[$doc])*
+        #[derive(Resource, Clone, Debug)]
+        pub struct $name(pub std::sync::Arc<$inner>);
+
+        impl $name {
+            /// `inner` as a resource.
+            pub fn new(inner: $inner) -> Self {
+                Self(std::sync::Arc::new(inner))
+            }
+
+            /// What it holds (copied if a shard still shares it).
+            pub fn into_inner(self) -> $inner {
+                std::sync::Arc::try_unwrap(self.0).unwrap_or_else(|shared| (*shared).clone())
+            }
+        }
+
+        impl std::ops::Deref for $name {
+            type Target = $inner;
+            fn deref(&self) -> &$inner {
+                &self.0
+            }
+        }
+
+        impl std::ops::DerefMut for $name {
+            fn deref_mut(&mut self) -> &mut $inner {
+                std::sync::Arc::make_mut(&mut self.0)
+            }
+        }
+    };
+}
+
+shared_resource_of!(
     /// The scene the systems trace and shade: BVHs, lights, materials, textures.
     SceneResource(RenderScene)
 );
@@ -46,11 +82,12 @@ resource_of!(
     /// The camera that `emit` generates rays from.
     CameraResource(Camera)
 );
-resource_of!(
-    /// The film that `gather` splats finished samples onto.
+shared_resource_of!(
+    /// The film that `gather` splats finished samples onto (its sums are atomic: every shard adds
+    /// to the one film).
     FilmResource(Film)
 );
-resource_of!(
+shared_resource_of!(
     /// The feature images' film, present only when the run asks for them (`film.aovs`).
     AovFilmResource(caustica_core::film::aov::AovFilm)
 );
@@ -111,8 +148,29 @@ pub struct RenderStats {
     pub first_bad: Option<BadSample>,
     /// Paths still working (not idle) after the last step.
     pub active_paths: u32,
-    /// Schedule runs (bounce steps).
+    /// Schedule runs (bounce steps), summed over shards.
     pub steps: u64,
+    /// Paths the steps ran over (the wavefront or a shard's chunk, each step): how busy they were is
+    /// the rays traced over this.
+    pub slot_steps: u64,
+}
+
+impl RenderStats {
+    /// Add what a shard counted (`active_paths` is the driver's: paths in flight after a round).
+    pub fn absorb(&mut self, shard: RenderStats) {
+        self.samples += shard.samples;
+        self.rays += shard.rays;
+        self.shadow_rays += shard.shadow_rays;
+        self.lookups += shard.lookups;
+        self.nan_samples += shard.nan_samples;
+        if let Some(bad) = shard.first_bad
+            && self.first_bad.is_none_or(|first| bad.order() < first.order())
+        {
+            self.first_bad = Some(bad);
+        }
+        self.steps += shard.steps;
+        self.slot_steps += shard.slot_steps;
+    }
 }
 
 /// A camera sample whose radiance was not finite: enough to find it again, since every random number

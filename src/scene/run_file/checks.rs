@@ -24,6 +24,9 @@ impl RunFile {
         if self.render.spp == 0 {
             return Err("render.spp is 0, must be at least 1".to_owned());
         }
+        if !(1..=MAX_CHUNK).contains(&self.render.chunk) {
+            return Err(format!("render.chunk is {}, must be in 1..={MAX_CHUNK}", self.render.chunk));
+        }
         self.environment.check()?;
         if self.film.width == Some(0) || self.film.height == Some(0) {
             return Err("film.width and film.height must be at least 1".to_owned());
@@ -109,6 +112,12 @@ impl PhotonSettings {
         Ok(())
     }
 }
+
+/// Camera paths a worker keeps in flight by default (`render.chunk`): their columns, about 200 bytes
+/// a path, stay within a core's L2 from stage to stage.
+pub const DEFAULT_CHUNK: u32 = 4096;
+/// Largest chunk.
+pub const MAX_CHUNK: u32 = 1 << 20;
 
 /// Samples a pixel takes before adaptive sampling may stop it: enough for a variance estimate that is
 /// not fooled by a pixel whose rare bright paths have not turned up yet.

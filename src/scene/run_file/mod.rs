@@ -4,7 +4,9 @@ mod assembly;
 mod checks;
 mod kinds;
 
-pub use checks::{DEFAULT_MIN_SPP, MAX_HIT_POINTS_PER_PIXEL, MAX_MEMORY_BUDGET_MIB};
+pub use checks::{
+    DEFAULT_CHUNK, DEFAULT_MIN_SPP, MAX_CHUNK, MAX_HIT_POINTS_PER_PIXEL, MAX_MEMORY_BUDGET_MIB,
+};
 pub use kinds::{FilterKind, IntegratorKind, LightSelection};
 
 use crate::error::{Error, Result};
@@ -38,6 +40,9 @@ pub struct RenderSettings {
     pub noise_threshold: f64,
     /// Samples every pixel takes before adaptive sampling may stop it.
     pub min_spp: u32,
+    /// Camera paths a worker keeps in flight (`pt`, `pt-naive`): its chunk of the wavefront, whose
+    /// columns stay in the core's cache from stage to stage. Any size renders the same image.
+    pub chunk: u32,
     /// The process's peak resident memory in MiB (`None`: half the machine's): what it holds once
     /// the scene is built, plus the film, paths, photons, hit points, the written image and
     /// checkpoints, counted before any of them is allocated.
@@ -58,6 +63,7 @@ impl Default for RenderSettings {
             time_limit: None,
             noise_threshold: 0.0,
             min_spp: DEFAULT_MIN_SPP,
+            chunk: DEFAULT_CHUNK,
             memory_budget_mib: None,
         }
     }
@@ -432,6 +438,7 @@ pub const SHORT_KEYS: &[(&str, &str)] = &[
     ("memory_budget_mib", "render"),
     ("noise_threshold", "render"),
     ("min_spp", "render"),
+    ("chunk", "render"),
     ("width", "film"),
     ("height", "film"),
     ("filter", "film"),
