@@ -1,21 +1,22 @@
-//! Trace throughput: closest-hit and any-hit queries on incoherent rays in the Cornell box, through
-//! our `Geometry` (eight-wide BVH, watertight test on packs of eight triangles), through the ECS
-//! `trace_paths` system, and through raw obvhs CwBvh traversal with its own (Möller–Trumbore, not
-//! watertight) triangle test: the reference the trace stage is held to. Before measuring it prints
-//! the nodes and leaves our traversal visits per ray.
+//! Trace throughput: closest-hit and any-hit queries on incoherent rays, through our `Geometry`
+//! (eight-wide BVH, watertight test on packs of triangles) and through raw obvhs CwBvh traversal
+//! with its own (Möller–Trumbore, not watertight) triangle test, on the Cornell box and on the
+//! 1.96 M-triangle dense mesh (`python3 scenes/make_dense_mesh.py` writes it; skipped without it).
+//! The rays are `../shared/peers/embree_rays.py`'s distribution (origins uniform in the inner 90% of
+//! the scene's box, directions uniform on the sphere; shadow segments from each origin to the next),
+//! so that the two print comparable rays per second. Before measuring it prints the nodes and leaves
+//! our traversal visits per ray.
+//!
+//! `cargo bench --bench trace` (a filter such as `-- dense-mesh/closest` picks one).
 
 // criterion_group! generates an undocumented public fn.
 #![allow(missing_docs)]
 
-use bevy_ecs::prelude::*;
-use caustica::components::{PathHit, PathRay, PathState, PathStatus};
 use caustica::driver::init_thread_pools;
 use caustica::geometry::{Geometry, Ray};
-use caustica::resources::SceneResource;
 use caustica::sampling::Sampler;
 use caustica::sampling::warp::uniform_sphere;
 use caustica::scene::load;
-use caustica::trace::trace_paths;
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -23,11 +24,7 @@ use std::path::Path;
 
 const RAYS: u32 = 1 << 16;
 
-fn cornell() -> caustica::scene::Scene {
-    load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box.gltf")).expect("scene loads").0
-}
-
-/// Rays from random points inside the box in uniformly random directions: the incoherent case.
+/// Rays from random points inside the scene's box in uniformly random directions: the incoherent case.
 fn incoherent_rays(geometry: &Geometry) -> Vec<Ray> {
     let (min, max) = geometry.bounds();
     (0..RAYS)
@@ -41,26 +38,43 @@ fn incoherent_rays(geometry: &Geometry) -> Vec<Ray> {
         .collect()
 }
 
-fn bench_trace(c: &mut Criterion) {
-    init_thread_pools(None);
-    let scene = cornell();
+fn bench_scene(c: &mut Criterion, name: &str, file: &str) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(file);
+    if !path.exists() {
+        println!(
+            "{name}: {} not found, skipped (python3 scenes/make_dense_mesh.py writes it)",
+            path.display()
+        );
+        return;
+    }
+    let scene = load(&path).expect("scene loads").0;
     let geometry = Geometry::build(&scene);
     let rays = incoherent_rays(&geometry);
     let shadow: Vec<Ray> = rays
         .iter()
-        .zip(rays.iter().skip(1))
-        .map(|(a, b)| Ray { o: a.o, d: b.o - a.o, t_max: 1.0, time: 0.0 })
+        .zip(rays.iter().cycle().skip(1))
+        .map(|(a, b)| Ray { o: a.o, d: b.o - a.o, t_max: 0.9999, time: 0.0 })
         .collect();
 
     let mut counts = caustica::geometry::wide_bvh::TraceCounts::default();
-    rays.iter().for_each(|r| _ = geometry.intersect_counted(r, &mut counts));
+    let hits = rays.iter().filter(|r| geometry.intersect_counted(r, &mut counts).is_hit()).count();
     let per_ray = |n: u32| n as f64 / RAYS as f64;
-    println!("closest hit: {:.2} nodes, {:.2} leaves a ray", per_ray(counts.nodes), per_ray(counts.leaves));
+    println!(
+        "{name}: closest hit {:.2} nodes, {:.2} leaves a ray ({:.3} of the rays hit)",
+        per_ray(counts.nodes),
+        per_ray(counts.leaves),
+        hits as f64 / RAYS as f64
+    );
     let mut counts = caustica::geometry::wide_bvh::TraceCounts::default();
-    shadow.iter().for_each(|r| _ = geometry.occluded_counted(r, &mut counts));
-    println!("any hit: {:.2} nodes, {:.2} leaves a ray", per_ray(counts.nodes), per_ray(counts.leaves));
+    let blocked = shadow.iter().filter(|r| geometry.occluded_counted(r, &mut counts)).count();
+    println!(
+        "{name}: any hit {:.2} nodes, {:.2} leaves a ray ({:.3} of the segments blocked)",
+        per_ray(counts.nodes),
+        per_ray(counts.leaves),
+        blocked as f64 / RAYS as f64
+    );
 
-    let mut group = c.benchmark_group("trace");
+    let mut group = c.benchmark_group(name);
     group.throughput(Throughput::Elements(RAYS as u64));
     group.bench_function(BenchmarkId::new("closest_hit", RAYS), |b| {
         b.iter(|| rays.par_iter().map(|r| geometry.intersect(r).t.min(1e3)).sum::<f32>())
@@ -108,27 +122,13 @@ fn bench_trace(c: &mut Criterion) {
                 .count()
         })
     });
-
-    // The ECS system on a wavefront of the same rays (bevy's heavy_compute pattern).
-    let mut world = World::new();
-    let lights = caustica::lights::Lights::default();
-    world.insert_resource(SceneResource(caustica::RenderScene {
-        geometry,
-        lights,
-        materials: scene.materials.clone(),
-        textures: vec![],
-    }));
-    world.spawn_batch(rays.iter().enumerate().map(|(i, r)| {
-        let mut state = PathState::new(i as u32, 0);
-        state.status = PathStatus::Active;
-        (PathRay(*r), PathHit::default(), state)
-    }));
-    let mut system = IntoSystem::into_system(trace_paths);
-    system.initialize(&mut world);
-    group.bench_function(BenchmarkId::new("trace_paths_system", RAYS), |b| {
-        b.iter(|| system.run((), &mut world))
-    });
     group.finish();
+}
+
+fn bench_trace(c: &mut Criterion) {
+    init_thread_pools(None);
+    bench_scene(c, "cornell-box", "scenes/cornell-box.gltf");
+    bench_scene(c, "dense-mesh", "scenes/dense-mesh.gltf");
 }
 
 criterion_group!(benches, bench_trace);

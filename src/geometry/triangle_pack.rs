@@ -134,6 +134,118 @@ impl PackHits {
     }
 }
 
+/// What the lanes of a pack test have computed once the cheap tests are done: the ray-space
+/// vertices, the edge functions, the determinant and the scaled distance of every lane. The
+/// division and the error bound that a hit needs are left to [`PackTest::finish_lanes`] (every
+/// lane at once, for closest hits) or [`PackTest::finish`] (one candidate lane, for shadow rays,
+/// which stop at the first).
+struct PackTest {
+    /// Ray-space vertices: `p[k][a]`, coordinate `a` of vertex `k`.
+    p: [[PackLanes; 3]; 3],
+    e: [PackLanes; 3],
+    det: PackLanes,
+    t_scaled: PackLanes,
+}
+
+impl PackTest {
+    /// Every candidate lane's hit: its distance beyond the error bound and before `t_max`.
+    #[inline(always)]
+    fn finish_lanes(&self, candidates: u32, t_max: f32) -> PackHits {
+        let [e0, e1, e2] = self.e;
+        let [[p0x, p0y, p0z], [p1x, p1y, p1z], [p2x, p2y, p2z]] = self.p;
+        let inv_det = PackLanes::ONE / self.det;
+        let b1 = e1 * inv_det;
+        let b2 = e2 * inv_det;
+        let t = self.t_scaled * inv_det;
+        // Ensure t is conservatively greater than zero (pbrt-v4, eq. 6.33–6.38).
+        let max3 = |a: PackLanes, b: PackLanes, c: PackLanes| a.abs().fast_max(b.abs().fast_max(c.abs()));
+        let max_zt = max3(p0z, p1z, p2z);
+        let delta_z = PackLanes::splat(gamma(3)) * max_zt;
+        let max_xt = max3(p0x, p1x, p2x);
+        let max_yt = max3(p0y, p1y, p2y);
+        let delta_x = PackLanes::splat(gamma(5)) * (max_xt + max_zt);
+        let delta_y = PackLanes::splat(gamma(5)) * (max_yt + max_zt);
+        let delta_e = PackLanes::splat(2.0)
+            * (PackLanes::splat(gamma(2)) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+        let max_e = max3(e0, e1, e2);
+        let delta_t = PackLanes::splat(3.0)
+            * (PackLanes::splat(gamma(3)) * max_e * max_zt + delta_e * max_zt + delta_z * max_e)
+            * inv_det.abs();
+        let miss = t.simd_le(delta_t) | !t.simd_lt(PackLanes::splat(t_max));
+        PackHits {
+            mask: candidates & !miss.to_bitmask(),
+            t: t.to_array(),
+            b1: b1.to_array(),
+            b2: b2.to_array(),
+        }
+    }
+
+    /// Whether lane `i` hits: [`PackTest::finish_lanes`] for one lane, in the scalar test's order of
+    /// operations, so that it decides as the lanes do.
+    #[inline(always)]
+    fn finish(&self, i: usize, t_max: f32) -> bool {
+        let lane = |v: PackLanes| v.as_array()[i];
+        let [e0, e1, e2] = self.e.map(lane);
+        let inv_det = 1.0 / lane(self.det);
+        let t = lane(self.t_scaled) * inv_det;
+        let max3 = |a: f32, b: f32, c: f32| a.abs().max(b.abs().max(c.abs()));
+        let coordinate = |a: usize| max3(lane(self.p[0][a]), lane(self.p[1][a]), lane(self.p[2][a]));
+        let (max_xt, max_yt, max_zt) = (coordinate(0), coordinate(1), coordinate(2));
+        let delta_z = gamma(3) * max_zt;
+        let delta_x = gamma(5) * (max_xt + max_zt);
+        let delta_y = gamma(5) * (max_yt + max_zt);
+        let delta_e = 2.0 * (gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+        let max_e = max3(e0, e1, e2);
+        let delta_t = 3.0 * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e) * inv_det.abs();
+        t > delta_t && t < t_max
+    }
+}
+
+/// The cheap part of the test of `pack` against `ray` with origin `o` (per lane), accepting hits
+/// with `t < t_max`: the lanes still candidates (inside the edges, in range, not degenerate), the
+/// lanes whose edge function is exactly zero (for the scalar test's f64 path), and what the
+/// finishing reads. `None` when no lane is either: most packs a ray reaches.
+#[inline(always)]
+fn test_pack(
+    pack: &TrianglePack,
+    ray: &PackRay,
+    o: &[PackLanes; 3],
+    t_max: f32,
+) -> Option<(u32, u32, PackTest)> {
+    let [kx, ky, kz] = ray.k;
+    // Translate to the ray origin, permute so the ray runs along z, shear so it points along +z:
+    // the scalar test's `ShearedRay::transform`, lane-wise.
+    let vertex = |k: usize| {
+        let (px, py, pz) = (pack.v[k][kx] - o[kx], pack.v[k][ky] - o[ky], pack.v[k][kz] - o[kz]);
+        [px + ray.sx * pz, py + ray.sy * pz, pz * ray.sz]
+    };
+    let p = [vertex(0), vertex(1), vertex(2)];
+    let [[p0x, p0y, p0z], [p1x, p1y, p1z], [p2x, p2y, p2z]] = p;
+    let e0 = p1x * p2y - p1y * p2x;
+    let e1 = p2x * p0y - p2y * p0x;
+    let e2 = p0x * p1y - p0y * p1x;
+    let zero = PackLanes::ZERO;
+    // Lanes with an edge function exactly zero are redone by the scalar test (its f64 path).
+    let fallback = (e0.simd_eq(zero) | e1.simd_eq(zero) | e2.simd_eq(zero)).to_bitmask();
+    let negative = e0.simd_lt(zero) | e1.simd_lt(zero) | e2.simd_lt(zero);
+    let positive = e0.simd_gt(zero) | e1.simd_gt(zero) | e2.simd_gt(zero);
+    let outside = negative & positive;
+    if outside.to_bitmask() == ALL_LANES && fallback == 0 {
+        return None;
+    }
+    let det = e0 + e1 + e2;
+    let t_scaled = e0 * p0z + e1 * p1z + e2 * p2z;
+    let t_max_det = PackLanes::splat(t_max) * det;
+    let behind_or_beyond = (det.simd_lt(zero) & (t_scaled.simd_ge(zero) | t_scaled.simd_lt(t_max_det)))
+        | (det.simd_gt(zero) & (t_scaled.simd_le(zero) | t_scaled.simd_gt(t_max_det)));
+    let miss = outside | det.simd_eq(zero) | behind_or_beyond;
+    let candidates = !miss.to_bitmask() & ALL_LANES & !fallback;
+    if candidates == 0 && fallback == 0 {
+        return None;
+    }
+    Some((candidates, fallback, PackTest { p, e: [e0, e1, e2], det, t_scaled }))
+}
+
 /// Test the triangles of `pack` against `ray` with origin `o` (per lane), accepting hits with
 /// `t < t_max`. `origins` gives the same origin per lane for the f64 fallback.
 #[inline(always)]
@@ -144,67 +256,42 @@ pub fn intersect_pack(
     origins: Option<&[Vec3; LANES]>,
     t_max: f32,
 ) -> PackHits {
-    let [kx, ky, kz] = ray.k;
-    // Translate to the ray origin, permute so the ray runs along z, shear so it points along +z:
-    // the scalar test's `ShearedRay::transform`, lane-wise.
-    let vertex = |k: usize| {
-        let (px, py, pz) = (pack.v[k][kx] - o[kx], pack.v[k][ky] - o[ky], pack.v[k][kz] - o[kz]);
-        (px + ray.sx * pz, py + ray.sy * pz, pz * ray.sz)
-    };
-    let (p0x, p0y, p0z) = vertex(0);
-    let (p1x, p1y, p1z) = vertex(1);
-    let (p2x, p2y, p2z) = vertex(2);
-    let e0 = p1x * p2y - p1y * p2x;
-    let e1 = p2x * p0y - p2y * p0x;
-    let e2 = p0x * p1y - p0y * p1x;
-    let zero = PackLanes::ZERO;
-    // Lanes with an edge function exactly zero are redone by the scalar test (its f64 path).
-    let fallback = (e0.simd_eq(zero) | e1.simd_eq(zero) | e2.simd_eq(zero)).to_bitmask();
-    let negative = e0.simd_lt(zero) | e1.simd_lt(zero) | e2.simd_lt(zero);
-    let positive = e0.simd_gt(zero) | e1.simd_gt(zero) | e2.simd_gt(zero);
-    let outside = negative & positive;
-    // Most packs a ray reaches it passes beside: nothing more to compute.
-    if outside.to_bitmask() == ALL_LANES && fallback == 0 {
+    let Some((candidates, fallback, test)) = test_pack(pack, ray, o, t_max) else {
         return PackHits::NONE;
-    }
-    let det = e0 + e1 + e2;
-    let t_scaled = e0 * p0z + e1 * p1z + e2 * p2z;
-    let t_max_det = PackLanes::splat(t_max) * det;
-    let behind_or_beyond = (det.simd_lt(zero) & (t_scaled.simd_ge(zero) | t_scaled.simd_lt(t_max_det)))
-        | (det.simd_gt(zero) & (t_scaled.simd_le(zero) | t_scaled.simd_gt(t_max_det)));
-    let inv_det = PackLanes::ONE / det;
-    let b1 = e1 * inv_det;
-    let b2 = e2 * inv_det;
-    let t = t_scaled * inv_det;
-    // Ensure t is conservatively greater than zero (pbrt-v4, eq. 6.33–6.38).
-    let max3 = |a: PackLanes, b: PackLanes, c: PackLanes| a.abs().fast_max(b.abs().fast_max(c.abs()));
-    let max_zt = max3(p0z, p1z, p2z);
-    let delta_z = PackLanes::splat(gamma(3)) * max_zt;
-    let max_xt = max3(p0x, p1x, p2x);
-    let max_yt = max3(p0y, p1y, p2y);
-    let delta_x = PackLanes::splat(gamma(5)) * (max_xt + max_zt);
-    let delta_y = PackLanes::splat(gamma(5)) * (max_yt + max_zt);
-    let delta_e = PackLanes::splat(2.0)
-        * (PackLanes::splat(gamma(2)) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
-    let max_e = max3(e0, e1, e2);
-    let delta_t = PackLanes::splat(3.0)
-        * (PackLanes::splat(gamma(3)) * max_e * max_zt + delta_e * max_zt + delta_z * max_e)
-        * inv_det.abs();
-    let miss = outside
-        | det.simd_eq(zero)
-        | behind_or_beyond
-        | t.simd_le(delta_t)
-        | !t.simd_lt(PackLanes::splat(t_max));
-    let mut hits = PackHits {
-        mask: !miss.to_bitmask() & ALL_LANES,
-        t: t.to_array(),
-        b1: b1.to_array(),
-        b2: b2.to_array(),
     };
+    let mut hits = if candidates != 0 { test.finish_lanes(candidates, t_max) } else { PackHits::NONE };
     if fallback != 0 {
         redo_in_scalar(pack, ray, origins, t_max, fallback, &mut hits);
     }
     hits
+}
+
+/// Whether any triangle of `pack` blocks `ray` (origin `o` per lane) before `t_max`, for shadow
+/// rays: no barycentrics, and the first lane found ends the test.
+#[inline(always)]
+pub fn pack_blocks(
+    pack: &TrianglePack,
+    ray: &PackRay,
+    o: &[PackLanes; 3],
+    origins: Option<&[Vec3; LANES]>,
+    t_max: f32,
+) -> bool {
+    let Some((mut candidates, fallback, test)) = test_pack(pack, ray, o, t_max) else {
+        return false;
+    };
+    while candidates != 0 {
+        let i = candidates.trailing_zeros() as usize;
+        candidates &= candidates - 1;
+        if test.finish(i, t_max) {
+            return true;
+        }
+    }
+    if fallback != 0 {
+        let mut hits = PackHits::NONE;
+        redo_in_scalar(pack, ray, origins, t_max, fallback, &mut hits);
+        return hits.mask != 0;
+    }
+    false
 }
 
 /// The scalar test (with its f64 path) for the lanes in `lanes`.
@@ -261,6 +348,11 @@ mod tests {
             let pack = TrianglePack::new(&tris);
             let ray = PackRay::new(o, d);
             let hits = intersect_pack(&pack, &ray, &ray.o, None, t_max);
+            assert_eq!(
+                pack_blocks(&pack, &ray, &ray.o, None, t_max),
+                hits.mask != 0,
+                "ray {i}: any-hit test"
+            );
             for (k, tri) in tris.iter().enumerate() {
                 let scalar = intersect_triangle(o, d, t_max, tri[0], tri[1], tri[2]).filter(|h| h.t < t_max);
                 let lane = (hits.mask >> k & 1 == 1).then(|| (hits.t[k], hits.b1[k], hits.b2[k]));

@@ -5,7 +5,7 @@ use super::{Hit, PrimitiveSet, PrimitiveShape};
 use crate::geometry::Ray;
 use crate::geometry::alpha::{Cutouts, NO_CUTOUT};
 use crate::geometry::sphere::intersect_sphere;
-use crate::geometry::triangle_pack::{PackHits, PackLanes, PackRay, intersect_pack};
+use crate::geometry::triangle_pack::{PackHits, PackLanes, PackRay, intersect_pack, pack_blocks};
 use crate::geometry::wide_bvh::{BoxRay, TraceCounts};
 use glam::Vec3;
 
@@ -32,6 +32,19 @@ fn pack_hits(set: &PrimitiveSet, rays: &QueryRay, ray: &Ray, p: usize, t_max: f3
             let time = PackLanes::splat(ray.time);
             let (o, lanes) = rays.packs.shifted(&[m[0] * time, m[1] * time, m[2] * time]);
             intersect_pack(&set.packs[p].0, &rays.packs, &o, Some(&lanes), t_max)
+        }
+    }
+}
+
+/// Whether pack `p` of `set` blocks the ray before `t_max` (no cut-outs: any lane will do).
+#[inline(always)]
+fn pack_blocks_ray(set: &PrimitiveSet, rays: &QueryRay, ray: &Ray, p: usize, t_max: f32) -> bool {
+    match set.pack_motion.get(p) {
+        None => pack_blocks(&set.packs[p].0, &rays.packs, rays.packs.origin_lanes(), None, t_max),
+        Some(m) => {
+            let time = PackLanes::splat(ray.time);
+            let (o, lanes) = rays.packs.shifted(&[m[0] * time, m[1] * time, m[2] * time]);
+            pack_blocks(&set.packs[p].0, &rays.packs, &o, Some(&lanes), t_max)
         }
     }
 }
@@ -101,10 +114,10 @@ pub(super) fn occluded_set(
     let t_max = ray.t_max;
     let blocked = set.triangles.any(&rays.boxes, t_max, counts, |first, count| {
         (first as usize..(first + count) as usize).any(|p| {
-            let hits = pack_hits(set, rays, ray, p, t_max);
             if !has_cutouts {
-                return hits.mask != 0;
+                return pack_blocks_ray(set, rays, ray, p, t_max);
             }
+            let hits = pack_hits(set, rays, ray, p, t_max);
             let mut mask = hits.mask;
             while mask != 0 {
                 let i = mask.trailing_zeros() as usize;

@@ -142,8 +142,12 @@ impl WideBvh {
                 }
             }
         }
-        // A node pushes at most WIDTH − 1 children, and the path down holds one node per level.
-        let needed = (max_depth as usize) * (WIDTH - 1) + 1;
+        for node in &mut nodes {
+            node.order = visit_orders(node);
+        }
+        // A node pushes at most WIDTH − 1 children, and the path down holds one node per level;
+        // `push_if` writes one entry past the top before it knows whether it keeps it.
+        let needed = (max_depth as usize) * (WIDTH - 1) + 1 + WIDTH;
         let stack = if needed <= TINY_STACK {
             StackSize::Tiny
         } else if needed <= SHALLOW_STACK {
@@ -158,6 +162,29 @@ impl WideBvh {
         };
         Self { nodes, stack }
     }
+}
+
+/// For each octant of ray directions, the node's children farthest first: sorted by how far along
+/// the octant's diagonal the corner a ray of that octant enters them by lies (Fuetterling et al.
+/// 2017). Empty lanes sort last, behind everything: no ray enters them, so they are never pushed.
+pub(super) fn visit_orders(node: &Node) -> [u32; 8] {
+    std::array::from_fn(|octant| {
+        let key = |lane: usize| {
+            if node.children[lane] == u32::MAX {
+                return f32::NEG_INFINITY;
+            }
+            (0..3)
+                .map(|a| {
+                    let positive = octant >> a & 1 == 1;
+                    let corner = node.bounds[if positive { a } else { 3 + a }].as_array()[lane];
+                    if positive { corner } else { -corner }
+                })
+                .sum::<f32>()
+        };
+        let mut lanes: [usize; WIDTH] = std::array::from_fn(|i| i);
+        lanes.sort_by(|&a, &b| key(b).total_cmp(&key(a)).then(a.cmp(&b)));
+        lanes.iter().enumerate().fold(0, |order, (rank, &lane)| order | (lane as u32) << (3 * rank))
+    })
 }
 
 /// The binary node's children, opened (a child replaced by its own two) largest surface first
