@@ -56,6 +56,12 @@ fn bench_scene(c: &mut Criterion, name: &str, file: &str) {
         .map(|(a, b)| Ray { o: a.o, d: b.o - a.o, t_max: 0.9999, time: 0.0 })
         .collect();
 
+    let (packs, nodes, triangles) = geometry.pack_counts();
+    println!(
+        "{name}: {triangles} triangles in {packs} packs ({:.2} a pack), {nodes} nodes, {:.0} bytes a triangle",
+        triangles as f64 / packs.max(1) as f64,
+        geometry.acceleration_bytes() as f64 / triangles.max(1) as f64
+    );
     let mut counts = caustica::geometry::wide_bvh::TraceCounts::default();
     let hits = rays.iter().filter(|r| geometry.intersect_counted(r, &mut counts).is_hit()).count();
     let per_ray = |n: u32| n as f64 / RAYS as f64;

@@ -87,18 +87,7 @@ pub(crate) fn path_vertex<const NEE: bool>(
     sampler: Sampler,
     aov: Option<&mut FirstSurface>,
 ) -> (bool, Option<ShadowSample>) {
-    let arrival = Arrival {
-        emission: Some(if NEE { EmissionWeight::Mis } else { EmissionWeight::One }),
-        last_depth: config.limits.max_depth,
-    };
-    let mut light_sample = None;
-    let continues = arrival.arrive(scene, ray, hit, path, sampler, aov, |path, ray, v, u| {
-        if NEE && !v.bsdf.is_delta() {
-            light_sample = sample_light(scene, v, path, ray.time, u, true);
-        }
-        continue_from(ray, continue_path(path, v, ray.time, u, config.limits))
-    });
-    (continues, light_sample)
+    caustica_core::kernel::path_vertex::path_vertex::<NEE>(scene, config.limits, hit, ray, path, sampler, aov)
 }
 
 /// Store the continuation's ray; false when there is none.

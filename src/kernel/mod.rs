@@ -21,9 +21,11 @@ pub mod continuation;
 pub mod dimensions;
 pub mod direct;
 pub mod emission;
+pub mod lanes;
 pub mod light_path;
 pub mod media;
 pub mod mis;
+pub mod path_vertex;
 pub mod photon;
 
 #[cfg(test)]

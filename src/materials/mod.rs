@@ -188,6 +188,15 @@ impl Bsdf {
         }
     }
 
+    /// The albedo of a plain Lambertian BSDF (what lanes of shading take), `None` for any other.
+    #[inline]
+    pub fn lambert_albedo(&self) -> Option<Vec3> {
+        match &self.0 {
+            Repr::Lambert(albedo) => Some(*albedo),
+            Repr::Mixture(_) => None,
+        }
+    }
+
     /// Whether the BSDF is zero for every pair of directions (a black Lambertian): light arriving
     /// there is absorbed and lights nothing.
     #[inline]

@@ -1,12 +1,18 @@
 //! Scatter: what each active row does where its ray landed — the kernel's camera vertex (emission
 //! weighted by MIS, a light sample, the BSDF continuation with Russian roulette) — and which queue
-//! it goes to next.
+//! it goes to next. Vertices on plain Lambertian triangles are queued together and shaded in lanes
+//! (`kernel::lanes`, the scalar kernel's bits); the others one by one.
 
 use super::{PathQueues, PathSampler, PathShadow, PathThroughput, ShadowLearning};
 use crate::components::{PathAov, PathHit, PathRay};
 use crate::resources::{RenderConfig, SceneResource};
 use crate::scatter::path_vertex;
 use bevy_ecs::prelude::*;
+use caustica_core::geometry::Ray;
+use caustica_core::geometry::bvh::{NO_LIGHT, PlainTriangle};
+use caustica_core::kernel::lanes::{DiffuseOutcome, DiffuseVertex, diffuse_vertices, plain_lambert};
+use caustica_core::kernel::{CameraPath, ShadowSample, VertexSampler};
+use glam::Vec3;
 
 /// What scatter reads and writes.
 type ScatterColumns = (
@@ -19,12 +25,25 @@ type ScatterColumns = (
     Option<&'static mut PathAov>,
 );
 
+/// The lanes' queue and their inputs and outputs, kept from step to step (no allocation per step).
+#[derive(Default)]
+pub struct LaneScratch {
+    /// Each material's albedo when it is plain Lambertian.
+    albedo: Vec<Option<Vec3>>,
+    rows: Vec<u32>,
+    vertices: Vec<DiffuseVertex>,
+    paths: Vec<CameraPath>,
+    rays: Vec<Ray>,
+    outcomes: Vec<DiffuseOutcome>,
+}
+
 /// Shade every active row: it stays active with its next ray, or is finished; a light sample
 /// queues it for the shadow stage too. `NEE` selects `pt` (light sampling + MIS) over `pt-naive`.
 pub fn scatter_paths<const NEE: bool>(
     scene: Res<SceneResource>,
     config: Res<RenderConfig>,
     mut queues: ResMut<PathQueues>,
+    mut lanes: Local<LaneScratch>,
     mut paths: Query<ScatterColumns>,
 ) {
     if queues.active.is_empty() {
@@ -40,9 +59,39 @@ pub fn scatter_paths<const NEE: bool>(
     let mut learning = learning.as_mut().map(|l| l.bypass_change_detection());
     let mut aovs = aovs.as_mut().map(|a| a.bypass_change_detection());
     let queues = &mut *queues;
+    let lanes = &mut *lanes;
+    lanes.albedo.clear();
+    lanes.albedo.extend(scene.materials.iter().map(plain_lambert));
+    lanes.rows.clear();
+    lanes.vertices.clear();
+    lanes.paths.clear();
+    lanes.rays.clear();
     let mut next = std::mem::take(&mut queues.next);
-    for &row in &queues.active {
+    let mut active = std::mem::take(&mut queues.active);
+    let mut queue_shadow = |row: u32, sample: ShadowSample, queues: &mut PathQueues| {
         let i = row as usize;
+        shadows[i] = PathShadow { ray: sample.ray, contribution: sample.contribution };
+        if let Some(learning) = learning.as_deref_mut() {
+            learning[i] = ShadowLearning { light: sample.light, normal: sample.normal };
+        }
+        queues.shadow.push(row);
+    };
+    for &row in &active {
+        let i = row as usize;
+        // Feature images record the first surface from the scalar vertex: a render that asks for
+        // them shades every vertex there.
+        if aovs.is_none()
+            && let Some((triangle, albedo)) =
+                takes_lanes(&scene, &lanes.albedo, &config, &hits[i].0, &states[i].0)
+        {
+            let (ray, hit, path) = (rays[i].0, hits[i].0, states[i].0);
+            let u = VertexSampler::new(samplers[i].0, path.depth);
+            lanes.vertices.push(DiffuseVertex { ray, hit, triangle, albedo, u });
+            lanes.paths.push(path);
+            lanes.rays.push(ray);
+            lanes.rows.push(row);
+            continue;
+        }
         let aov = aovs.as_deref_mut().map(|a| &mut a[i].0);
         let (continues, light_sample) = path_vertex::<NEE>(
             &scene,
@@ -54,19 +103,50 @@ pub fn scatter_paths<const NEE: bool>(
             aov,
         );
         if let Some(sample) = light_sample {
-            shadows[i] = PathShadow { ray: sample.ray, contribution: sample.contribution };
-            if let Some(learning) = learning.as_deref_mut() {
-                learning[i] = ShadowLearning { light: sample.light, normal: sample.normal };
-            }
-            queues.shadow.push(row);
+            queue_shadow(row, sample, queues);
         }
-        if continues {
-            next.push(row);
-        } else {
-            queues.finished.push(row);
+        if continues { next.push(row) } else { queues.finished.push(row) }
+    }
+    if !lanes.rows.is_empty() {
+        lanes.outcomes.clear();
+        lanes.outcomes.resize(lanes.rows.len(), DiffuseOutcome::default());
+        diffuse_vertices::<NEE>(
+            &scene,
+            config.limits,
+            &lanes.vertices,
+            &mut lanes.paths,
+            &mut lanes.rays,
+            &mut lanes.outcomes,
+        );
+        for (k, &row) in lanes.rows.iter().enumerate() {
+            let i = row as usize;
+            states[i].0 = lanes.paths[k];
+            rays[i].0 = lanes.rays[k];
+            let outcome = lanes.outcomes[k];
+            if let Some(sample) = outcome.light_sample {
+                queue_shadow(row, sample, queues);
+            }
+            if outcome.continues { next.push(row) } else { queues.finished.push(row) }
         }
     }
-    std::mem::swap(&mut queues.active, &mut next);
-    next.clear();
-    queues.next = next;
+    active.clear();
+    queues.active = next;
+    queues.next = active;
+}
+
+/// The triangle and albedo of the vertex where `hit` lands, if it takes the lanes: a plain triangle
+/// of a plain Lambertian material that does not emit, a path in air, not at its last depth.
+#[inline]
+fn takes_lanes(
+    scene: &caustica_core::RenderScene,
+    albedo: &[Option<Vec3>],
+    config: &RenderConfig,
+    hit: &caustica_core::geometry::bvh::Hit,
+    path: &CameraPath,
+) -> Option<(PlainTriangle, Vec3)> {
+    if !hit.is_hit() || path.depth >= config.limits.max_depth || path.media.current().is_some() {
+        return None;
+    }
+    let triangle = scene.geometry.plain_triangle(hit.prim).filter(|t| t.light == NO_LIGHT)?;
+    Some((triangle, albedo.get(triangle.material as usize).copied().flatten()?))
 }

@@ -146,6 +146,19 @@ pub struct SurfaceHit {
     pub light: u32,
 }
 
+/// A triangle as lanes of shading read it ([`Geometry::plain_triangle`]).
+#[derive(Clone, Copy, Debug)]
+pub struct PlainTriangle {
+    /// Vertices.
+    pub p: [Vec3; 3],
+    /// Vertex normals, when the mesh has them.
+    pub normals: Option<[Vec3; 3]>,
+    /// Material index.
+    pub material: u32,
+    /// Light index or `NO_LIGHT`.
+    pub light: u32,
+}
+
 /// Vertex attributes of a mesh, kept for shading.
 #[derive(Clone, Debug, Default)]
 struct MeshShading {
@@ -410,6 +423,15 @@ impl Geometry {
                 .is_some_and(|set| occluded_set(set, &self.cutouts, ray, &rays, DYNAMIC_BIT, counts))
     }
 
+    /// Triangle packs, inner nodes of the triangle trees, and triangles, over every set (for the
+    /// trace bench: how full the packs are).
+    pub fn pack_counts(&self) -> (usize, usize, usize) {
+        self.sets().fold((0, 0, 0), |(packs, nodes, triangles), (s, _)| {
+            let tris = s.shapes.iter().filter(|p| matches!(p, PrimitiveShape::Triangle(_))).count();
+            (packs + s.packs.len(), nodes + s.triangles.node_count(), triangles + tris)
+        })
+    }
+
     /// Bytes of the trees and the triangle packs (for the report on big meshes).
     pub fn acceleration_bytes(&self) -> usize {
         self.sets()
@@ -421,6 +443,25 @@ impl Geometry {
                     + s.sphere_prims.len() * 4
             })
             .sum()
+    }
+
+    /// Triangle `prim` as lanes of shading read it ([`crate::kernel::lanes`]): its vertices, its
+    /// vertex normals if the mesh has them, its material and light. `None` for what lanes leave to
+    /// [`Geometry::surface_hit`]: spheres, primitives that move over the shutter, and meshes with
+    /// vertex colours.
+    #[inline]
+    pub fn plain_triangle(&self, prim: u32) -> Option<PlainTriangle> {
+        if prim & SET_BITS == MOVING_BIT {
+            return None;
+        }
+        let (shape, info, _) = self.primitive(prim);
+        let PrimitiveShape::Triangle(p) = *shape else { return None };
+        let mesh = &self.meshes[info.object as usize];
+        if mesh.colors.is_some() {
+            return None;
+        }
+        let normals = mesh.normals.as_ref().map(|n| mesh.indices[info.index as usize].map(|v| n[v as usize]));
+        Some(PlainTriangle { p, normals, material: info.material, light: info.light })
     }
 
     /// Surface data at a hit.
