@@ -74,11 +74,15 @@
 //!
 //! | stage | file | system | entities | reads | writes |
 //! |---|---|---|---|---|---|
-//! | `Emit` | `emit.rs` | `emit_camera_paths<LENS, MOTION>` | camera paths | `CameraResource`, `RenderConfig` | `PathRay`, `PathState` |
+//! | `Emit` | `camera_paths/emit.rs` | `emit_paths<LENS, MOTION>` (`pt`, `pt-naive`, on shards) | free rows | `CameraResource`, `RenderConfig`, `Workload` | `PathRay`, `PathSample`, `PathSampler`, `PathThroughput`, `PathQueues` |
+//! | `Trace` | `camera_paths/trace.rs` | `trace_paths` (on shards) | active rows | `SceneResource`, `PathRay` | `PathHit` |
+//! | `Scatter` | `camera_paths/scatter.rs` | `scatter_paths<NEE>` (on shards; lanes for plain Lambertian vertices) | active rows | `PathHit`, `PathSampler`, `SceneResource` | `PathRay`, `PathThroughput`, `PathShadow`, `PathQueues` |
+//! | `Shadow` | `camera_paths/shadow.rs` | `trace_shadow_rays` (on shards) | shadow rows | `PathShadow` | `PathThroughput` |
+//! | `Gather` | `camera_paths/splat.rs` | `splat_paths` (on shards) | finished rows | `PathSample`, `PathThroughput` | `FilmResource`, `RenderStats`, `PathQueues` |
+//! | `Emit` | `emit.rs` | `emit_camera_paths<LENS, MOTION>` (the other camera-path integrators) | camera paths | `CameraResource`, `RenderConfig` | `PathRay`, `PathState` |
 //! | `Emit` | `emit.rs` | `emit_photons` | photons | `SceneResource`, `PhotonWork` | `PhotonRay`, `PhotonState` |
 //! | `Trace` | `trace.rs` | `trace_paths` | camera paths | `SceneResource`, `PathRay` | `PathHit` |
 //! | `Trace` | `trace.rs` | `trace_photons` | photons | `SceneResource`, `PhotonRay` | `PhotonHit` |
-//! | `Scatter` | `scatter.rs` | `scatter_paths<NEE>` (`pt`, `pt-naive`) | camera paths | `PathHit`, `SceneResource` | `PathRay`, `PathState`, `ShadowRay` |
 //! | `Scatter` | `scatter.rs` | `scatter_photon_mapped` (`pm`) | camera paths | `PathHit`, `PhotonMaps` | `PathRay`, `PathState`, `ShadowRay` |
 //! | `Scatter` | `scatter.rs` | `scatter_to_visible_points<NEE>` (`ppm`…) | hit points | `PathHit` | `HitPoint`, `PathRay`, `PathState`, `ShadowRay` |
 //! | `Scatter` | `scatter.rs` | `scatter_photons` | photons | `PhotonHit`, `PhotonWork` | `PhotonRay`, `PhotonState` |

@@ -208,6 +208,49 @@ impl WorkItems {
         self.spp_begin + (cut / self.pixels.max(1) as u64) as u32
     }
 
+    /// Up to `want` items of `lane`, or, once it has run out, of the next lane that has any left:
+    /// one atomic step for a run of samples instead of one a sample. `visit` receives each (pixel,
+    /// sample); returns how many it got (0: the work has run out).
+    #[inline]
+    pub fn take_run(&self, lane: usize, want: u32, mut visit: impl FnMut(u32, u32)) -> u32 {
+        let want = want.clamp(1, ITEM_BLOCK as u32);
+        let mut lane = lane;
+        loop {
+            let got = self.take_run_from(lane, want, &mut visit);
+            if got > 0 {
+                return got;
+            }
+            let open = self.open.load(Ordering::Relaxed);
+            if open == 0 {
+                return 0;
+            }
+            lane = (open.rotate_right(lane as u32 + 1).trailing_zeros() as usize + lane + 1) % 64;
+        }
+    }
+
+    /// A run of `lane`'s own items (see [`WorkItems::take_run`]); a lane found empty is marked
+    /// closed.
+    #[inline]
+    fn take_run_from(&self, lane: usize, want: u32, visit: &mut impl FnMut(u32, u32)) -> u32 {
+        let first = self.lanes[lane].0.fetch_add(want as u64, Ordering::Relaxed);
+        let limit = self.limit.load(Ordering::Relaxed);
+        let mut got = 0;
+        // A lane's items increase with its count: the first past the limit ends the run.
+        for j in first..first + want as u64 {
+            let k = self.item(lane, j);
+            if k >= limit {
+                self.open.fetch_and(!(1 << lane), Ordering::Relaxed);
+                break;
+            }
+            visit(
+                self.pixel_at((k % self.pixels as u64) as u32),
+                self.spp_begin + (k / self.pixels as u64) as u32,
+            );
+            got += 1;
+        }
+        got
+    }
+
     /// The next item of `lane` itself; a lane found empty is marked closed.
     #[inline]
     fn take_from(&self, lane: usize) -> Option<(u32, u32)> {
@@ -246,6 +289,27 @@ mod tests {
                         assert!(seen.iter().all(|&n| n > 0), "a lane gave up while work remained");
                         open.remove(turn);
                     }
+                }
+            }
+            assert!(seen.iter().all(|&n| n == 1), "{pixels} px × {spp}: an item missed or repeated");
+        }
+    }
+
+    /// Runs of items hand out every item exactly once too, whatever their lengths and lanes.
+    #[test]
+    fn runs_hand_out_every_item_once() {
+        for (pixels, spp, wavefront) in [(7, 3, 7), (5000, 3, 4096), (3000, 5, 2500)] {
+            let workload = Workload::new(pixels, 2, 2 + spp, wavefront);
+            let mut seen = vec![0u8; (pixels * spp) as usize];
+            let lanes = workload.lane_count();
+            let mut turn = 0usize;
+            loop {
+                turn = (turn * 31 + 7) % 97;
+                let got = workload.take_run(turn % lanes, (turn % 70) as u32 + 1, |pixel, sample| {
+                    seen[((sample - 2) * pixels + pixel) as usize] += 1;
+                });
+                if got == 0 {
+                    break;
                 }
             }
             assert!(seen.iter().all(|&n| n == 1), "{pixels} px × {spp}: an item missed or repeated");

@@ -46,23 +46,29 @@ pub fn emit_paths<const LENS: bool, const MOTION: bool>(
     let view_axis = camera.view_axis();
     let lane = shard.lane(&workload);
     let queues = &mut *queues;
-    while let Some(&row) = queues.free.last() {
-        let Some((pixel, sample)) = workload.take(lane) else { break };
-        queues.free.pop();
-        let i = row as usize;
-        let sampler = camera_sampler(config.sampler, config.seed, pixel, sample);
-        let (x, y) = (pixel % camera.width, pixel / camera.width);
-        let u_filter = filter_sample(&sampler, config.sampler, config.seed, pixel, sample, config.strata);
-        let u_lens = if LENS { sampler.get2d(dim::LENS) } else { Vec2::splat(0.5) };
-        let time = if MOTION { config.pass_time.unwrap_or_else(|| sampler.get1d(dim::TIME)) } else { 0.0 };
-        rays[i].0 = camera.generate_ray(x, y, u_filter, u_lens, time);
-        if let Some(aovs) = aovs.as_deref_mut() {
-            aovs[i].0 = FirstSurface::start(rays[i].0.d, view_axis);
+    while !queues.free.is_empty() {
+        let want = queues.free.len() as u32;
+        let got = workload.take_run(lane, want, |pixel, sample| {
+            let row = queues.free.pop().expect("no more samples than free rows");
+            let i = row as usize;
+            let sampler = camera_sampler(config.sampler, config.seed, pixel, sample);
+            let (x, y) = (pixel % camera.width, pixel / camera.width);
+            let u_filter = filter_sample(&sampler, config.sampler, config.seed, pixel, sample, config.strata);
+            let u_lens = if LENS { sampler.get2d(dim::LENS) } else { Vec2::splat(0.5) };
+            let time =
+                if MOTION { config.pass_time.unwrap_or_else(|| sampler.get1d(dim::TIME)) } else { 0.0 };
+            rays[i].0 = camera.generate_ray(x, y, u_filter, u_lens, time);
+            if let Some(aovs) = aovs.as_deref_mut() {
+                aovs[i].0 = FirstSurface::start(rays[i].0.d, view_axis);
+            }
+            samples[i] = PathSample { pixel, sample };
+            samplers[i] = PathSampler(sampler);
+            states[i] = PathThroughput(CameraPath::START);
+            queues.active.push(row);
+        });
+        if got == 0 {
+            break;
         }
-        samples[i] = PathSample { pixel, sample };
-        samplers[i] = PathSampler(sampler);
-        states[i] = PathThroughput(CameraPath::START);
-        queues.active.push(row);
     }
 }
 

@@ -37,6 +37,13 @@ pub struct LaneScratch {
     outcomes: Vec<DiffuseOutcome>,
 }
 
+/// What the lanes' scratch holds a row at most: its inputs, path, ray, outcome and queue entry.
+pub const LANE_SCRATCH_BYTES_PER_ROW: usize = size_of::<DiffuseVertex>()
+    + size_of::<CameraPath>()
+    + size_of::<Ray>()
+    + size_of::<DiffuseOutcome>()
+    + size_of::<u32>();
+
 /// Shade every active row: it stays active with its next ray, or is finished; a light sample
 /// queues it for the shadow stage too. `NEE` selects `pt` (light sampling + MIS) over `pt-naive`.
 pub fn scatter_paths<const NEE: bool>(

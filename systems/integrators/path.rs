@@ -97,10 +97,11 @@ fn chunked_paths(pixels: u64, run: &RunFile) -> MemoryNeed {
     if run.render.light_selection == caustica_core::scene::LightSelection::Visibility {
         components.push(size_of::<ShadowLearning>());
     }
-    // The queues: a row in at most two of them, each a u32, and scatter's spare.
+    // The queues: a row in at most two of them, each a u32, and scatter's spare; the lanes' scratch.
     const QUEUE_BYTES: u64 = 3 * size_of::<u32>() as u64;
+    let scratch = crate::camera_paths::LANE_SCRATCH_BYTES_PER_ROW as u64;
     let rows = run.render.chunk as u64 * crate::shards::workers() as u64;
-    let paths = rows * (super::memory::entity_bytes(&components) + QUEUE_BYTES);
+    let paths = rows * (super::memory::entity_bytes(&components) + QUEUE_BYTES + scratch);
     MemoryNeed {
         bytes: paths + adaptive_bytes(pixels, run),
         what: format!("a {pixels}-pixel film and its paths"),
