@@ -26,17 +26,13 @@ use caustica_core::photon::{PhotonMap, PhotonMapKind};
 /// `camera_samples_per_unit` camera samples) of every pixel, or with adaptive sampling of the pixels
 /// it chose, to the idle paths in entity order, each from its lane; the rest go to paths as they
 /// finish (`splat_paths_to_film`).
-#[allow(clippy::type_complexity)]
-pub fn hand_out_samples(
-    camera_samples_per_unit: u32,
-) -> impl FnMut(
-    Res<PassRange>,
-    Res<FilmResource>,
-    Option<Res<AdaptiveSampling>>,
-    ResMut<Workload>,
-    Query<&mut PathState>,
-) {
-    move |range, film, adaptive, mut workload, mut paths| {
+/// Named, so that the profile shows it as such rather than as a closure.
+pub fn hand_out_samples(camera_samples_per_unit: u32) -> impl System<In = (), Out = ()> {
+    let hand_out = move |range: Res<PassRange>,
+                         film: Res<FilmResource>,
+                         adaptive: Option<Res<AdaptiveSampling>>,
+                         mut workload: ResMut<Workload>,
+                         mut paths: Query<&mut PathState>| {
         let (begin, end) = (
             range.begin.saturating_mul(camera_samples_per_unit),
             range.end.saturating_mul(camera_samples_per_unit),
@@ -58,7 +54,8 @@ pub fn hand_out_samples(
             };
             (state.pixel, state.sample, state.status) = (pixel, sample, PathStatus::NeedsStart);
         }
-    }
+    };
+    IntoSystem::into_system(hand_out).with_name("hand_out_samples")
 }
 
 /// After a pass that ran to its end, choose the pixels the next one samples: those that took every
