@@ -3,13 +3,12 @@
 //!
 //! | system | integrator | reads | writes |
 //! |---|---|---|---|
-//! | `scatter_paths::<true>` | `pt` | `PathHit`, `SceneResource`, `RenderConfig` | `PathRay`, `PathState`, `ShadowRay` |
-//! | `scatter_paths::<false>` | `pt-naive` | as above | `PathRay`, `PathState` |
-//! | `scatter_photon_mapped` | `pm` | as above, `PhotonMaps` | `PathRay`, `PathState`, `ShadowRay` |
-//! | `scatter_to_visible_points::<NEE>` | `ppm`, `sppm`, `appm`, `cppm` | as `pt` | `HitPoint`, `PathRay`, `PathState`, `ShadowRay` |
+//! | `scatter_photon_mapped` | `pm` | `PathHit`, `SceneResource`, `RenderConfig`, `PhotonMaps` | `PathRay`, `PathState`, `ShadowRay` |
+//! | `scatter_to_visible_points::<NEE>` | `ppm`, `sppm`, `appm`, `cppm` | `PathHit`, `SceneResource`, `RenderConfig` | `HitPoint`, `PathRay`, `PathState`, `ShadowRay` |
 //! | `scatter_photons` | photon passes | `PhotonHit`, `SceneResource`, `PhotonWork` | `PhotonRay`, `PhotonState` |
 //!
-//! `pt` follows pbrt-v4's `PathIntegrator::Li`: emission found by BSDF sampling and light found by
+//! `pt` (its vertex in `caustica_core::kernel::path_vertex`, its system in `camera_paths/`) follows
+//! pbrt-v4's `PathIntegrator::Li`: emission found by BSDF sampling and light found by
 //! NEE are combined with the power heuristic (Veach & Guibas 1995). The photon mappers count only
 //! emission seen directly or through specular bounces; light sampling (unweighted) and photons carry
 //! the rest.
@@ -27,41 +26,10 @@ use caustica_core::geometry::bvh::Hit;
 use caustica_core::kernel::aov::FirstSurface;
 use caustica_core::kernel::dimensions::photon_sampler;
 use caustica_core::kernel::photon::scatter_photon;
-use caustica_core::kernel::{
-    Arrival, CameraPath, EmissionWeight, Quantity, ShadowSample, continue_path, sample_light,
-};
+use caustica_core::kernel::{Arrival, EmissionWeight, Quantity, continue_path, sample_light};
 use caustica_core::photon::estimate::radiance_estimate;
 use caustica_core::photon::{Neighbors, PhotonMap};
 use caustica_core::render_scene::RenderScene;
-use caustica_core::sampling::Sampler;
-
-/// Scatter every active path. `NEE` selects `pt` (light sampling + MIS) over `pt-naive`.
-pub fn scatter_paths<const NEE: bool>(
-    scene: Res<SceneResource>,
-    config: Res<RenderConfig>,
-    mut paths: Query<(&PathHit, &mut PathRay, &mut PathState, &mut ShadowRay, Option<&mut PathAov>)>,
-) {
-    paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each(
-        |(hit, mut ray, mut state, mut shadow, mut aov)| {
-            let aov = aov.as_deref_mut().map(|a| &mut a.0);
-            advance(&mut state, |state| {
-                let (continues, light_sample) = path_vertex::<NEE>(
-                    &scene,
-                    &config,
-                    &hit.0,
-                    &mut ray.0,
-                    &mut state.path,
-                    state.sampler,
-                    aov,
-                );
-                if let Some(sample) = light_sample {
-                    shadow.queue(sample);
-                }
-                continues
-            });
-        },
-    );
-}
 
 /// Run `vertex` on an active camera path, counting its ray, and finish the path when it says so.
 #[inline(always)]
@@ -73,21 +41,6 @@ fn advance(state: &mut PathState, vertex: impl FnOnce(&mut PathState) -> bool) {
     if !vertex(state) {
         state.status = PathStatus::Finished;
     }
-}
-
-/// One vertex of `pt` or `pt-naive` (the path's random numbers from `sampler`): whether the path
-/// goes on (its next ray in `ray`), and the light sample to test, if it took one.
-#[inline]
-pub(crate) fn path_vertex<const NEE: bool>(
-    scene: &RenderScene,
-    config: &RenderConfig,
-    hit: &Hit,
-    ray: &mut Ray,
-    path: &mut CameraPath,
-    sampler: Sampler,
-    aov: Option<&mut FirstSurface>,
-) -> (bool, Option<ShadowSample>) {
-    caustica_core::kernel::path_vertex::path_vertex::<NEE>(scene, config.limits, hit, ray, path, sampler, aov)
 }
 
 /// Store the continuation's ray; false when there is none.

@@ -6,11 +6,11 @@
 use super::{PathQueues, PathSampler, PathShadow, PathThroughput, ShadowLearning};
 use crate::components::{PathAov, PathHit, PathRay};
 use crate::resources::{RenderConfig, SceneResource};
-use crate::scatter::path_vertex;
 use bevy_ecs::prelude::*;
 use caustica_core::geometry::Ray;
 use caustica_core::geometry::bvh::{NO_LIGHT, PlainTriangle};
 use caustica_core::kernel::lanes::{DiffuseOutcome, DiffuseVertex, diffuse_vertices, plain_lambert};
+use caustica_core::kernel::path_vertex::path_vertex;
 use caustica_core::kernel::{CameraPath, ShadowSample, VertexSampler};
 use glam::Vec3;
 
@@ -102,7 +102,7 @@ pub fn scatter_paths<const NEE: bool>(
         let aov = aovs.as_deref_mut().map(|a| &mut a[i].0);
         let (continues, light_sample) = path_vertex::<NEE>(
             &scene,
-            &config,
+            config.limits,
             &hits[i].0,
             &mut rays[i].0,
             &mut states[i].0,
