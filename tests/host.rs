@@ -289,3 +289,40 @@ fn a_host_system_in_a_stage_sees_every_path_of_every_shard() {
     assert_eq!(seen.ended, 24 * 24 * 3, "every sample's path ends once");
     assert_eq!(seen.traced, report.paths.rays, "every traced camera ray");
 }
+
+/// A stop at whole samples per pixel (a Python session's Ctrl-C) ends `pt` at the first whole sample
+/// per pixel past what was handed out when it came, not later: the shards' lanes keep what is handed
+/// out close to a prefix of the pass. With more lanes than shards (8 for 2) it ended at about four
+/// times that.
+#[test]
+fn a_whole_sample_stop_ends_pt_just_past_what_was_handed_out() {
+    use caustica::resources::RenderStats;
+    use std::sync::atomic::Ordering;
+    init_thread_pools(None);
+    let (scene, mut run) = setup(&common::data("cornell-box.gltf"));
+    run.render.spp = 1_000_000;
+    let mut renderer = Renderer::new(scene, &run).unwrap();
+    renderer.set_whole_passes(true);
+    let flag = renderer.interrupt_flag();
+    // The driver sees the flag after the round that follows the call that raised it, and cuts the
+    // pass there: what was handed out by then is read at the next call.
+    let mut calls = 0;
+    let mut handed = 0;
+    renderer.run(None, |r| {
+        calls += 1;
+        if calls <= 2 {
+            // Finished samples and the paths in flight (rows about to take work count too: a bound
+            // from above).
+            let stats = r.world.resource::<RenderStats>();
+            handed = stats.samples + stats.active_paths as u64;
+            flag.store(true, Ordering::Relaxed);
+        }
+    });
+    let pixels = 24 * 24;
+    // Each lane advances at its shard's pace, and shards differ by a few percent: a quarter's room
+    // for that, far below the four times of lanes no shard starts from.
+    let bound = (handed as f64 * 1.25 / pixels as f64) as u32 + 2;
+    let done = renderer.units_done();
+    assert!(done <= bound, "stopped at {done} samples per pixel, {bound} at most");
+    assert!(done >= 1);
+}

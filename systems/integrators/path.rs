@@ -125,13 +125,13 @@ fn plan(this: &Integrator, world: &mut World, run: &RunFile, features: SceneFeat
         learning: features.learns_visibility,
     };
     let chunk = run.render.chunk;
-    // The Workload the pass's first schedule replaces: its lanes follow the paths in flight.
-    let in_flight = chunk.saturating_mul(crate::shards::workers() as u32);
+    // The Workload the pass's first schedule replaces (keeping its lanes): a lane per shard.
+    let wavefront = crate::resources::Workload::wavefront_for_shards(crate::shards::workers());
     let pixels = {
         let film = world.resource::<crate::resources::FilmResource>();
         film.width * film.height
     };
-    world.insert_resource(crate::resources::Workload::new(pixels, 0, 0, in_flight));
+    world.insert_resource(crate::resources::Workload::new(pixels, 0, 0, wavefront));
 
     let mut phases = Vec::new();
     if features.learns_visibility {
