@@ -80,16 +80,6 @@ impl Workload {
         Self(Arc::new(WorkItems::new(pixels, spp_begin, spp_end, wavefront)))
     }
 
-    /// The `wavefront` to give [`Workload::new`] for `shards` shards, each taking from a lane of its
-    /// own (`ShardIndex::lane`). Every lane in use then advances at its shard's pace, so the items
-    /// handed out stay close to a prefix of the pass; with more lanes than shards, the lanes no shard
-    /// starts from fall behind, and a stop at whole samples per pixel (`cut_at_unit`, past the last
-    /// item handed out) had to render those lanes' items up to there first: four times the work
-    /// done when the stop came, with 2 shards over 8 lanes.
-    pub fn wavefront_for_shards(shards: usize) -> u32 {
-        (shards as u32).clamp(1, MAX_LANES) * ENTITY_BLOCK
-    }
-
     /// Work for the pixels of `order` only (adaptive sampling), samples `spp_begin..spp_end` of each.
     pub fn over(order: Arc<PixelOrder>, spp_begin: u32, spp_end: u32, wavefront: u32) -> Self {
         Self(Arc::new(WorkItems::over(order, spp_begin, spp_end, wavefront)))

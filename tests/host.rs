@@ -291,8 +291,8 @@ fn a_host_system_in_a_stage_sees_every_path_of_every_shard() {
 }
 
 /// A stop at whole samples per pixel (a Python session's Ctrl-C) ends `pt` at the first whole sample
-/// per pixel past what was handed out when it came, not later: the shards' lanes keep what is handed
-/// out close to a prefix of the pass. With more lanes than shards (8 for 2) it ended at about four
+/// per pixel past what was handed out when it came, not later: the shards' one counter keeps what is
+/// handed out a prefix of the pass. With more lanes than shards (8 for 2) it ended at about four
 /// times that.
 #[test]
 fn a_whole_sample_stop_ends_pt_just_past_what_was_handed_out() {
@@ -319,9 +319,7 @@ fn a_whole_sample_stop_ends_pt_just_past_what_was_handed_out() {
         }
     });
     let pixels = 24 * 24;
-    // Each lane advances at its shard's pace, and shards differ by a few percent: a quarter's room
-    // for that, far below the four times of lanes no shard starts from.
-    let bound = (handed as f64 * 1.25 / pixels as f64) as u32 + 2;
+    let bound = handed.div_ceil(pixels) as u32;
     let done = renderer.units_done();
     assert!(done <= bound, "stopped at {done} samples per pixel, {bound} at most");
     assert!(done >= 1);

@@ -125,8 +125,12 @@ fn plan(this: &Integrator, world: &mut World, run: &RunFile, features: SceneFeat
         learning: features.learns_visibility,
     };
     let chunk = run.render.chunk;
-    // The Workload the pass's first schedule replaces (keeping its lanes): a lane per shard.
-    let wavefront = crate::resources::Workload::wavefront_for_shards(crate::shards::workers());
+    // The Workload the pass's first schedule replaces, keeping its lanes: one, as no entity of the
+    // main World takes work. Shards take runs of up to 64 samples an atomic step, so one counter is
+    // not contended, and what is handed out is always a prefix of the pass: a stop at whole samples
+    // per pixel ends just past it. (With a lane per shard, a shard that fell behind left items
+    // below the cut; with 8 lanes for 2 shards, the stop rendered four times the work done.)
+    let wavefront = 1;
     let pixels = {
         let film = world.resource::<crate::resources::FilmResource>();
         film.width * film.height
