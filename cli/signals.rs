@@ -1,5 +1,5 @@
 //! Ctrl-C and SIGTERM during a render (one image or an animation's frames): the render stops at its
-//! next step and writes what it has; a second signal exits at once.
+//! next step and writes what it has; a second signal, or a minute without stopping, exits at once.
 
 use caustica::Renderer;
 
@@ -7,22 +7,43 @@ use caustica::Renderer;
 /// what was asked for (128 + SIGINT, as shells report it).
 pub const INTERRUPTED_EXIT: i32 = 130;
 
+/// How long a stopping render may take to finish its paths and write its image: far more than a
+/// step and the largest write take.
+const STOP_GRACE: std::time::Duration = std::time::Duration::from_secs(60);
+
 /// SIGINT and SIGTERM raise the renderer's interrupt flag: the render stops at its next step and the
 /// image so far is written. A second signal exits at once.
 pub(crate) fn watch_for_signals(renderer: &Renderer) {
     let flag = renderer.interrupt_flag();
     let result = ctrlc::set_handler(move || {
         if flag.swap(true, std::sync::atomic::Ordering::Relaxed) {
-            eprintln!("\nstopped at once: nothing more is written");
+            say("\nstopped at once: nothing more is written");
             // A write cut short leaves no partial file beside its output (the previous file stays).
             caustica::film::partial::remove_all();
             std::process::exit(INTERRUPTED_EXIT);
         }
-        eprintln!(
-            "\nstopping: finishing the paths in flight and writing the image so far (again to quit now)"
-        );
+        // A render that cannot reach its next step (a path that never ends) would ignore the signal
+        // for ever: a supervisor's SIGTERM (a test runner's time limit, a batch system) must still
+        // end the process.
+        std::thread::spawn(|| {
+            std::thread::sleep(STOP_GRACE);
+            say(&format!(
+                "did not stop within {} s of the signal: exiting, nothing more is written",
+                STOP_GRACE.as_secs()
+            ));
+            caustica::film::partial::remove_all();
+            std::process::exit(INTERRUPTED_EXIT);
+        });
+        say("\nstopping: finishing the paths in flight and writing the image so far (again to quit now)");
     });
     if let Err(e) = result {
         tracing::warn!("cannot watch for Ctrl-C: {e}; an interrupted render will not write its image");
     }
+}
+
+/// A line on stderr, or nothing when stderr is gone (the parent that read it was killed):
+/// `eprintln!` would panic there and take the signal handler's thread with it.
+fn say(line: &str) {
+    use std::io::Write;
+    let _ = writeln!(std::io::stderr(), "{line}");
 }

@@ -336,3 +336,32 @@ pub fn build_merge_grids(
         store.grids[k].build(&points, radii.radius(range.begin + k as u32));
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Unit k (counted from one) merges at r₀ · k^((α − 1)/2): the radius that sets the variance and
+    /// bias rates (tests/caustics.rs renders both), and the weights of a unit use its own radius.
+    #[test]
+    fn unit_k_merges_at_r0_times_k_to_the_power_alpha_minus_one_over_two() {
+        let radii = RadiusSequence { r0: 0.02, alpha: 2.0 / 3.0 };
+        for unit in [0u32, 1, 2, 7, 63, 999, 1_000_000] {
+            let k = unit as f64 + 1.0;
+            let want = 0.02 * k.powf((2.0 / 3.0 - 1.0) / 2.0);
+            let got = radii.radius(unit) as f64;
+            assert!((got - want).abs() <= 1e-6 * want, "unit {unit}: radius {got}, want {want}");
+        }
+        // 64^(−1/6) = ½: the 64th unit merges at half the first's radius.
+        assert!((radii.radius(63) - 0.01).abs() < 1e-8);
+        assert_eq!(RadiusSequence { r0: 0.02, alpha: 1.0 }.radius(500), 0.02, "α = 1 keeps r₀");
+        let store = LightVertices { light_paths: 256, merging: Some(radii), ..LightVertices::default() };
+        for unit in [0u32, 5, 63] {
+            let factors = store.factors(unit);
+            assert_eq!(factors.radius, radii.radius(unit), "unit {unit}'s weights use its radius");
+            assert_eq!(factors, MisFactors::merging(256, radii.radius(unit)));
+        }
+        let bdpt = LightVertices { light_paths: 256, ..LightVertices::default() };
+        assert!(!bdpt.factors(9).merges(), "bdpt merges nothing");
+    }
+}

@@ -319,3 +319,76 @@ fn vcm_error_falls_at_the_consistent_rate() {
     );
     assert!((2.0f64.sqrt() * 2.0..=4.0 * 2.0f64.sqrt()).contains(&ratio), "ratio {ratio}: not 8^(2/3) = 4");
 }
+
+/// The slab scene with a black strip in the air gap over x < 0: the floor beyond it is in shadow and
+/// hidden from the camera, so the caustic the camera sees ends at a straight edge down the middle of
+/// the image, lit on one side and black (the strip) on the other.
+fn slab_over_half_shadowed_floor() -> Scene {
+    let mut scene = slab_over_floor();
+    let (y, h) = (0.5 * GAP, SLAB_HALF);
+    scene.meshes.push(caustica::scene::Mesh {
+        name: "strip".into(),
+        positions: vec![
+            Vec3::new(-h, y, -h),
+            Vec3::new(0.0, y, -h),
+            Vec3::new(0.0, y, h),
+            Vec3::new(-h, y, h),
+        ],
+        indices: vec![[0, 2, 1], [0, 3, 2]],
+        material: 2,
+        ..caustica::scene::Mesh::default()
+    });
+    scene.materials.push(diffuse("black", Vec3::ZERO, Vec3::ZERO));
+    scene
+}
+
+/// Light lost at the caustic's edge, in lines of pixels: Σ (1 − line / far) over the lit lines
+/// across the edge nearer than `far_from` lines, `far` the mean of the lines beyond (the image is
+/// `size`² pixels, the edge down its middle).
+fn edge_loss(image: &Image, size: u32, far_from: usize) -> f64 {
+    let grey = |x: u32, y: u32| image.pixels[(y * size + x) as usize].element_sum() as f64 / 3.0;
+    let columns: Vec<f64> = (0..size).map(|x| (0..size).map(|y| grey(x, y)).sum::<f64>()).collect();
+    let rows: Vec<f64> = (0..size).map(|y| (0..size).map(|x| grey(x, y)).sum::<f64>()).collect();
+    // The edge runs along one image axis: across it, one half of the lines sees the black strip.
+    let dark =
+        |v: &[f64]| v[..size as usize / 2].iter().sum::<f64>().min(v[size as usize / 2..].iter().sum());
+    let mut lines = if dark(&columns) < dark(&rows) { columns } else { rows };
+    if lines[0] > lines[size as usize - 1] {
+        lines.reverse();
+    }
+    let lit = &lines[size as usize / 2..];
+    let far = lit[far_from..].iter().sum::<f64>() / (lit.len() - far_from) as f64;
+    lit[..far_from].iter().map(|l| 1.0 - l / far).sum()
+}
+
+/// vcm's radii shrink, so a merge's blur across an edge fades as units add up; a radius that never
+/// shrinks keeps it. At the edge of a merged-only caustic, a gather disc of radius r centred s from
+/// the edge misses the share of its kernel beyond it; summed over the lines next to the edge that is
+/// E[x⁺] = 2r/(3π) of a line's light per unit of edge (uniform kernel), linear in r. At α = 0.25 the
+/// radii of 64 units average r₀ · (1/64) ∫₁⁶⁴ u^−0.375 du ≈ 0.31 r₀, so the loss falls to about a
+/// third of a render at α = 1 (r₀ throughout) — plus what both lose alike (the pixel filter, and the
+/// floor's light the strip keeps from returning off the slab, and the shadow's edge 0.27 pixels past
+/// the strip's: about a third of a line, so the ratio is ≈ 0.45). Radii that never shrink keep the
+/// ratio at one; the bound is the geometric midpoint, 2/3.
+#[test]
+fn vcm_merges_at_radii_that_shrink_unit_by_unit() {
+    init_thread_pools(None);
+    let size = 128;
+    let loss = |alpha: f32| -> f64 {
+        let mut run = run_for(IntegratorKind::Vcm, 900);
+        run.render.spp = 64;
+        (run.film.width, run.film.height) = (Some(size), Some(size));
+        // 0.02 m is 6.4 pixels of the floor at 128².
+        run.progressive.initial_radius = Some(0.02);
+        run.progressive.alpha = alpha;
+        let mut renderer = Renderer::new(slab_over_half_shadowed_floor(), &run).expect("prepares");
+        renderer.run(None, |_| {});
+        edge_loss(&renderer.image(), size, 16)
+    };
+    let (fixed, shrinking) = (loss(1.0), loss(0.25));
+    eprintln!(
+        "vcm: {fixed:.3} lines of light lost at the edge at a fixed radius, {shrinking:.3} with shrinking radii"
+    );
+    assert!(fixed > 1.0, "a fixed radius of 6.4 pixels loses 1.4 lines at the edge: {fixed}");
+    assert!(shrinking < 2.0 / 3.0 * fixed, "radii that shrink lose {shrinking} lines, a fixed one {fixed}");
+}

@@ -423,8 +423,10 @@ fn grazing_views_of_a_large_plane_see_exactly_its_emission() {
 
 /// A thin wall with a bright light right behind it (1e-4 m from the back face), in a void: the camera
 /// side has nothing that could bring light around the wall, so every pixel must be exactly 0 for
-/// every integrator, whether the wall is one double-sided quad or a 1e-5 m thick slab. A photon on the
-/// back face is 1e-5 m from the front's gather point, so this also checks the gather's side test.
+/// every integrator, whether the wall is one double-sided quad or a 1e-5 m thick slab. Photons on the
+/// back face lie within the front's gather discs, but the wall's Lambertian BSDF gives light from
+/// behind nothing, whichever side the photon is said to face: the gather's side test is what
+/// [`a_sheet_lit_on_its_back_is_as_bright_for_every_integrator`] checks.
 #[test]
 fn no_light_leaks_through_a_thin_wall() {
     for thickness in [0.0f32, 1e-5] {
@@ -450,6 +452,44 @@ fn no_light_leaks_through_a_thin_wall() {
             assert_eq!(lit, 0, "{what}: {lit} pixels lit through the wall, max {max}");
         }
     }
+}
+
+/// A single quad lit only on its back (the side its geometric normal points away from), by light off
+/// a wall: a one-sided emitter faces the wall, not the sheet, so every photon the sheet gets has
+/// bounced, and the camera looks at that back. A photon that arrives there must be stored facing where
+/// it came from (against the normal): stored with the geometric normal, the gather's side test takes
+/// it for a photon from the other side and the photon mappers see the sheet black. The bound is half
+/// of `pt`'s mean either way: the failure it catches loses all of the light, and each integrator's
+/// accuracy is tested against references elsewhere.
+#[test]
+fn a_sheet_lit_on_its_back_is_as_bright_for_every_integrator() {
+    let (x, y) = (Vec3::X, Vec3::Y);
+    let scene = Scene {
+        meshes: vec![
+            quad("sheet", Vec3::ZERO, x, y, 0),
+            quad("wall", Vec3::new(0.0, 0.0, -1.0), 2.0 * x, 2.0 * y, 0),
+            // u × v = −z: the light shines at the wall, away from the sheet, and the camera cannot see it.
+            quad("light", Vec3::new(0.0, 0.6, -0.5), 0.15 * x, -0.15 * y, 1),
+        ],
+        materials: vec![diffuse("white", Vec3::splat(0.8), Vec3::ZERO), black_emitter("light", 20.0)],
+        camera: Some(camera_looking(Vec3::new(0.0, 0.0, -0.8), Vec3::ZERO, 50.0)),
+        ..Scene::default()
+    };
+    let mut reference_run = tiny_run(IntegratorKind::Pt, 16);
+    reference_run.render.spp = 64;
+    let (reference, _) = mean_and_standard_error(&common::render(scene.clone(), &reference_run));
+    assert!(reference > 0.01, "pt sees the sheet lit: mean {reference}");
+    let mut wrong = Vec::new();
+    for kind in EVERY_INTEGRATOR {
+        let image = common::render(scene.clone(), &tiny_run(kind, 16));
+        assert_finite(&image, &format!("{kind:?}, sheet lit on its back"));
+        let (mean, _) = mean_and_standard_error(&image);
+        eprintln!("{kind:?}: mean {mean:.4} ({:.2} of pt's)", mean / reference);
+        if !(0.5 * reference..=1.5 * reference).contains(&mean) {
+            wrong.push(format!("{kind:?} {mean:.4}"));
+        }
+    }
+    assert!(wrong.is_empty(), "the sheet's back against pt's mean {reference:.4}: {}", wrong.join(", "));
 }
 
 /// A run file under scenes/hard, with the render settings of [`tiny_run`] and its own camera and film.
