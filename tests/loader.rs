@@ -423,8 +423,39 @@ fn degenerate_triangles_are_dropped_and_counted() {
     assert_eq!((summary.meshes, summary.removed_meshes), (1, 1), "the all-degenerate primitive is removed");
     assert_eq!(scene.meshes.len(), 1);
     assert_eq!(scene.meshes[0].indices, vec![[0, 1, 2]]);
-    assert_eq!(logs.matches("dropped").count(), 2, "one warning per mesh: {logs}");
-    assert!(logs.contains("node 'junk' (#0) mesh 'm' (#0) primitive 1"), "names the mesh: {logs}");
+    assert_eq!(logs.matches("dropped").count(), 1, "one warning for both meshes: {logs}");
+    assert!(
+        logs.contains("dropped 4 zero-area emitting triangle(s) (they would be lights of no area) in 2 meshes, 1 of them left empty"),
+        "{logs}"
+    );
+    assert!(logs.contains("node 'junk' (#0) mesh 'm' (#0) primitive 1 (2)"), "names the mesh: {logs}");
+}
+
+/// Many meshes with the same defect give one warning that counts them and names the first few, not a
+/// line each (Khronos' MetalRoughSpheresNoTextures: 98 meshes, two degenerate triangles each).
+#[test]
+fn many_meshes_with_degenerate_triangles_give_one_warning() {
+    use caustica::scene::{Mesh, Scene};
+    use caustica::test_scenes::diffuse;
+    use glam::Vec3;
+    let mesh = |i: usize| Mesh {
+        name: format!("sphere {i}"),
+        // A good triangle, then two with a repeated vertex.
+        positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
+        indices: vec![[0, 1, 2], [0, 0, 1], [1, 2, 2]],
+        material: 0,
+        ..Mesh::default()
+    };
+    let mut scene = Scene {
+        meshes: (0..98).map(mesh).collect(),
+        materials: vec![diffuse("grey", Vec3::splat(0.5), Vec3::ZERO)],
+        ..Scene::default()
+    };
+    let path = std::path::Path::new("spheres.gltf");
+    let (summary, logs) = common::capture_logs(|| validate(&mut scene, path).expect("not an error"));
+    assert_eq!(summary.degenerate_triangles, 196);
+    assert_eq!(logs.matches("dropped").count(), 1, "one warning: {logs}");
+    assert!(logs.contains("dropped 196 degenerate triangle(s) (zero area or not finite) in 98 meshes: sphere 0 (2); sphere 1 (2); sphere 2 (2); 95 more"), "{logs}");
 }
 
 #[test]

@@ -129,7 +129,10 @@ pub fn validate(scene: &mut Scene, path: &Path) -> Result<ValidationSummary> {
         ..ValidationSummary::default()
     };
 
-    // Check meshes and drop degenerate triangles
+    // Check meshes and drop degenerate triangles; one warning for each kind of defect, however many
+    // meshes have it (a file of 98 meshes each with two degenerate triangles said so 98 times).
+    let (mut degenerate, mut zero_area_emitters, mut empty) =
+        (Defects::default(), Defects::default(), Defects::default());
     for mesh in &mut scene.meshes {
         check_mesh(mesh, &scene.materials, mesh_file)
             .map_err(|problem| invalid(mesh_file, &mesh.name, problem))?;
@@ -137,15 +140,10 @@ pub fn validate(scene: &mut Scene, path: &Path) -> Result<ValidationSummary> {
         let before = mesh.indices.len();
         let dropped = drop_degenerate_triangles(mesh);
         if dropped > 0 {
-            let removed = if mesh.indices.is_empty() { "; no triangle left, mesh removed" } else { "" };
-            let what = if emitter {
-                "zero-area emitting triangle(s): they would be lights of no area"
-            } else {
-                "degenerate triangle(s) (zero area or non-finite)"
-            };
-            warn!(file = %mesh_file.display(), "{}: dropped {dropped} {what}{removed}", mesh.name);
+            let defects = if emitter { &mut zero_area_emitters } else { &mut degenerate };
+            defects.add(&mesh.name, dropped, mesh.indices.is_empty());
         } else if before == 0 {
-            warn!(file = %mesh_file.display(), "{}: has no triangles, removed", mesh.name);
+            empty.add(&mesh.name, 0, true);
         }
         summary.degenerate_triangles += dropped;
         if emitter {
@@ -153,6 +151,9 @@ pub fn validate(scene: &mut Scene, path: &Path) -> Result<ValidationSummary> {
             summary.emitter_triangles += mesh.indices.len();
         }
     }
+    degenerate.warn(mesh_file, "degenerate triangle(s)", "zero area or not finite");
+    zero_area_emitters.warn(mesh_file, "zero-area emitting triangle(s)", "they would be lights of no area");
+    empty.warn(mesh_file, "", "");
     check_emitted_power(scene).map_err(|(object, problem)| invalid(mesh_file, &object, problem))?;
     if let Some(environment) = &scene.environment {
         let brightest = environment.max_radiance();
@@ -407,4 +408,63 @@ fn check_mesh(mesh: &mut Mesh, materials: &[MaterialDesc], file: &Path) -> Resul
         return Err("motion is not finite".to_owned());
     }
     Ok(())
+}
+
+/// Meshes with one kind of harmless defect, for a single warning.
+#[derive(Default)]
+struct Defects {
+    /// (mesh, triangles dropped, whether it was left empty and removed), in file order.
+    meshes: Vec<(String, usize, bool)>,
+}
+
+impl Defects {
+    /// Meshes named in full in the warning; the rest are counted.
+    const NAMED: usize = 3;
+
+    fn add(&mut self, mesh: &str, dropped: usize, removed: bool) {
+        self.meshes.push((mesh.to_owned(), dropped, removed));
+    }
+
+    /// One warning for them all: the mesh's own line when there is one, else totals and the first
+    /// few names. `what` names the dropped triangles and `why` says why; empty for meshes that had
+    /// none.
+    fn warn(&self, file: &Path, what: &str, why: &str) {
+        let removed = self.meshes.iter().filter(|m| m.2).count();
+        match self.meshes.as_slice() {
+            [] => {}
+            [(mesh, _, _)] if what.is_empty() => {
+                warn!(file = %file.display(), "{mesh}: has no triangles, removed")
+            }
+            [(mesh, dropped, gone)] => {
+                let gone = if *gone { "; no triangle left, mesh removed" } else { "" };
+                warn!(file = %file.display(), "{mesh}: dropped {dropped} {what} ({why}){gone}");
+            }
+            meshes => {
+                let mut names: Vec<String> = meshes
+                    .iter()
+                    .take(Self::NAMED)
+                    .map(
+                        |(mesh, dropped, _)| {
+                            if what.is_empty() { format!("{mesh}") } else { format!("{mesh} ({dropped})") }
+                        },
+                    )
+                    .collect();
+                if meshes.len() > Self::NAMED {
+                    names.push(format!("{} more", meshes.len() - Self::NAMED));
+                }
+                let names = names.join("; ");
+                if what.is_empty() {
+                    warn!(file = %file.display(), "{} meshes have no triangles, removed: {names}", meshes.len());
+                } else {
+                    let total: usize = meshes.iter().map(|m| m.1).sum();
+                    let gone = if removed > 0 {
+                        format!(", {removed} of them left empty and removed")
+                    } else {
+                        String::new()
+                    };
+                    warn!(file = %file.display(), "dropped {total} {what} ({why}) in {} meshes{gone}: {names}", meshes.len());
+                }
+            }
+        }
+    }
 }
