@@ -38,6 +38,7 @@ pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>) -> Result<bool
         );
     }
     let (scene, mut run) = scene::load_with_sets(&scene_path, &args.set, |run| args.apply(run))?;
+    spp_as_passes(args, &mut run)?;
     let outputs = output_paths(args, &run, &scene_path);
     let denoised = if args.denoise { outputs.iter().map(|o| denoised_path(o)).collect() } else { Vec::new() };
     let all_outputs: Vec<PathBuf> = outputs.iter().chain(&denoised).cloned().collect();
@@ -343,6 +344,30 @@ pub fn merge(parts: &[PathBuf], outputs: &[PathBuf], exposure: f32) -> Result<()
     for path in outputs {
         outln!("wrote       {}", path.display());
     }
+    Ok(())
+}
+
+/// `--spp` for an integrator that counts passes: sppm, appm, cppm and pppm trace one camera sample a
+/// pixel each pass, so N samples are N passes (said, not silently ignored as it was); ppm traces its
+/// hit points once, so samples are not its unit and `--spp` is refused.
+fn spp_as_passes(args: &RenderArgs, run: &mut RunFile) -> Result<()> {
+    let integrator = caustica::integrators::of(run.render.integrator);
+    let Some(spp) = args.spp.filter(|_| integrator.units_key() == "passes") else { return Ok(()) };
+    let name = integrator.name();
+    if run.render.integrator == caustica::scene::IntegratorKind::Ppm {
+        anyhow::bail!(
+            "--spp does not apply to ppm: it traces its hit points once (--hit-points-per-pixel) and counts \
+             photon passes; give --passes N"
+        );
+    }
+    if let Some(passes) = args.passes.filter(|&passes| passes != spp) {
+        anyhow::bail!(
+            "--spp {spp} and --passes {passes}: {name} traces one camera sample a pixel each pass, so the two \
+             count the same thing; give one"
+        );
+    }
+    run.progressive.passes = spp;
+    tracing::warn!("{name} counts passes of one camera sample a pixel: --spp {spp} renders {spp} passes");
     Ok(())
 }
 

@@ -215,9 +215,15 @@ impl RenderScene {
 
     /// Whether any material is a pure delta (mirror, smooth glass): only then can caustics form.
     pub fn has_specular(&self) -> bool {
+        self.specular_materials().next().is_some()
+    }
+
+    /// The materials that are pure deltas (mirrors, smooth glass), by name.
+    pub fn specular_materials(&self) -> impl Iterator<Item = &str> {
         self.materials
             .iter()
-            .any(|m| Bsdf::new(&m.shading_params(m.base_color, m.metallic, m.roughness)).is_delta())
+            .filter(|m| Bsdf::new(&m.shading_params(m.base_color, m.metallic, m.roughness)).is_delta())
+            .map(|m| m.name.as_str())
     }
 
     /// Total surface area of the primitives (for the initial-radius heuristic of progressive photon

@@ -362,3 +362,27 @@ fn what_a_new_user_met_is_said_plainly() {
         "{stdout}"
     );
 }
+
+/// `--spp` with an integrator that counts passes: sppm and its kin take one camera sample a pixel a
+/// pass, so the samples become passes and the command says so; ppm, whose hit points are traced
+/// once, refuses it; a different `--passes` beside it is refused as a contradiction.
+#[test]
+fn spp_with_a_pass_counting_integrator_is_mapped_or_refused_and_said() {
+    let dir = scratch("spp-passes");
+    let scene = common::data("cornell-box.gltf");
+    let scene = scene.to_str().unwrap();
+    let out = dir.join("o.exr");
+    let out = out.to_str().unwrap();
+    let small = ["--width", "8", "--height", "8", "--photons-per-pass", "1000", "-o", out];
+    let sppm = caustica(&[&["render", scene, "--integrator", "sppm", "--spp", "3"][..], &small].concat());
+    let (stdout, stderr) = (String::from_utf8_lossy(&sppm.stdout), String::from_utf8_lossy(&sppm.stderr));
+    assert!(sppm.status.success(), "{stderr}");
+    assert!(stderr.contains("--spp 3 renders 3 passes"), "said: {stderr}");
+    assert!(stdout.contains("sppm, 3 passes"), "rendered 3 passes: {stdout}");
+    let ppm = caustica(&[&["render", scene, "--integrator", "ppm", "--spp", "3"][..], &small].concat());
+    assert_fails_naming(&ppm, "--spp does not apply to ppm");
+    let both = caustica(
+        &[&["render", scene, "--integrator", "pppm", "--spp", "3", "--passes", "4"][..], &small].concat(),
+    );
+    assert_fails_naming(&both, "--spp 3 and --passes 4");
+}

@@ -123,3 +123,21 @@ fn without_area_lights_or_sky_the_skipped_camera_rays_change_no_bit() {
     assert!(counted.mean().max_element() > 0.01, "the scene is lit: {}", counted.mean());
     assert_eq!(counted.pixels, traced.pixels);
 }
+
+/// lt renders the glass and mirror spheres black but for the light; it says so, naming their
+/// materials, and says nothing on a scene without mirrors or glass.
+#[test]
+fn lt_names_the_mirrors_and_glass_it_cannot_see_through() {
+    let warning = "lt cannot see surfaces in a mirror or through smooth glass";
+    for (file, said) in [("cornell-spheres.gltf", true), ("cornell-box.gltf", false)] {
+        let (scene, mut run) = load(&common::data(file)).expect("test scene loads");
+        run.render.integrator = IntegratorKind::Lt;
+        run.render.spp = 1;
+        (run.film.width, run.film.height) = (Some(8), Some(8));
+        let (_, logs) = common::capture_logs(|| common::render(scene, &run));
+        assert_eq!(logs.contains(warning), said, "{file}: {logs}");
+        if said {
+            assert!(logs.contains("'mirror'") && logs.contains("'glass'"), "names both: {logs}");
+        }
+    }
+}

@@ -89,6 +89,7 @@ fn memory(_: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
 
 fn plan(_: &Integrator, world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
     let features = super::without_visibility_learning(world, features, "light tracing picks lights by power");
+    warn_surfaces_unseen_through_specular(world);
     let order = stage_order(run);
     let pixels = {
         let film = world.resource::<FilmResource>();
@@ -131,6 +132,20 @@ fn plan(_: &Integrator, world: &mut World, run: &RunFile, features: SceneFeature
         report,
         reset: |_| {},
     })
+}
+
+/// A diffuse or glossy surface seen in a mirror or through smooth glass is black under light
+/// tracing (a connection to the camera cannot pass a delta bounce): say which materials hide what, as
+/// pt-naive says which lights it cannot find, rather than render black spheres without a word.
+fn warn_surfaces_unseen_through_specular(world: &World) {
+    let specular: Vec<&str> = world.resource::<SceneResource>().specular_materials().collect();
+    if !specular.is_empty() {
+        tracing::warn!(
+            "lt cannot see surfaces in a mirror or through smooth glass: what materials {} reflect or \
+             transmit is black but for lights and the sky; bdpt, vcm or pt see it",
+            specular.iter().map(|name| format!("'{name}'")).collect::<Vec<_>>().join(", ")
+        );
+    }
 }
 
 /// Whether a camera ray can find anything: an area light or the sky (seen directly, in a mirror or
