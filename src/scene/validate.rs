@@ -445,7 +445,7 @@ impl Defects {
                     .take(Self::NAMED)
                     .map(
                         |(mesh, dropped, _)| {
-                            if what.is_empty() { format!("{mesh}") } else { format!("{mesh} ({dropped})") }
+                            if what.is_empty() { mesh.clone() } else { format!("{mesh} ({dropped})") }
                         },
                     )
                     .collect();
