@@ -348,8 +348,9 @@ pub fn merge(parts: &[PathBuf], outputs: &[PathBuf], exposure: f32) -> Result<()
 }
 
 /// `--spp` for an integrator that counts passes: sppm, appm, cppm and pppm trace one camera sample a
-/// pixel each pass, so N samples are N passes (said, not silently ignored as it was); ppm traces its
-/// hit points once, so samples are not its unit and `--spp` is refused.
+/// pixel each pass, so N samples are N passes (said, not silently ignored as it was), unless
+/// `--passes` says how many; ppm traces its hit points once, so samples are not its unit and `--spp`
+/// is refused.
 fn spp_as_passes(args: &RenderArgs, run: &mut RunFile) -> Result<()> {
     let integrator = caustica::integrators::of(run.render.integrator);
     let Some(spp) = args.spp.filter(|_| integrator.units_key() == "passes") else { return Ok(()) };
@@ -360,14 +361,20 @@ fn spp_as_passes(args: &RenderArgs, run: &mut RunFile) -> Result<()> {
              photon passes; give --passes N"
         );
     }
-    if let Some(passes) = args.passes.filter(|&passes| passes != spp) {
-        anyhow::bail!(
-            "--spp {spp} and --passes {passes}: {name} traces one camera sample a pixel each pass, so the two \
-             count the same thing; give one"
-        );
+    match args.passes {
+        Some(passes) if passes != spp => {
+            tracing::warn!(
+                "{name} counts passes of one camera sample a pixel: --passes {passes} is used, not --spp {spp}"
+            )
+        }
+        Some(_) => {}
+        None => {
+            run.progressive.passes = spp;
+            tracing::warn!(
+                "{name} counts passes of one camera sample a pixel: --spp {spp} renders {spp} passes"
+            );
+        }
     }
-    run.progressive.passes = spp;
-    tracing::warn!("{name} counts passes of one camera sample a pixel: --spp {spp} renders {spp} passes");
     Ok(())
 }
 
@@ -478,9 +485,28 @@ fn output_paths(args: &RenderArgs, run: &RunFile, scene_path: &Path) -> Vec<Path
         return args.output.clone();
     }
     let listed: Vec<PathBuf> = [&run.output.exr, &run.output.png].into_iter().flatten().cloned().collect();
-    if !listed.is_empty() {
-        return listed;
+    let defaults = if listed.is_empty() {
+        let stem = scene_path.file_stem().map_or("render".into(), |s| s.to_string_lossy().into_owned());
+        vec![PathBuf::from(format!("out/{stem}.exr")), PathBuf::from(format!("out/{stem}.png"))]
+    } else {
+        listed
+    };
+    // An integrator chosen on the command line names the outputs it did not choose: `--integrator
+    // sppm` beside a pt run then writes cornell-spheres-sppm.png and leaves cornell-spheres.png be.
+    match args.integrator {
+        Some(kind) => {
+            defaults.iter().map(|path| with_suffix(path, caustica::integrators::of(kind).name())).collect()
+        }
+        None => defaults,
     }
-    let stem = scene_path.file_stem().map_or("render".into(), |s| s.to_string_lossy().into_owned());
-    vec![PathBuf::from(format!("out/{stem}.exr")), PathBuf::from(format!("out/{stem}.png"))]
+}
+
+/// `dir/name.ext` → `dir/name-suffix.ext`.
+fn with_suffix(path: &Path, suffix: &str) -> PathBuf {
+    let stem = path.file_stem().map_or(String::new(), |s| s.to_string_lossy().into_owned());
+    let name = match path.extension() {
+        Some(ext) => format!("{stem}-{suffix}.{}", ext.to_string_lossy()),
+        None => format!("{stem}-{suffix}"),
+    };
+    path.with_file_name(name)
 }

@@ -365,7 +365,7 @@ fn what_a_new_user_met_is_said_plainly() {
 
 /// `--spp` with an integrator that counts passes: sppm and its kin take one camera sample a pixel a
 /// pass, so the samples become passes and the command says so; ppm, whose hit points are traced
-/// once, refuses it; a different `--passes` beside it is refused as a contradiction.
+/// once, refuses it; a `--passes` beside it wins, and the unused `--spp` is named.
 #[test]
 fn spp_with_a_pass_counting_integrator_is_mapped_or_refused_and_said() {
     let dir = scratch("spp-passes");
@@ -382,7 +382,35 @@ fn spp_with_a_pass_counting_integrator_is_mapped_or_refused_and_said() {
     let ppm = caustica(&[&["render", scene, "--integrator", "ppm", "--spp", "3"][..], &small].concat());
     assert_fails_naming(&ppm, "--spp does not apply to ppm");
     let both = caustica(
-        &[&["render", scene, "--integrator", "pppm", "--spp", "3", "--passes", "4"][..], &small].concat(),
+        &[&["render", scene, "--integrator", "pppm", "--spp", "3", "--passes", "2"][..], &small].concat(),
     );
-    assert_fails_naming(&both, "--spp 3 and --passes 4");
+    let (stdout, stderr) = (String::from_utf8_lossy(&both.stdout), String::from_utf8_lossy(&both.stderr));
+    assert!(both.status.success() && stdout.contains("pppm, 2 passes"), "{stdout}{stderr}");
+    assert!(stderr.contains("--passes 2 is used, not --spp 3"), "said: {stderr}");
+}
+
+/// An integrator switched on the command line does not overwrite the run file's image of another:
+/// its name goes into the run file's output names (and into the default ones).
+#[test]
+fn an_integrator_from_the_command_line_writes_beside_the_run_files_outputs() {
+    let dir = scratch("integrator-outputs");
+    let gltf = common::data("cornell-box.gltf");
+    let run = dir.join("box.toml");
+    let png = dir.join("box.png");
+    std::fs::write(
+        &run,
+        format!(
+            "gltf = {:?}\n[render]\nspp = 1\n[film]\nwidth = 8\nheight = 8\n[output]\npng = {:?}\n",
+            gltf, png
+        ),
+    )
+    .unwrap();
+    let run = run.to_str().unwrap();
+    let pt = caustica(&["render", run, "-q"]);
+    assert!(pt.status.success(), "{}", String::from_utf8_lossy(&pt.stderr));
+    let before = std::fs::read(&png).expect("the run file's output");
+    let lt = caustica(&["render", run, "--integrator", "lt", "-q"]);
+    assert!(lt.status.success(), "{}", String::from_utf8_lossy(&lt.stderr));
+    assert!(dir.join("box-lt.png").is_file(), "lt's image beside it");
+    assert_eq!(std::fs::read(&png).unwrap(), before, "pt's image untouched");
 }
