@@ -22,6 +22,7 @@ mod display;
 mod frames;
 mod logging;
 mod profile;
+mod progress_log;
 mod render;
 mod report;
 mod signals;

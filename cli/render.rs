@@ -150,6 +150,7 @@ pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>) -> Result<bool
     }
 
     let bar = progress_bar(&renderer, args.quiet);
+    let mut log = crate::progress_log::ProgressLog::new(args.quiet);
     let render_start = Instant::now();
     let mut written_marks = 0;
     let mut report = renderer.run(run.render.time_limit, |renderer| {
@@ -159,7 +160,9 @@ pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>) -> Result<bool
             bar.suspend(|| tracing::warn!("{e:#}; rendering goes on"));
         }
         let progress = renderer.progress();
-        show_progress(&bar, &progress, render_start.elapsed().as_secs_f64());
+        let seconds = render_start.elapsed().as_secs_f64();
+        show_progress(&bar, &progress, seconds);
+        log.update(&progress, seconds);
         if let Some(server) = &mut display
             && server.due()
             && let Err(e) = server.update(&renderer.image())

@@ -414,3 +414,19 @@ fn an_integrator_from_the_command_line_writes_beside_the_run_files_outputs() {
     assert!(dir.join("box-lt.png").is_file(), "lt's image beside it");
     assert_eq!(std::fs::read(&png).unwrap(), before, "pt's image untouched");
 }
+
+/// With stderr not a terminal (here a pipe, as in a batch job's log) the bar does not draw: plain
+/// progress lines say where the render is, up to its end; `-q` silences them.
+#[test]
+fn a_log_that_is_not_a_terminal_gets_progress_lines() {
+    let dir = scratch("progress-log");
+    let scene = common::data("cornell-box.gltf");
+    let out = dir.join("o.png");
+    let args = ["render", scene.to_str().unwrap(), "--width", "16", "--height", "16", "--spp", "8"];
+    let logged = caustica(&[&args[..], &["-o", out.to_str().unwrap()]].concat());
+    let stderr = String::from_utf8_lossy(&logged.stderr);
+    assert!(logged.status.success(), "{stderr}");
+    assert!(stderr.lines().any(|l| l.starts_with("progress    100%  8.0/8 spp")), "{stderr}");
+    let quiet = caustica(&[&args[..], &["-q", "-o", out.to_str().unwrap()]].concat());
+    assert!(!String::from_utf8_lossy(&quiet.stderr).contains("progress"), "-q says nothing");
+}
