@@ -113,8 +113,16 @@ impl Camera {
         })
     }
 
-    /// A camera for a file that has none, as glTF viewers frame one: looking down −Z from the +Z side
-    /// (glTF's front) at the centre of the bounding box, with vertical field of view `yfov` (45°, as
+    /// Where a camera-less file is seen from, from the centre of its bounds: a three-quarter view,
+    /// 45° round from glTF's front (+Z) towards +X and 30° above the horizon. Straight along −Z a
+    /// box showed one face and looked flat.
+    pub fn framing_direction() -> Vec3 {
+        let (yaw, elevation) = (45f32.to_radians(), 30f32.to_radians());
+        Vec3::new(yaw.sin() * elevation.cos(), elevation.sin(), yaw.cos() * elevation.cos())
+    }
+
+    /// A camera for a file that has none, as glTF viewers frame one: looking at the centre of the
+    /// bounding box from [`Camera::framing_direction`], with vertical field of view `yfov` (45°, as
     /// viewers use, unless the user chose one), just far enough that the box's bounding sphere fits
     /// both the vertical and the horizontal field at `aspect` (width / height). An empty or
     /// non-finite box is framed as the unit sphere.
@@ -124,7 +132,7 @@ impl Camera {
         let radius = radius.max(1e-3);
         let xfov = 2.0 * (aspect.max(1e-3) * (0.5 * yfov).tan()).atan();
         let distance = radius / (0.5 * yfov.min(xfov)).sin();
-        let eye = center + Vec3::new(0.0, 0.0, distance);
+        let eye = center + distance * Self::framing_direction();
         CameraDesc {
             name: "auto".into(),
             camera_to_world: look_at(eye, center, Vec3::Y),

@@ -68,8 +68,9 @@ pub(crate) fn scene_camera(
             // With both eye and target given the user has placed the camera: nothing to warn about.
             if run.camera.eye.is_none() || run.camera.target.is_none() {
                 tracing::warn!(
-                    "{}: no camera in the file; framing the scene's bounds from +Z (looking down -Z) with a \
-                 45° vertical field of view; set [camera] eye/target/yfov_degrees or --eye/--target/--yfov",
+                    "{}: no camera in the file; framing the scene's bounds in a three-quarter view (from +Z turned \
+                 45° towards +X, 30° above the horizon) with a 45° vertical field of view; set [camera] \
+                 eye/target/yfov_degrees or --eye/--target/--yfov",
                     source.display()
                 );
             }

@@ -410,11 +410,14 @@ fn a_camera_less_file_is_framed_and_the_flags_override_the_framing() {
     run.film.height = Some(20);
     let (result, logs) = common::capture_logs(|| caustica::driver::scene_world(scene.clone(), &run));
     let (world, _) = result.expect("world");
-    assert!(logs.contains("no camera in the file") && logs.contains("+Z"), "{logs}");
+    assert!(logs.contains("no camera in the file") && logs.contains("three-quarter view"), "{logs}");
     let camera = world.resource::<caustica::resources::CameraResource>();
-    // The unit ball's bounding box has radius √3; at 45° it is framed from √3 / sin 22.5° on +Z.
+    // A three-quarter view: 45° round from +Z towards +X, 30° up.
+    let from = caustica::camera::Camera::framing_direction();
+    assert!((from.x - from.z).abs() < 1e-6 && (from.y - 0.5).abs() < 1e-6 && from.x > 0.0, "{from}");
+    // The unit ball's bounding box has radius √3; at 45° it is framed from √3 / sin 22.5°.
     let eye = camera.generate_ray(20, 10, glam::Vec2::splat(0.5), glam::Vec2::ZERO, 0.0).o;
-    assert!((eye - Vec3::new(0.0, 0.0, 3f32.sqrt() / 22.5f32.to_radians().sin())).length() < 1e-3, "{eye}");
+    assert!((eye - from * 3f32.sqrt() / 22.5f32.to_radians().sin()).length() < 1e-3, "{eye}");
 
     // Tall images fit the horizontal field instead.
     run.film.width = Some(20);
@@ -423,7 +426,7 @@ fn a_camera_less_file_is_framed_and_the_flags_override_the_framing() {
     let camera = world.resource::<caustica::resources::CameraResource>();
     let eye = camera.generate_ray(10, 20, glam::Vec2::splat(0.5), glam::Vec2::ZERO, 0.0).o;
     let half_x = (0.5 * (22.5f32.to_radians().tan())).atan();
-    assert!((eye.z - 3f32.sqrt() / half_x.sin()).abs() < 1e-3, "{eye}");
+    assert!((eye.length() - 3f32.sqrt() / half_x.sin()).abs() < 1e-3, "{eye}");
 
     // A narrower field of view chosen by the user frames from further away instead of cropping.
     run.film.width = Some(40);
@@ -434,7 +437,7 @@ fn a_camera_less_file_is_framed_and_the_flags_override_the_framing() {
         .resource::<caustica::resources::CameraResource>()
         .generate_ray(20, 10, glam::Vec2::splat(0.5), glam::Vec2::ZERO, 0.0)
         .o;
-    assert!((eye.z - 3f32.sqrt() / 10f32.to_radians().sin()).abs() < 1e-3, "{eye}");
+    assert!((eye.length() - 3f32.sqrt() / 10f32.to_radians().sin()).abs() < 1e-3, "{eye}");
 
     run.camera.eye = Some([4.0, 0.0, 0.0]);
     run.camera.target = Some([0.0, 0.0, 0.0]);
