@@ -151,7 +151,7 @@ pub fn render_frames(
         if !denoised.is_empty() {
             let denoise_start = Instant::now();
             let features = features.context("the render made no albedo and normal to denoise with")?;
-            let clean = caustica::film::denoise::denoise(&image, &features)?;
+            let clean = crate::denoiser::denoise(&image, &features)?;
             times.denoise = denoise_start.elapsed().as_secs_f64();
             let write_start = Instant::now();
             for pattern in denoised {

@@ -17,6 +17,7 @@ mod args;
 mod bench;
 mod checkpoint;
 mod compare;
+mod denoiser;
 mod density_plot;
 mod display;
 mod frames;

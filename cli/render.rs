@@ -51,7 +51,7 @@ pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>) -> Result<bool
         );
     }
     if args.denoise {
-        caustica::film::denoise::check_available()?;
+        crate::denoiser::check()?;
         if args.part.is_some() {
             anyhow::bail!("--denoise needs the whole image: denoise the merged parts instead");
         }
@@ -284,7 +284,7 @@ fn write_denoised(
 ) -> Result<()> {
     let features = renderer.aov_images().context("the render made no albedo and normal to denoise with")?;
     let start = Instant::now();
-    let clean = caustica::film::denoise::denoise(image, &features)?;
+    let clean = crate::denoiser::denoise(image, &features)?;
     tracing::info!("denoised in {:.3} s", start.elapsed().as_secs_f64());
     for path in denoised {
         output::write_image(&clean, path, run.film.exposure)?;

@@ -333,6 +333,28 @@ def test_pyoidn_denoises_as_the_native_build_does():
         assert np.array_equal(native, through_pyoidn), np.abs(native - through_pyoidn).max()
 
 
+def test_the_command_line_without_the_feature_denoises_through_pyoidn(tmp_path):
+    """`caustica render --denoise` from a build without feature `denoise` (CAUSTICA_PLAIN_BIN, which
+    .ci/run keeps aside) runs pyoidn through this interpreter: the same bits as the command line that
+    links OIDN (CAUSTICA_BIN), or as pyoidn run by hand where that one has no denoiser either."""
+    from caustica import denoiser
+
+    plain = os.environ.get("CAUSTICA_PLAIN_BIN")
+    if plain is None or not denoiser.available():
+        pytest.skip("needs CAUSTICA_PLAIN_BIN (a build without feature denoise) and pyoidn")
+    env = dict(os.environ, CAUSTICA_PYTHON=sys.executable)
+    images = []
+    for name, binary in (("plain", plain), ("native", cli_binary())):
+        out = tmp_path / f"{name}.exr"
+        done = subprocess.run([binary, "render", str(BOX), "--spp", "2", "--width", "32", "--height", "24",
+                               "--seed", "3", "--denoise", "-q", "-o", str(out)], env=env, capture_output=True,
+                              text=True, timeout=600)
+        assert done.returncode == 0, done.stderr
+        images.append(caustica.read_exr(tmp_path / f"{name}-denoised.exr"))
+    assert images[0].shape == (24, 32, 3) and np.isfinite(images[0]).all()
+    assert np.array_equal(images[0], images[1]), np.abs(images[0] - images[1]).max()
+
+
 def test_advance_poses_the_files_animation_and_starts_the_image_over():
     session = caustica.load(ROOT / "tests/data/gltf-samples/AnimatedTriangle.gltf", width=16, height=16,
                             spp=2).session(aovs=())
