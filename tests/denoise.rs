@@ -4,8 +4,11 @@
 
 use crate::common;
 
-use std::process::{Command, Output};
+use std::process::Command;
+#[cfg(feature = "denoise")]
+use std::process::Output;
 
+#[cfg(feature = "denoise")]
 fn caustica(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_caustica")).args(args).output().expect("caustica runs")
 }
