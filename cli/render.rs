@@ -352,17 +352,31 @@ pub fn merge(parts: &[PathBuf], outputs: &[PathBuf], exposure: f32) -> Result<()
 
 /// `--spp` for an integrator that counts passes: sppm, appm, cppm and pppm trace one camera sample a
 /// pixel each pass, so N samples are N passes (said, not silently ignored as it was), unless
-/// `--passes` says how many; ppm traces its hit points once, so samples are not its unit and `--spp`
-/// is refused.
+/// `--passes` says how many; ppm traces its camera samples once, as its hit points, so there N
+/// samples are N hit points a pixel.
 fn spp_as_passes(args: &RenderArgs, run: &mut RunFile) -> Result<()> {
     let integrator = caustica::integrators::of(run.render.integrator);
     let Some(spp) = args.spp.filter(|_| integrator.units_key() == "passes") else { return Ok(()) };
     let name = integrator.name();
     if run.render.integrator == caustica::scene::IntegratorKind::Ppm {
-        anyhow::bail!(
-            "--spp does not apply to ppm: it traces its hit points once (--hit-points-per-pixel) and counts \
-             photon passes; give --passes N"
-        );
+        // ppm's camera samples are its hit points, traced once: N samples a pixel are N hit points.
+        match args.hit_points_per_pixel {
+            Some(hit_points) if hit_points != spp => tracing::warn!(
+                "ppm traces its camera samples once, as hit points: --hit-points-per-pixel {hit_points} is \
+                 used, not --spp {spp}"
+            ),
+            Some(_) => {}
+            None => {
+                // A pixel's hit points are a (0, m, 2)-net: a power of two, at most 256.
+                let hit_points = spp.max(1).checked_next_power_of_two().unwrap_or(256).min(256);
+                run.progressive.hit_points_per_pixel = Some(hit_points);
+                tracing::warn!(
+                    "ppm traces its camera samples once, as hit points (a power of two a pixel, at most 256): \
+                     --spp {spp} traces {hit_points} a pixel"
+                );
+            }
+        }
+        return Ok(());
     }
     match args.passes {
         Some(passes) if passes != spp => {
