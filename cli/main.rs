@@ -21,6 +21,7 @@ mod density_plot;
 mod display;
 mod frames;
 mod logging;
+mod plot_text;
 mod profile;
 mod render;
 mod report;
