@@ -56,6 +56,8 @@ fn main() -> std::process::ExitCode {
 }
 
 fn run() -> Result<()> {
+    // A render's --time-limit counts from here: loading and preparing come out of it.
+    let start = std::time::Instant::now();
     let cli = Cli::parse();
     let render_args = match &cli.command {
         Some(Command::Render(args)) => (**args).clone(),
@@ -66,7 +68,7 @@ fn run() -> Result<()> {
         logging::install_subscriber(profile.as_ref(), render_args.trace_chrome.as_deref(), cli.verbose)?;
     match cli.command {
         None | Some(Command::Render(_)) => {
-            let finished = render::render(&render_args, profile.as_ref())?;
+            let finished = render::render(&render_args, profile.as_ref(), start)?;
             // Flush the trace before judging it.
             drop(_chrome_guard);
             if !finished {
