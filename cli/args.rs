@@ -281,8 +281,9 @@ pub struct RenderArgs {
     /// filter (default 32 for ppm, 1 for the others); overrides the run file.
     #[arg(long)]
     pub hit_points_per_pixel: Option<u32>,
-    /// Stop after this many seconds of rendering (every integrator); without --spp or --passes it
-    /// renders until then, however many samples or passes that is; overrides the run file.
+    /// Stop this many seconds after the command started, loading and preparing included (with
+    /// --frames: of each frame's rendering); without --spp or --passes it renders until then,
+    /// however many samples or passes that is; overrides the run file.
     #[arg(long)]
     pub time_limit: Option<f64>,
     /// Adaptive sampling (pt, pt-naive): a pixel stops taking samples once its estimated relative

@@ -101,7 +101,8 @@ fn draw(
     let y_max = ys.iter().copied().filter(|y| y.is_finite()).fold(0.0f64, f64::max).max(1e-12) * 1.1;
     let mut buffer = vec![255u8; (SIZE.0 * SIZE.1 * 3) as usize];
     {
-        let root = BitMapBackend::with_buffer(&mut buffer, SIZE).into_drawing_area();
+        let root = crate::plot_text::GlyphText::new(BitMapBackend::with_buffer(&mut buffer, SIZE))
+            .into_drawing_area();
         let mut chart = ChartBuilder::on(&root)
             .caption(title, ("sans-serif", 20))
             .margin(12)

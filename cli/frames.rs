@@ -3,7 +3,7 @@
 //! its time accounted (pose, BVH, lights, render, denoise, write).
 
 use crate::args::RenderArgs;
-use crate::report::print_report;
+use crate::report::{Timing, print_report};
 use anyhow::{Context, Result};
 use caustica::Renderer;
 use caustica::driver::StopReason;
@@ -105,6 +105,7 @@ pub fn render_frames(
         );
     }
     let mut renderer = Renderer::new(scene, run).context(format!("preparing {}", scene_path.display()))?;
+    let setup = start.elapsed().as_secs_f64();
     crate::signals::watch_for_signals(&renderer);
     let frames = range.len() as u64;
     let bar = if args.quiet { ProgressBar::hidden() } else { ProgressBar::new(frames) };
@@ -171,7 +172,17 @@ pub fn render_frames(
     }
     bar.finish_and_clear();
     let report = last_report.expect("at least one frame");
-    print_report(scene_path, &report, start.elapsed().as_secs_f64());
+    // The time line sums the frames' renders (each frame's line shows its own): the last frame's
+    // alone, as the summary's other lines are, read as the whole animation's rendering time.
+    let timing = Timing {
+        total: start.elapsed().as_secs_f64(),
+        rendering: total.render,
+        setup,
+        rendered_at: start.elapsed().as_secs_f64(),
+        limit: run.render.time_limit,
+        frames: Some(rendered),
+    };
+    print_report(scene_path, &report, &timing);
     outln!(
         "frames      {rendered} of {} ({}:{} at {fps} fps), {:.3} s; mean per frame: {}",
         range.len(),
@@ -179,6 +190,10 @@ pub fn render_frames(
         range.end,
         start.elapsed().as_secs_f64(),
         total.line(1.0 / rendered.max(1) as f64)
+    );
+    outln!(
+        "            the lines from `integrator` to `NaN/Inf` above are frame {}'s alone, the last rendered",
+        range.start + rendered - 1
     );
     if kept_photons > 0 {
         outln!(

@@ -22,6 +22,7 @@ mod density_plot;
 mod display;
 mod frames;
 mod logging;
+mod plot_text;
 mod profile;
 mod progress_log;
 mod render;
@@ -57,6 +58,8 @@ fn main() -> std::process::ExitCode {
 }
 
 fn run() -> Result<()> {
+    // A render's --time-limit counts from here: loading and preparing come out of it.
+    let start = std::time::Instant::now();
     let cli = Cli::parse();
     let render_args = match &cli.command {
         Some(Command::Render(args)) => (**args).clone(),
@@ -67,7 +70,7 @@ fn run() -> Result<()> {
         logging::install_subscriber(profile.as_ref(), render_args.trace_chrome.as_deref(), cli.verbose)?;
     match cli.command {
         None | Some(Command::Render(_)) => {
-            let finished = render::render(&render_args, profile.as_ref())?;
+            let finished = render::render(&render_args, profile.as_ref(), start)?;
             // Flush the trace before judging it.
             drop(_chrome_guard);
             if !finished {

@@ -3,7 +3,7 @@
 use crate::args::RenderArgs;
 use crate::display::DisplayServer;
 use crate::profile::SystemProfile;
-use crate::report::print_report;
+use crate::report::{Timing, print_report};
 use anyhow::{Context, Result};
 use caustica::Renderer;
 use caustica::driver::StopReason;
@@ -25,10 +25,10 @@ fn default_scene() -> PathBuf {
     if here.exists() { here } else { Path::new(env!("CARGO_MANIFEST_DIR")).join(DEFAULT_SCENE) }
 }
 
-/// Render the scene `args` name (or the default one) and write its outputs. Returns whether the render
-/// ran to its end (false: a signal stopped it, and the image so far was written).
-pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>) -> Result<bool> {
-    let start = Instant::now();
+/// Render the scene `args` name (or the default one) and write its outputs; a time limit counts from
+/// `start`, the command's. Returns whether the render ran to its end (false: a signal stopped it, and
+/// the image so far was written).
+pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>, start: Instant) -> Result<bool> {
     init_thread_pools(args.threads.map(usize::from));
     let scene_path = args.scene.clone().unwrap_or_else(default_scene);
     if scene_path.is_dir() {
@@ -152,8 +152,12 @@ pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>) -> Result<bool
     let bar = progress_bar(&renderer, args.quiet);
     let mut log = crate::progress_log::ProgressLog::new(args.quiet);
     let render_start = Instant::now();
+    let setup = start.elapsed().as_secs_f64();
+    // What loading and preparing left of the limit. With none left the render still starts and
+    // stops at its first check of the limit, so the image is written as a stopped render's is.
+    let left = run.render.time_limit.map(|limit| (limit - setup).max(0.0));
     let mut written_marks = 0;
-    let mut report = renderer.run(run.render.time_limit, |renderer| {
+    let mut report = renderer.run(left, |renderer| {
         if let Some(checkpoints) = &mut checkpoints
             && let Err(e) = checkpoints.write_if_due(renderer)
         {
@@ -182,6 +186,7 @@ pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>) -> Result<bool
             }
         }
     });
+    let rendered_at = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
     // The last checkpoint: at the end, or where a signal stopped the render (between passes).
     let checkpoint_failed = checkpoints.as_mut().and_then(|c| c.write(&renderer).err());
@@ -209,7 +214,15 @@ pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>) -> Result<bool
         report.done -= info.samples.start as f64;
         report.target = info.samples.len() as u32;
     }
-    print_report(&scene_path, &report, start.elapsed().as_secs_f64());
+    let timing = Timing {
+        total: start.elapsed().as_secs_f64(),
+        rendering: report.seconds,
+        setup,
+        rendered_at,
+        limit: run.render.time_limit,
+        frames: None,
+    };
+    print_report(&scene_path, &report, &timing);
     if let Some(info) = &part {
         outln!(
             "part        {}/{}: units {}..{} of {} {}",

@@ -5,8 +5,64 @@ use caustica::Report;
 use caustica::plan::Unit;
 use std::path::Path;
 
-/// Print `report` of a render of `scene` that took `total_seconds` with loading.
-pub fn print_report(scene: &Path, report: &Report, total_seconds: f64) {
+/// Where a command's time went, in seconds from its start, for the summary's `time` lines.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Timing {
+    /// The whole command: loading, preparing, rendering, writing.
+    pub total: f64,
+    /// Rendering: the driver's passes; of an animation, every frame's render summed.
+    pub rendering: f64,
+    /// Loading and preparing, before the first render began.
+    pub setup: f64,
+    /// When the (last) render stopped.
+    pub rendered_at: f64,
+    /// `--time-limit`, seconds.
+    pub limit: Option<f64>,
+    /// An animation's frames rendered: each frame had the limit to itself.
+    pub frames: Option<u32>,
+}
+
+impl Timing {
+    /// The summary's `time` line, and a `time limit` line saying what the limit covered.
+    pub fn lines(&self) -> Vec<String> {
+        let mut lines = vec![match self.frames {
+            None => format!("time        {:.3} s total, {:.3} s rendering", self.total, self.rendering),
+            Some(frames) => format!(
+                "time        {:.3} s total, {:.3} s rendering over {frames} frame{} (mean {:.3} s a frame)",
+                self.total,
+                self.rendering,
+                if frames == 1 { "" } else { "s" },
+                self.rendering / frames.max(1) as f64
+            ),
+        }];
+        let Some(limit) = self.limit else { return lines };
+        lines.push(match self.frames {
+            // An animation's frames each get the whole limit, as they each get the whole --spp.
+            Some(_) => format!(
+                "time limit  {limit} s for each frame's rendering (loading, posing and writing are not in it)"
+            ),
+            None if self.setup >= limit => format!(
+                "time limit  {limit} s from the command's start, all of it spent loading and preparing \
+                 ({:.3} s): the render had none left and stopped at its first check of it; writing took \
+                 {:.3} s after it",
+                self.setup,
+                self.total - self.rendered_at
+            ),
+            None => format!(
+                "time limit  {limit} s from the command's start: loading and preparing took {:.3} s, the \
+                 render had the {:.3} s left and ended at {:.3} s; writing took {:.3} s after it",
+                self.setup,
+                limit - self.setup,
+                self.rendered_at,
+                self.total - self.rendered_at
+            ),
+        });
+        lines
+    }
+}
+
+/// Print `report` of a render of `scene`, with where its time went.
+pub fn print_report(scene: &Path, report: &Report, timing: &Timing) {
     let seconds = report.seconds.max(1e-9);
     outln!("scene       {}", scene.display());
     outln!(
@@ -22,7 +78,9 @@ pub fn print_report(scene: &Path, report: &Report, total_seconds: f64) {
         report.width,
         report.height
     );
-    outln!("time        {total_seconds:.3} s total, {:.3} s rendering", report.seconds);
+    for line in timing.lines() {
+        outln!("{line}");
+    }
     match report.stopped_by {
         Some(caustica::driver::StopReason::TimeLimit) => outln!("stopped     by the time limit"),
         Some(caustica::driver::StopReason::Interrupted) => {
@@ -151,4 +209,34 @@ fn phases(report: &Report) -> String {
         }
     }
     merged.iter().map(|(name, seconds)| format!("{name} {seconds:.3} s")).collect::<Vec<_>>().join(", ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Timing;
+
+    #[test]
+    fn the_time_lines_say_what_the_limit_covered() {
+        let render =
+            Timing { total: 21.0, rendering: 17.5, setup: 2.5, rendered_at: 20.2, ..Default::default() };
+        assert_eq!(render.lines(), ["time        21.000 s total, 17.500 s rendering"]);
+        let limited = Timing { limit: Some(20.0), ..render };
+        assert_eq!(
+            limited.lines()[1],
+            "time limit  20 s from the command's start: loading and preparing took 2.500 s, the render had \
+             the 17.500 s left and ended at 20.200 s; writing took 0.800 s after it"
+        );
+        let spent = Timing { limit: Some(2.0), ..render };
+        assert!(
+            spent.lines()[1].contains("all of it spent loading and preparing (2.500 s)"),
+            "{:?}",
+            spent.lines()
+        );
+        let frames = Timing { frames: Some(4), rendering: 73.6, limit: Some(20.0), ..render };
+        assert_eq!(
+            frames.lines()[0],
+            "time        21.000 s total, 73.600 s rendering over 4 frames (mean 18.400 s a frame)"
+        );
+        assert!(frames.lines()[1].contains("20 s for each frame's rendering"));
+    }
 }

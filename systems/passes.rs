@@ -86,11 +86,12 @@ pub fn finish_light_learning(mut scene: ResMut<SceneResource>) {
 
 /// A system that starts a progressive pass: one shutter time for the camera and the photons of the
 /// pass when something moves (Hachisuka & Jensen 2009, §5), the pass's photon numbers, and the pass
-/// number for the update.
-pub fn begin_progressive_pass(
-    motion: bool,
-) -> impl FnMut(Res<PassRange>, ResMut<RenderConfig>, ResMut<PhotonWork>, ResMut<ProgressiveConfig>) {
-    move |range, mut config, mut work, mut progressive| {
+/// number for the update. Named, so that the profile shows it as such rather than as a closure.
+pub fn begin_progressive_pass(motion: bool) -> impl System<In = (), Out = ()> {
+    let begin = move |range: Res<PassRange>,
+                      mut config: ResMut<RenderConfig>,
+                      mut work: ResMut<PhotonWork>,
+                      mut progressive: ResMut<ProgressiveConfig>| {
         // The pass's number in the whole render (`begin`), not in this process: a render split by
         // passes gives each pass the photons and shutter time it has in one run.
         let pass = range.begin;
@@ -99,7 +100,8 @@ pub fn begin_progressive_pass(
         work.time = time;
         work.pass = pass;
         progressive.pass = pass;
-    }
+    };
+    IntoSystem::into_system(begin).with_name("begin_progressive_pass")
 }
 
 /// Send every pixel's camera paths out again, with the pass's samples: sample `pass · N + j` for the
@@ -166,35 +168,38 @@ pub fn begin_photon_pass(
 }
 
 /// A system that sets up `pm`'s photon pass for the map `kind` with `count` photons (each map's
-/// photons are independent of the others': the kind selects their random numbers).
-pub fn begin_photon_map(kind: PhotonMapKind, count: u32) -> impl FnMut(ResMut<PhotonWork>) {
-    move |mut work| {
+/// photons are independent of the others': the kind selects their random numbers). Named, as
+/// [`hand_out_samples`] is.
+pub fn begin_photon_map(kind: PhotonMapKind, count: u32) -> impl System<In = (), Out = ()> {
+    let begin = move |mut work: ResMut<PhotonWork>| {
         work.settings.kind = kind;
         work.settings.total = count;
         (work.pass, work.time) = (0, None);
-    }
+    };
+    IntoSystem::into_system(begin).with_name("begin_photon_map")
 }
 
-/// A system that builds the photon map of `kind` from the pass's deposits.
-pub fn finish_photon_map(
-    kind: PhotonMapKind,
-) -> impl FnMut(ResMut<PhotonBuffer>, Res<PhotonWork>, ResMut<PhotonMaps>) {
-    move |mut buffer, work, mut maps| {
-        let map = PhotonMap::build(std::mem::take(&mut buffer.photons));
-        // A pass dropped by a stop and begun again builds its maps again.
-        maps.built.retain(|built| built.kind != kind);
-        maps.built.push(PhotonMapSummary {
-            kind,
-            emitted: work.settings.total,
-            stored: map.len(),
-            bytes: map.memory_bytes(),
-        });
-        let slot = match kind {
-            PhotonMapKind::Global => &mut maps.global,
-            PhotonMapKind::Indirect => &mut maps.indirect,
-            PhotonMapKind::Caustic => &mut maps.caustic,
-            PhotonMapKind::Bounced => return,
+/// A system that builds the photon map of `kind` from the pass's deposits. Named, as
+/// [`hand_out_samples`] is.
+pub fn finish_photon_map(kind: PhotonMapKind) -> impl System<In = (), Out = ()> {
+    let finish =
+        move |mut buffer: ResMut<PhotonBuffer>, work: Res<PhotonWork>, mut maps: ResMut<PhotonMaps>| {
+            let map = PhotonMap::build(std::mem::take(&mut buffer.photons));
+            // A pass dropped by a stop and begun again builds its maps again.
+            maps.built.retain(|built| built.kind != kind);
+            maps.built.push(PhotonMapSummary {
+                kind,
+                emitted: work.settings.total,
+                stored: map.len(),
+                bytes: map.memory_bytes(),
+            });
+            let slot = match kind {
+                PhotonMapKind::Global => &mut maps.global,
+                PhotonMapKind::Indirect => &mut maps.indirect,
+                PhotonMapKind::Caustic => &mut maps.caustic,
+                PhotonMapKind::Bounced => return,
+            };
+            *slot = Some(map);
         };
-        *slot = Some(map);
-    }
+    IntoSystem::into_system(finish).with_name("finish_photon_map")
 }

@@ -352,3 +352,55 @@ fn malformed_channels_are_refused_naming_the_file_and_the_channel() {
         assert!(error.contains("broken.gltf"), "{pointer}: {error}");
     }
 }
+
+/// The summary's time line of an animation is every frame's rendering summed, with the mean a
+/// frame: it was the last frame's alone ("70.3 s total, 18.4 s rendering" for four frames).
+#[test]
+fn the_frames_summary_sums_every_frames_rendering() {
+    let dir = tempfile::tempdir().unwrap();
+    let animated = common::data("gltf-samples/AnimatedTriangle.gltf");
+    let pattern = dir.path().join("f-##.png");
+    let out = caustica(&[
+        "render",
+        animated.to_str().unwrap(),
+        "--frames",
+        "0:3",
+        "--width",
+        "16",
+        "--height",
+        "16",
+        "--spp",
+        "1",
+        "-q",
+        "-o",
+        pattern.to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    // "time        0.007 s total, 0.003 s rendering over 3 frames (mean 0.001 s a frame)"
+    let line = stdout.lines().find(|l| l.starts_with("time ")).expect("a time line");
+    let rest = line.split(" s rendering over 3 frames (mean ").nth(1).unwrap_or_else(|| panic!("{line}"));
+    let number = |s: &str| s.split_whitespace().last().unwrap().parse::<f64>().unwrap();
+    let rendering = number(line.split(" s rendering").next().unwrap().split(',').nth(1).unwrap());
+    let mean: f64 = rest.split_whitespace().next().unwrap().parse().unwrap();
+    // The frame lines give each frame's render in ms, to 0.1 ms; the summary's seconds to 1 ms.
+    let frames: Vec<f64> = stdout
+        .lines()
+        .filter(|l| l.starts_with("frame "))
+        .map(|l| number(l.split(" ms, denoise").next().unwrap()) / 1e3)
+        .collect();
+    assert_eq!(frames.len(), 3, "{stdout}");
+    for frame in &frames {
+        assert!(
+            rendering + 0.0005 + 1e-9 >= frame - 0.00005,
+            "{rendering} s in all < a frame's {frame} s:\n{stdout}"
+        );
+    }
+    let sum: f64 = frames.iter().sum();
+    assert!(
+        (rendering - sum).abs() <= 0.0005 + 3.0 * 0.00005 + 1e-9,
+        "{rendering} s against the frames' {sum} s:\n{stdout}"
+    );
+    assert!((mean - rendering / 3.0).abs() <= 0.001, "mean {mean} of {rendering} s:\n{stdout}");
+    assert!(stdout.contains("frame 2's alone"), "says whose the other lines are:\n{stdout}");
+}

@@ -434,3 +434,48 @@ fn a_log_that_is_not_a_terminal_gets_progress_lines() {
     let quiet = caustica(&[&args[..], &["-q", "-o", out.to_str().unwrap()]].concat());
     assert!(!String::from_utf8_lossy(&quiet.stderr).contains("progress"), "-q says nothing");
 }
+
+/// A time limit counts from the command's start: one smaller than loading and preparing takes (a
+/// nanosecond) leaves the render none, and the command still writes a whole image and says where the
+/// limit went. Every integrator, since `pm` drops a photon pass that a stop cuts (its image is then
+/// black, and still an image).
+#[test]
+fn a_time_limit_spent_before_rendering_still_writes_an_image_and_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = common::data("cornell-box.gltf");
+    for integrator in ["pt", "pm", "sppm"] {
+        let (exr, png) =
+            (dir.path().join(format!("{integrator}.exr")), dir.path().join(format!("{integrator}.png")));
+        let out = caustica(&[
+            "render",
+            scene.to_str().unwrap(),
+            "--integrator",
+            integrator,
+            "--time-limit",
+            "1e-9",
+            "--width",
+            "16",
+            "--height",
+            "16",
+            "-q",
+            "-o",
+            exr.to_str().unwrap(),
+            "-o",
+            png.to_str().unwrap(),
+        ]);
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert!(out.status.success(), "{integrator}: {}", String::from_utf8_lossy(&out.stderr));
+        assert!(
+            stdout.contains(
+                "time limit  0.000000001 s from the command's start, all of it spent loading and preparing"
+            ),
+            "{integrator}: the summary names the limit and what it covered:\n{stdout}"
+        );
+        assert!(stdout.contains("stopped     by the time limit"), "{integrator}:\n{stdout}");
+        let image = caustica::film::output::read_exr(&exr).expect("the EXR reads back");
+        assert_eq!((image.width, image.height), (16, 16));
+        assert!(image.pixels.iter().all(|p| p.is_finite()), "{integrator}: a pixel is not finite");
+        let png = image::open(&png).expect("the PNG decodes");
+        assert_eq!((png.width(), png.height()), (16, 16));
+    }
+}

@@ -103,3 +103,41 @@ fn trace_counters_count_every_ray_the_report_counts_and_the_tree_work_it_took() 
     assert!(counter(&stdout, "trace_paths", 3) >= 1.0, "trace_paths leaves/ray");
     std::fs::remove_dir_all(dir).ok();
 }
+
+/// Every row of every integrator's profile names its system: a system made from a closure showed up
+/// as `{{closure}}` (`pm`'s photon map build, 6% of its time, was one), and a row that names no system
+/// says nothing about where the time went.
+#[test]
+fn every_integrators_profile_names_every_system() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/cornell-box.gltf");
+    for integrator in ["pt", "pt-naive", "pm", "ppm", "sppm", "appm", "cppm", "pppm", "lt", "bdpt", "vcm"] {
+        let out = Command::new(env!("CARGO_BIN_EXE_caustica"))
+            .args(["render", scene, "--integrator", integrator, "--width", "16", "--height", "16"])
+            .args(["--spp", "1", "--passes", "1", "--photons", "2000", "--caustic-photons", "2000"])
+            .args(["--photons-per-pass", "2000"])
+            .args(["-q", "--profile", "-o"])
+            .arg(dir.path().join(format!("{integrator}.exr")))
+            .output()
+            .expect("caustica runs");
+        assert!(out.status.success(), "{integrator}: {}", String::from_utf8_lossy(&out.stderr));
+        let stdout = String::from_utf8(out.stdout).unwrap();
+        let table = stdout.split("per-system profile").nth(1).expect("a profile table");
+        let rows: Vec<&str> = table
+            .lines()
+            .skip_while(|l| !l.starts_with("system"))
+            .skip(1)
+            .take_while(|l| !l.starts_with("all systems"))
+            .collect();
+        assert!(rows.len() >= 5, "{integrator}: only {} rows in\n{table}", rows.len());
+        for row in rows {
+            let name = row.split_whitespace().next().unwrap_or("");
+            assert!(
+                !row.contains("closure")
+                    && !row.contains("{{")
+                    && name.starts_with(|c: char| c.is_ascii_lowercase()),
+                "{integrator}: a row that does not name its system: {row:?}"
+            );
+        }
+    }
+}

@@ -29,7 +29,8 @@ pub fn write_plot(
     } else {
         let mut buffer = vec![255u8; (SIZE.0 * SIZE.1 * 3) as usize];
         {
-            let root = BitMapBackend::with_buffer(&mut buffer, SIZE).into_drawing_area();
+            let root = crate::plot_text::GlyphText::new(BitMapBackend::with_buffer(&mut buffer, SIZE))
+                .into_drawing_area();
             draw(&root, checkpoints, series, by_samples).map_err(fail)?;
             root.present().map_err(|e| fail(e.to_string()))?;
         }

@@ -180,12 +180,14 @@ pub(super) fn insert_light_path_resources(world: &mut World, pixels: u32, featur
 }
 
 /// A system that sets up the pass's light subpaths: as many as the pass has camera samples, with
-/// the random numbers of its unit index.
-pub(super) fn begin_light_pass(pixels: u32) -> impl FnMut(Res<PassRange>, ResMut<PhotonWork>) {
-    move |range, mut work| {
+/// the random numbers of its unit index. Named, so that the profile shows it as such rather than as
+/// a closure.
+pub(super) fn begin_light_pass(pixels: u32) -> impl System<In = (), Out = ()> {
+    let begin = move |range: Res<PassRange>, mut work: ResMut<PhotonWork>| {
         work.pass = range.begin;
         work.settings.total = pixels.saturating_mul(range.end - range.begin);
-    }
+    };
+    IntoSystem::into_system(begin).with_name("begin_light_pass")
 }
 
 /// The subpaths and their connections.

@@ -33,6 +33,8 @@ pub struct RenderSettings {
     /// How sample numbers are drawn.
     pub sampler: crate::sampling::SamplerKind,
     /// Wall-clock budget in seconds: rendering stops at the first of this and the sample/pass count.
+    /// The `caustica` command counts it from its own start (loading and preparing come out of it), a
+    /// `Renderer::run` from the call.
     pub time_limit: Option<f64>,
     /// Adaptive sampling (`pt`, `pt-naive`): a pixel whose estimated relative error
     /// (`film::adaptive`) is under this stops taking samples, and `spp` becomes the most a pixel
