@@ -369,7 +369,9 @@ pub fn merge(parts: &[PathBuf], outputs: &[PathBuf], exposure: f32) -> Result<()
 /// samples are N hit points a pixel.
 fn spp_as_passes(args: &RenderArgs, run: &mut RunFile) -> Result<()> {
     let integrator = caustica::integrators::of(run.render.integrator);
-    let Some(spp) = args.spp.filter(|_| integrator.units_key() == "passes") else { return Ok(()) };
+    let Some(spp) = args.spp.filter(|_| integrator.unit == caustica::plan::Unit::Passes) else {
+        return Ok(());
+    };
     let name = integrator.name();
     if run.render.integrator == caustica::scene::IntegratorKind::Ppm {
         // ppm's camera samples are its hit points, traced once: N samples a pixel are N hit points.

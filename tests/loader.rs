@@ -446,8 +446,9 @@ fn many_meshes_with_degenerate_triangles_give_one_warning() {
         material: 0,
         ..Mesh::default()
     };
+    let empty = |i: usize| Mesh { name: format!("empty {i}"), indices: vec![], ..mesh(i) };
     let mut scene = Scene {
-        meshes: (0..98).map(mesh).collect(),
+        meshes: (0..98).map(mesh).chain((0..2).map(empty)).collect(),
         materials: vec![diffuse("grey", Vec3::splat(0.5), Vec3::ZERO)],
         ..Scene::default()
     };
@@ -455,6 +456,7 @@ fn many_meshes_with_degenerate_triangles_give_one_warning() {
     let (summary, logs) = common::capture_logs(|| validate(&mut scene, path).expect("not an error"));
     assert_eq!(summary.degenerate_triangles, 196);
     assert_eq!(logs.matches("dropped").count(), 1, "one warning: {logs}");
+    assert!(logs.contains("2 meshes have no triangles, removed: empty 0; empty 1"), "{logs}");
     assert!(logs.contains("dropped 196 degenerate triangle(s) (zero area or not finite) in 98 meshes: sphere 0 (2); sphere 1 (2); sphere 2 (2); 95 more"), "{logs}");
 }
 

@@ -131,8 +131,8 @@ pub fn validate(scene: &mut Scene, path: &Path) -> Result<ValidationSummary> {
 
     // Check meshes and drop degenerate triangles; one warning for each kind of defect, however many
     // meshes have it (a file of 98 meshes each with two degenerate triangles said so 98 times).
-    let (mut degenerate, mut zero_area_emitters, mut empty) =
-        (Defects::default(), Defects::default(), Defects::default());
+    let (mut degenerate, mut zero_area_emitters) = (Defects::default(), Defects::default());
+    let mut empty = Vec::new();
     for mesh in &mut scene.meshes {
         check_mesh(mesh, &scene.materials, mesh_file)
             .map_err(|problem| invalid(mesh_file, &mesh.name, problem))?;
@@ -143,7 +143,7 @@ pub fn validate(scene: &mut Scene, path: &Path) -> Result<ValidationSummary> {
             let defects = if emitter { &mut zero_area_emitters } else { &mut degenerate };
             defects.add(&mesh.name, dropped, mesh.indices.is_empty());
         } else if before == 0 {
-            empty.add(&mesh.name, 0, true);
+            empty.push(mesh.name.clone());
         }
         summary.degenerate_triangles += dropped;
         if emitter {
@@ -153,7 +153,16 @@ pub fn validate(scene: &mut Scene, path: &Path) -> Result<ValidationSummary> {
     }
     degenerate.warn(mesh_file, "degenerate triangle(s)", "zero area or not finite");
     zero_area_emitters.warn(mesh_file, "zero-area emitting triangle(s)", "they would be lights of no area");
-    empty.warn(mesh_file, "", "");
+    match empty.as_slice() {
+        [] => {}
+        [mesh] => warn!(file = %mesh_file.display(), "{mesh}: has no triangles, removed"),
+        meshes => warn!(
+            file = %mesh_file.display(),
+            "{} meshes have no triangles, removed: {}",
+            meshes.len(),
+            first_few(meshes.iter().cloned(), meshes.len())
+        ),
+    }
     check_emitted_power(scene).map_err(|(object, problem)| invalid(mesh_file, &object, problem))?;
     if let Some(environment) = &scene.environment {
         let brightest = environment.max_radiance();
@@ -410,7 +419,7 @@ fn check_mesh(mesh: &mut Mesh, materials: &[MaterialDesc], file: &Path) -> Resul
     Ok(())
 }
 
-/// Meshes with one kind of harmless defect, for a single warning.
+/// Meshes whose triangles of one kind were dropped, for a single warning.
 #[derive(Default)]
 struct Defects {
     /// (mesh, triangles dropped, whether it was left empty and removed), in file order.
@@ -418,53 +427,43 @@ struct Defects {
 }
 
 impl Defects {
-    /// Meshes named in full in the warning; the rest are counted.
-    const NAMED: usize = 3;
-
     fn add(&mut self, mesh: &str, dropped: usize, removed: bool) {
         self.meshes.push((mesh.to_owned(), dropped, removed));
     }
 
     /// One warning for them all: the mesh's own line when there is one, else totals and the first
-    /// few names. `what` names the dropped triangles and `why` says why; empty for meshes that had
-    /// none.
+    /// few names. `what` names the dropped triangles and `why` says why.
     fn warn(&self, file: &Path, what: &str, why: &str) {
-        let removed = self.meshes.iter().filter(|m| m.2).count();
         match self.meshes.as_slice() {
             [] => {}
-            [(mesh, _, _)] if what.is_empty() => {
-                warn!(file = %file.display(), "{mesh}: has no triangles, removed")
-            }
             [(mesh, dropped, gone)] => {
                 let gone = if *gone { "; no triangle left, mesh removed" } else { "" };
                 warn!(file = %file.display(), "{mesh}: dropped {dropped} {what} ({why}){gone}");
             }
             meshes => {
-                let mut names: Vec<String> = meshes
-                    .iter()
-                    .take(Self::NAMED)
-                    .map(
-                        |(mesh, dropped, _)| {
-                            if what.is_empty() { mesh.clone() } else { format!("{mesh} ({dropped})") }
-                        },
-                    )
-                    .collect();
-                if meshes.len() > Self::NAMED {
-                    names.push(format!("{} more", meshes.len() - Self::NAMED));
-                }
-                let names = names.join("; ");
-                if what.is_empty() {
-                    warn!(file = %file.display(), "{} meshes have no triangles, removed: {names}", meshes.len());
+                let total: usize = meshes.iter().map(|m| m.1).sum();
+                let removed = meshes.iter().filter(|m| m.2).count();
+                let gone = if removed > 0 {
+                    format!(", {removed} of them left empty and removed")
                 } else {
-                    let total: usize = meshes.iter().map(|m| m.1).sum();
-                    let gone = if removed > 0 {
-                        format!(", {removed} of them left empty and removed")
-                    } else {
-                        String::new()
-                    };
-                    warn!(file = %file.display(), "dropped {total} {what} ({why}) in {} meshes{gone}: {names}", meshes.len());
-                }
+                    String::new()
+                };
+                let names = first_few(
+                    meshes.iter().map(|(mesh, dropped, _)| format!("{mesh} ({dropped})")),
+                    meshes.len(),
+                );
+                warn!(file = %file.display(), "dropped {total} {what} ({why}) in {} meshes{gone}: {names}", meshes.len());
             }
         }
     }
+}
+
+/// The first three of `count` names, then how many more.
+fn first_few(names: impl Iterator<Item = String>, count: usize) -> String {
+    const NAMED: usize = 3;
+    let mut few: Vec<String> = names.take(NAMED).collect();
+    if count > NAMED {
+        few.push(format!("{} more", count - NAMED));
+    }
+    few.join("; ")
 }
