@@ -29,6 +29,7 @@ use caustica_core::kernel::bidirectional::{
     merge_vertices,
 };
 use caustica_core::kernel::photon::photon_time;
+use caustica_core::materials::Bsdf;
 use caustica_core::photon::hash_grid::HashGrid;
 use glam::Vec3;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -49,6 +50,8 @@ pub struct LightVertices {
     pub merging: Option<RadiusSequence>,
     /// Every kept vertex of the pass.
     pub vertices: Vec<LightVertex>,
+    /// The BSDFs of the kept vertices that are not Lambertian, which keep their index here.
+    pub bsdfs: Vec<Bsdf>,
     /// For each vertex, its subpath's previous one (`NONE` for the first).
     pub previous: Vec<u32>,
     /// Each subpath's last vertex, by index.
@@ -106,6 +109,7 @@ impl LightVertices {
 /// A system that empties the table for the pass's subpaths (keeping its memory).
 pub fn begin_light_vertices(mut store: ResMut<LightVertices>) {
     store.vertices.clear();
+    store.bsdfs.clear();
     store.previous.clear();
     store.last.fill(NONE);
 }
@@ -198,6 +202,7 @@ pub fn keep_light_vertices(
         if let Some(vertex) = subpath.kept.take() {
             store.previous.push(subpath.last);
             subpath.last = store.vertices.len() as u32;
+            let vertex = vertex.keep(&mut store.bsdfs);
             store.vertices.push(vertex);
             store.kept += 1;
         }
@@ -283,7 +288,9 @@ pub fn connect_to_light_vertices(
             if (c.depth as u64 + l.depth as u64 + 2) > max_depth {
                 continue;
             }
-            let Some((segment, contribution)) = connect_vertices(&scene, &factors, &c, l, ray.0.time) else {
+            let Some((segment, contribution)) =
+                connect_vertices(&scene, &factors, &c, (l, &store.bsdfs), ray.0.time)
+            else {
                 continue;
             };
             traced += 1;

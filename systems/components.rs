@@ -242,7 +242,7 @@ pub struct LightSubpath {
     /// The running sums of its last vertex.
     pub mis: caustica_core::kernel::bidirectional::SubpathMis,
     /// This bounce's vertex, if it keeps one.
-    pub kept: Option<caustica_core::kernel::bidirectional::LightVertex>,
+    pub kept: Option<caustica_core::kernel::bidirectional::NewLightVertex>,
     /// The place of its last kept vertex in the pass's table (`u32::MAX`: none yet).
     pub last: u32,
 }

@@ -188,6 +188,13 @@ impl Bsdf {
         }
     }
 
+    /// The plain Lambertian BSDF of `albedo` (already in [0, 1]), as [`Bsdf::new`] makes it for a
+    /// diffuse material: what a kept light vertex rebuilds from the albedo it keeps.
+    #[inline]
+    pub fn lambert(albedo: Vec3) -> Self {
+        Self(Repr::Lambert(albedo))
+    }
+
     /// The albedo of a plain Lambertian BSDF (what lanes of shading take), `None` for any other.
     #[inline]
     pub fn lambert_albedo(&self) -> Option<Vec3> {

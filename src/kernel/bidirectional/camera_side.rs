@@ -13,7 +13,7 @@ use crate::kernel::continuation::crosses_inconsistently;
 use crate::kernel::direct::ShadowSample;
 use crate::kernel::{CameraPath, PathLimits, Quantity, Vertex, VertexSampler, continue_path};
 use crate::lights::LightSample;
-use crate::materials::TransportMode;
+use crate::materials::{Bsdf, TransportMode};
 use crate::render_scene::RenderScene;
 use crate::sampling::Sampler;
 use glam::Vec3;
@@ -238,32 +238,34 @@ pub fn light_sample_weight(
     weight(w_light, w_camera)
 }
 
-/// The weight of the connection of camera vertex `c` to light vertex `l` over `dist2`, the segment's
-/// direction in each one's shading frame being `wi_c` (towards `l`) and `wi_l` (towards `c`).
+/// The weight of the connection of camera vertex `c` to light vertex `l` (BSDF `l_bsdf`) over
+/// `dist2`, the segment's direction in each one's shading frame being `wi_c` (towards `l`) and
+/// `wi_l` (towards `c`).
 #[inline]
 pub fn connection_weight(
     factors: &MisFactors,
     c: &CameraVertex,
-    l: &LightVertex,
+    (l, l_bsdf): (&LightVertex, &Bsdf),
     (wi_c, wi_l): (Vec3, Vec3),
     dist2: f32,
 ) -> f32 {
     let (cos_c, cos_l) = (wi_c.z.abs(), wi_l.z.abs());
     let w_light =
-        l.mis.towards(factors, to_area(c.v.bsdf.pdf(c.v.wo, wi_c), dist2, cos_l), l.bsdf.pdf(wi_l, l.wo));
+        l.mis.towards(factors, to_area(c.v.bsdf.pdf(c.v.wo, wi_c), dist2, cos_l), l_bsdf.pdf(wi_l, l.wo));
     let w_camera =
-        c.mis.towards(factors, to_area(l.bsdf.pdf(l.wo, wi_l), dist2, cos_c), c.v.bsdf.pdf(wi_c, c.v.wo));
+        c.mis.towards(factors, to_area(l_bsdf.pdf(l.wo, wi_l), dist2, cos_c), c.v.bsdf.pdf(wi_c, c.v.wo));
     weight(w_light, w_camera)
 }
 
-/// The connection of camera vertex `c` to light vertex `l` (s, t ≥ 2): the segment to trace and
-/// what it adds to the camera path if free, weighted; `None` when it adds nothing.
+/// The connection of camera vertex `c` to light vertex `l` (s, t ≥ 2; its BSDF, if not Lambertian,
+/// in `bsdfs`): the segment to trace and what it adds to the camera path if free, weighted; `None`
+/// when it adds nothing.
 #[inline]
 pub fn connect_vertices(
     scene: &RenderScene,
     factors: &MisFactors,
     c: &CameraVertex,
-    l: &LightVertex,
+    (l, bsdfs): (&LightVertex, &[Bsdf]),
     time: f32,
 ) -> Option<(Ray, Vec3)> {
     let d = l.p - c.v.si.p;
@@ -279,14 +281,16 @@ pub fn connect_vertices(
         return None;
     }
     let f_c = c.v.bsdf.eval(c.v.wo, wi_c, TransportMode::Radiance);
-    let f_l = l.bsdf.eval(l.wo, wi_l, TransportMode::Importance);
+    let l_bsdf = l.bsdf(bsdfs);
+    let f_l = l_bsdf.eval(l.wo, wi_l, TransportMode::Importance);
     let g = wi_c.z.abs() * wi_l.z.abs() / dist2;
     let value = c.beta * l.beta * f_c * f_l * g;
     if !positive(value.max_element()) {
         return None;
     }
-    let contribution =
-        value * connection_weight(factors, c, l, (wi_c, wi_l), dist2) * c.media.transmittance(scene, dist);
+    let contribution = value
+        * connection_weight(factors, c, (l, &l_bsdf), (wi_c, wi_l), dist2)
+        * c.media.transmittance(scene, dist);
     if !positive(contribution.max_element()) || !contribution.is_finite() {
         return None;
     }

@@ -104,10 +104,11 @@ fn weight_sum(
     for i in 1..n {
         let (_, lv, lmis) = light_at(i + 1);
         let l = LightVertex::new(lv, Vec3::ONE, *lmis, (n - i - 1) as u32);
+        let (l, l_bsdf) = (l.vertex, l.bsdf);
         let d = points[i + 1] - points[i];
         let c = camera_at(i);
         let wi = (c.v.frame.to_local(d.normalize()), l.frame.to_local(-d.normalize()));
-        sum += connection_weight(factors, &c, &l, wi, d.length_squared());
+        sum += connection_weight(factors, &c, (&l, &l_bsdf), wi, d.length_squared());
     }
     // s = n + 1: the light subpath's last vertex seen by the camera.
     let (_, lv, lmis) = light_at(1);
