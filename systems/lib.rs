@@ -112,6 +112,7 @@ pub mod gather;
 pub mod hit_point_state;
 pub mod integrators;
 pub mod light_paths;
+pub mod light_subpaths;
 pub mod passes;
 pub mod plan;
 pub mod report;

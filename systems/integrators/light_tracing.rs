@@ -29,23 +29,21 @@
 //! directly (a point of no size, as in `pt`).
 
 use super::descriptor::{Integrator, LightSampling, MemoryNeed, no_checks, one_sample_per_unit};
-use super::{configure_stages, film_image, paths_busy, photons_busy, stage_order};
+use super::{configure_stages, film_image, paths_busy, stage_order};
 use crate::PassSystems;
-use crate::components::{CameraSplat, PathStatus, PhotonHit, PhotonRay, PhotonState};
 use crate::emit::emit_camera_paths_for;
-use crate::gather::{splat_paths_to_film, store_photons};
-use crate::light_paths::{
-    LightPaths, emit_light_paths, scatter_light_paths, scatter_to_seen_emission, splat_camera_connections,
-};
-use crate::passes::{begin_photon_pass, hand_out_samples};
+use crate::gather::splat_paths_to_film;
+use crate::light_paths::{LightPaths, scatter_to_seen_emission};
+use crate::light_subpaths::{self, SubpathHandout};
+use crate::passes::hand_out_samples;
 use crate::plan::{Phase, Plan, Repeat, Unit, When};
 use crate::report::Report;
 use crate::resources::{
     FilmResource, PassRange, PhotonBuffer, PhotonStats, PhotonWork, RenderConfig, RenderStats, SceneFeatures,
     SceneResource,
 };
-use crate::trace::{trace_paths, trace_photons};
-use crate::world::MAX_WAVEFRONT;
+use crate::shards::{ShardPlan, Shards};
+use crate::trace::trace_paths;
 use bevy_ecs::prelude::*;
 use caustica_core::error::Result;
 use caustica_core::photon::PhotonMapKind;
@@ -70,17 +68,22 @@ pub static LT: Integrator = Integrator {
     plan,
 };
 
-/// The camera paths of a sample integrator, and a wavefront of light subpaths with their pending
-/// connections.
+/// The camera paths of a sample integrator, and a chunk of light subpaths per worker (their
+/// columns and queues).
 fn memory(_: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
+    use crate::light_subpaths::{SubpathConnection, SubpathHit, SubpathPower, SubpathRay, SubpathSampler};
     let paths = super::path::paths(pixels, run);
-    let subpaths = pixels.min(MAX_WAVEFRONT as u64)
-        * super::memory::entity_bytes(&[
-            size_of::<PhotonRay>(),
-            size_of::<PhotonHit>(),
-            size_of::<PhotonState>(),
-            size_of::<CameraSplat>(),
-        ]);
+    // The queues: a row in at most two of them, each a u32, and scatter's spare.
+    const QUEUE_BYTES: u64 = 3 * size_of::<u32>() as u64;
+    let rows = run.render.chunk as u64 * crate::shards::workers() as u64;
+    let subpaths = rows
+        * (super::memory::entity_bytes(&[
+            size_of::<SubpathRay>(),
+            size_of::<SubpathHit>(),
+            size_of::<SubpathPower>(),
+            size_of::<SubpathSampler>(),
+            size_of::<SubpathConnection>(),
+        ]) + QUEUE_BYTES);
     MemoryNeed {
         bytes: paths.bytes + subpaths,
         what: format!("a {pixels}-pixel film, its paths and light subpaths"),
@@ -96,11 +99,8 @@ fn plan(_: &Integrator, world: &mut World, run: &RunFile, features: SceneFeature
         film.width * film.height
     };
     insert_light_path_resources(world, pixels, features);
+    world.insert_resource(SubpathHandout::default());
     super::spawn_path_wavefront(world);
-    world.spawn_batch((0..pixels.min(MAX_WAVEFRONT)).map(|index| {
-        let state = PhotonState { index, status: PathStatus::Idle, ..Default::default() };
-        (PhotonRay::default(), PhotonHit::default(), state, CameraSplat::default())
-    }));
 
     let units_per_pass = (SUBPATHS_PER_PASS / pixels.max(1)).max(1);
     let camera = if camera_rays_can_see_light(world, run) {
@@ -115,14 +115,15 @@ fn plan(_: &Integrator, world: &mut World, run: &RunFile, features: SceneFeature
     } else {
         Phase::once("camera", When::EveryPass, count_camera_samples)
     };
-    let mut light = Phase::new("photons", When::EveryPass, Repeat::WhileBusy(photons_busy))
-        .with_begin((begin_light_pass(pixels), begin_photon_pass).chain());
-    configure_stages(&mut light.schedule, order);
-    light.schedule.add_systems(emit_light_paths.in_set(PassSystems::Emit));
-    light.schedule.add_systems(trace_photons.in_set(PassSystems::Trace));
-    light.schedule.add_systems(scatter_light_paths.in_set(PassSystems::Scatter));
-    light.schedule.add_systems(splat_camera_connections.in_set(PassSystems::Shadow));
-    light.schedule.add_systems(store_photons.in_set(PassSystems::Gather));
+    let shards = Shards::new(ShardPlan {
+        chunk: run.render.chunk,
+        spawn: Box::new(|world, rows, _, _| light_subpaths::spawn_chunk(world, rows)),
+        in_flight: light_subpaths::in_flight,
+        systems: Box::new(move |schedule| light_subpaths::add_bounce_systems(schedule, order)),
+        links: light_subpaths::links(),
+    });
+    let light = Phase::sharded("photons", When::EveryPass, shards)
+        .with_begin((begin_light_pass(pixels), light_subpaths::begin_subpaths).chain());
     Ok(Plan {
         phases: vec![camera, light],
         // Units enough for about a million subpaths a pass (a stop waits for the pass's end);
@@ -192,6 +193,10 @@ pub(super) fn begin_light_pass(pixels: u32) -> impl System<In = (), Out = ()> {
 
 /// The subpaths and their connections.
 fn report(world: &World, report: &mut Report) {
+    // The wavefront line reports the camera paths' steps and rays: its size is theirs, not also the
+    // subpaths' chunks (whose rays are the photons' line).
+    report.wavefront =
+        world.try_query::<&crate::components::PathState>().map_or(0, |mut q| q.iter(world).count() as u32);
     report.photons = Some(super::photon_summary(world, (0, None), Vec::new()));
     report.notes.push(("camera", world.resource::<LightPaths>().describe()));
 }
