@@ -1,26 +1,20 @@
 //! Light-path code shared by `lt`, `bdpt` and `vcm`: the subpaths' random numbers and counters
-//! ([`LightPaths`]), the splat of a connection to the camera ([`splat_connection`]), and the
-//! systems of the integrators still on the whole-World wavefront. `lt`'s light subpaths run on
-//! shards (`crate::light_subpaths`); its camera paths follow delta bounces only and add the
-//! emission they meet: a light seen directly or through mirrors and glass
-//! (`scatter_to_seen_emission`). `bdpt` and `vcm` splat their light vertices' connections with
-//! `splat_camera_connections`.
+//! ([`LightPaths`]) and the splat of a connection to the camera ([`splat_connection`]). `lt`'s
+//! light subpaths run on shards (`crate::light_subpaths`), its camera rays too
+//! (`crate::camera_paths::scatter_to_seen_emission`); `bdpt` and `vcm`, still on the whole-World
+//! wavefront, splat their light vertices' connections with `splat_camera_connections`.
 //!
 //! | system | reads | writes |
 //! |---|---|---|
-//! | `scatter_to_seen_emission` | `PathHit`, `SceneResource`, `RenderConfig` | `PathRay`, `PathState` |
 //! | `splat_camera_connections` | `CameraSplat`, `SceneResource`, `CameraResource` | `FilmResource`, `LightPaths` |
 
-use super::components::{CameraSplat, PathAov, PathHit, PathRay, PathState, PathStatus};
-use super::resources::{
-    CameraResource, FilmResource, PhotonWork, RenderConfig, SceneResource, wavefront_batching,
-};
+use super::components::CameraSplat;
+use super::resources::{CameraResource, FilmResource, PhotonWork, SceneResource, wavefront_batching};
 use bevy_ecs::prelude::*;
 use caustica_core::camera::{Camera, filter_radius, filter_weight};
 use caustica_core::film::{Film, fixed};
 use caustica_core::kernel::dimensions::photon_sampler;
 use caustica_core::kernel::light_path::CameraConnection;
-use caustica_core::kernel::{Arrival, EmissionWeight, continue_path};
 use caustica_core::sampling::Sampler;
 use glam::Vec2;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -76,52 +70,6 @@ impl LightPaths {
         let stream = if lens { LENS_STREAM } else { work.settings.kind as u32 };
         photon_sampler(work.sampler, work.seed, unit, stream, index % self.per_unit)
     }
-}
-
-/// Follow every active camera path through delta bounces only, adding the emission it meets while
-/// it has seen nothing else (L S* E): it ends at its first non-delta surface, where the light
-/// subpaths' connections take over.
-pub fn scatter_to_seen_emission(
-    scene: Res<SceneResource>,
-    config: Res<RenderConfig>,
-    mut paths: Query<(&PathHit, &mut PathRay, &mut PathState, Option<&mut PathAov>)>,
-) {
-    let arrival =
-        Arrival { emission: Some(EmissionWeight::SeenDirectly), last_depth: config.limits.max_depth };
-    paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each(
-        |(hit, mut ray, mut state, mut aov)| {
-            if state.status != PathStatus::Active {
-                return;
-            }
-            state.rays += 1;
-            let state = &mut *state;
-            // The feature images of the first non-specular surface, as every camera path records them.
-            let aov = aov.as_deref_mut().map(|a| &mut a.0);
-            let goes_on = arrival.arrive(
-                &scene,
-                &mut ray.0,
-                &hit.0,
-                &mut state.path,
-                state.sampler,
-                aov,
-                |path, ray, v, u| {
-                    if !v.bsdf.is_delta() {
-                        return false;
-                    }
-                    match continue_path(path, v, ray.time, u, config.limits) {
-                        Some(next) => {
-                            *ray = next;
-                            true
-                        }
-                        None => false,
-                    }
-                },
-            );
-            if !goes_on {
-                state.status = PathStatus::Finished;
-            }
-        },
-    );
 }
 
 /// Trace every pending connection to the camera; a free one adds what it carries to the pixels

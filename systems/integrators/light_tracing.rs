@@ -29,24 +29,23 @@
 //! directly (a point of no size, as in `pt`).
 
 use super::descriptor::{Integrator, LightSampling, MemoryNeed, no_checks, one_sample_per_unit};
-use super::{configure_stages, film_image, paths_busy, stage_order};
+use super::{configure_stages, film_image, stage_order};
 use crate::PassSystems;
-use crate::emit::emit_camera_paths_for;
-use crate::gather::splat_paths_to_film;
-use crate::light_paths::{LightPaths, scatter_to_seen_emission};
+use crate::camera_paths::{self, PathExtras};
+use crate::light_paths::LightPaths;
 use crate::light_subpaths::{self, SubpathHandout};
 use crate::passes::hand_out_samples;
-use crate::plan::{Phase, Plan, Repeat, Unit, When};
+use crate::plan::{Phase, Plan, Unit, When};
 use crate::report::Report;
 use crate::resources::{
-    FilmResource, PassRange, PhotonBuffer, PhotonStats, PhotonWork, RenderConfig, RenderStats, SceneFeatures,
-    SceneResource,
+    AovFilmResource, FilmResource, PassRange, PhotonBuffer, PhotonStats, PhotonWork, RenderConfig,
+    RenderStats, SceneFeatures, SceneResource, Workload,
 };
 use crate::shards::{ShardPlan, Shards};
-use crate::trace::trace_paths;
 use bevy_ecs::prelude::*;
 use caustica_core::error::Result;
 use caustica_core::photon::PhotonMapKind;
+use caustica_core::scene::schedule::Stage;
 use caustica_core::scene::{IntegratorKind, RunFile};
 
 /// Light subpaths a pass aims at: enough to amortise a pass's fixed cost, few enough that a stop
@@ -68,26 +67,37 @@ pub static LT: Integrator = Integrator {
     plan,
 };
 
-/// The camera paths of a sample integrator, and a chunk of light subpaths per worker (their
-/// columns and queues).
+/// A chunk of camera paths and one of light subpaths per worker: their columns and queues. (The
+/// camera chunks are counted even where no camera ray is traced, under delta lights alone: a few
+/// MiB.)
 fn memory(_: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
+    use super::memory::entity_bytes;
+    use crate::camera_paths::{PathSample, PathSampler, PathShadow, PathThroughput};
+    use crate::components::{PathAov, PathHit, PathRay};
     use crate::light_subpaths::{SubpathConnection, SubpathHit, SubpathPower, SubpathRay, SubpathSampler};
-    let paths = super::path::paths(pixels, run);
-    // The queues: a row in at most two of them, each a u32, and scatter's spare.
+    // A camera path's row is in at most two queues, and scatter's spare; a subpath's likewise.
     const QUEUE_BYTES: u64 = 3 * size_of::<u32>() as u64;
-    let rows = run.render.chunk as u64 * crate::shards::workers() as u64;
-    let subpaths = rows
-        * (super::memory::entity_bytes(&[
-            size_of::<SubpathRay>(),
-            size_of::<SubpathHit>(),
-            size_of::<SubpathPower>(),
-            size_of::<SubpathSampler>(),
-            size_of::<SubpathConnection>(),
-        ]) + QUEUE_BYTES);
-    MemoryNeed {
-        bytes: paths.bytes + subpaths,
-        what: format!("a {pixels}-pixel film, its paths and light subpaths"),
+    let mut camera = vec![
+        size_of::<PathRay>(),
+        size_of::<PathHit>(),
+        size_of::<PathThroughput>(),
+        size_of::<PathSample>(),
+        size_of::<PathSampler>(),
+        size_of::<PathShadow>(),
+    ];
+    if !run.film.aovs.is_empty() {
+        camera.push(size_of::<PathAov>());
     }
+    let subpath = [
+        size_of::<SubpathRay>(),
+        size_of::<SubpathHit>(),
+        size_of::<SubpathPower>(),
+        size_of::<SubpathSampler>(),
+        size_of::<SubpathConnection>(),
+    ];
+    let rows = run.render.chunk as u64 * crate::shards::workers() as u64;
+    let bytes = rows * (entity_bytes(&camera) + entity_bytes(&subpath) + 2 * QUEUE_BYTES);
+    MemoryNeed { bytes, what: format!("a {pixels}-pixel film, its camera paths and light subpaths") }
 }
 
 fn plan(_: &Integrator, world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
@@ -100,18 +110,22 @@ fn plan(_: &Integrator, world: &mut World, run: &RunFile, features: SceneFeature
     };
     insert_light_path_resources(world, pixels, features);
     world.insert_resource(SubpathHandout::default());
-    super::spawn_path_wavefront(world);
 
     let units_per_pass = (SUBPATHS_PER_PASS / pixels.max(1)).max(1);
     let camera = if camera_rays_can_see_light(world, run) {
-        let mut camera = Phase::new("camera", When::EveryPass, Repeat::WhileBusy(paths_busy))
-            .with_begin(hand_out_samples(1));
-        configure_stages(&mut camera.schedule, order);
-        camera.schedule.add_systems(emit_camera_paths_for(features).in_set(PassSystems::Emit));
-        camera.schedule.add_systems(trace_paths.in_set(PassSystems::Trace));
-        camera.schedule.add_systems(scatter_to_seen_emission.in_set(PassSystems::Scatter));
-        camera.schedule.add_systems(splat_paths_to_film.in_set(PassSystems::Gather));
-        camera
+        // As pt's: one lane, which the pass's first schedule replaces keeping it.
+        world.insert_resource(Workload::new(pixels, 0, 0, 1));
+        let extras = PathExtras { aov: world.contains_resource::<AovFilmResource>(), learning: false };
+        let shards = Shards::new(ShardPlan {
+            chunk: run.render.chunk,
+            spawn: Box::new(move |world, rows, index, count| {
+                camera_paths::spawn_chunk(world, rows, index, count, extras)
+            }),
+            in_flight: camera_paths::in_flight,
+            systems: Box::new(move |schedule| add_camera_systems(schedule, features, order)),
+            links: super::path::camera_path_links(),
+        });
+        Phase::sharded("camera", When::EveryPass, shards).with_begin(hand_out_samples(1))
     } else {
         Phase::once("camera", When::EveryPass, count_camera_samples)
     };
@@ -160,6 +174,17 @@ fn camera_rays_can_see_light(world: &World, run: &RunFile) -> bool {
         || !run.film.aovs.is_empty()
 }
 
+/// Add one bounce of lt's camera rays over a chunk of camera paths to `schedule` (a shard's): the
+/// stages in `order`, without light sampling (no Shadow stage).
+fn add_camera_systems(schedule: &mut Schedule, features: SceneFeatures, order: [Stage; 5]) {
+    use crate::camera_paths::{emit_paths_for, scatter_to_seen_emission, splat_paths, trace_paths};
+    configure_stages(schedule, order);
+    schedule.add_systems(emit_paths_for(features).in_set(PassSystems::Emit));
+    schedule.add_systems(trace_paths.in_set(PassSystems::Trace));
+    schedule.add_systems(scatter_to_seen_emission.in_set(PassSystems::Scatter));
+    schedule.add_systems(splat_paths.in_set(PassSystems::Gather));
+}
+
 /// Count the pass's camera samples, one a pixel a unit, each adding nothing.
 fn count_camera_samples(range: Res<PassRange>, film: Res<FilmResource>, mut stats: ResMut<RenderStats>) {
     let units = range.end - range.begin;
@@ -193,10 +218,6 @@ pub(super) fn begin_light_pass(pixels: u32) -> impl System<In = (), Out = ()> {
 
 /// The subpaths and their connections.
 fn report(world: &World, report: &mut Report) {
-    // The wavefront line reports the camera paths' steps and rays: its size is theirs, not also the
-    // subpaths' chunks (whose rays are the photons' line).
-    report.wavefront =
-        world.try_query::<&crate::components::PathState>().map_or(0, |mut q| q.iter(world).count() as u32);
     report.photons = Some(super::photon_summary(world, (0, None), Vec::new()));
     report.notes.push(("camera", world.resource::<LightPaths>().describe()));
 }
