@@ -10,16 +10,24 @@
 //! | `max_depth` | u32 or none | none | maximum bounces of a light subpath |
 //! | `rr_depth` | u32 | 5 | first bounce at which Russian roulette may end a subpath |
 //! | `seed`, `sampler` | | | as `pt` |
+//! | `chunk` | u32 | 4096 | camera paths, and light subpaths, a worker keeps in flight |
 //!
 //! A unit is a camera ray per pixel that follows delta bounces only and adds the emission it meets on
 //! the way (lights and sky seen directly, in a mirror or through glass), and as many light subpaths
 //! as pixels; a pass groups units to about a million subpaths and is never cut short (a stop waits
 //! for its end: its camera samples count its splats).
 //!
-//! | phase | stages |
-//! |---|---|
-//! | camera | `emit_camera_paths` → `trace_paths` → `scatter_to_seen_emission` → `splat_paths_to_film` |
-//! | photons (the light subpaths) | `emit_photons` → `trace_photons` → `scatter_light_paths` → `splat_camera_connections` → `store_photons` |
+//! Both phases run on the vector core ([`crate::shards`]): each worker owns a chunk of camera paths
+//! ([`crate::camera_paths`]) in the camera phase and a chunk of light subpaths
+//! ([`crate::light_subpaths`]) in the photons phase, and runs the stages over it bounce after
+//! bounce. The camera phase's samples are handed out as `pt`'s; the subpaths' indices from one
+//! counter a pass, and each subpath's numbers are a function of its unit and index, so the image
+//! does not depend on the thread count or the chunk size.
+//!
+//! | phase | Emit | Trace | Scatter | Shadow | Gather |
+//! |---|---|---|---|---|---|
+//! | camera (when a camera ray can see light or feature images are asked for; else `count_camera_samples`) | `emit_paths<LENS, MOTION>` | `trace_paths` | `scatter_to_seen_emission` | | `splat_paths` |
+//! | photons (the light subpaths; begun by `begin_light_pass`, `begin_subpaths`) | `emit_subpaths` | `trace_subpaths` | `scatter_subpaths` | `splat_connections` | |
 //!
 //! The camera rays count the pass's samples, one a pixel, and the subpaths' splats add to the sums
 //! uncounted, so a pixel holds (emission seen + splats) / units, as pbrt-v4 scales its splats by
