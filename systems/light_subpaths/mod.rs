@@ -273,3 +273,26 @@ pub fn add_bounce_systems(schedule: &mut Schedule, order: [caustica_core::scene:
     schedule.add_systems(scatter_subpaths.in_set(PassSystems::Scatter));
     schedule.add_systems(splat_connections.in_set(PassSystems::Shadow));
 }
+
+#[cfg(test)]
+mod tests {
+    use super::SubpathHandout;
+
+    #[test]
+    fn the_handout_deals_every_index_of_the_pass_once_then_nothing() {
+        let handout = SubpathHandout::default();
+        let shared = handout.clone();
+        handout.begin(10);
+        let mut dealt = Vec::new();
+        for want in [3, 0, 4, 5, 2] {
+            let (a, b) = (handout.take(want), shared.take(want));
+            assert!(a.len() <= want as usize && b.len() <= want as usize, "no more than asked");
+            dealt.extend(a.chain(b));
+        }
+        dealt.sort();
+        assert_eq!(dealt, (0..10).collect::<Vec<_>>(), "each index once, whichever clone takes it");
+        assert!(!handout.has_more() && shared.take(1).is_empty());
+        handout.begin(2);
+        assert_eq!(shared.take(5), 0..2, "a new pass starts at 0");
+    }
+}
