@@ -33,7 +33,7 @@
 //! ```
 //!
 //! ## Embedding in a host's World and Schedule
-//! The World is the host's to extend: its resources go in `renderer.world`. `pt` and `pt-naive` run
+//! The World is the host's to extend: its resources go in `renderer.world`. `pt`, `pt-naive` and `lt` run
 //! their bounces on shards, a World per worker with a chunk of the camera paths each
 //! ([`shards`]): a host's system given to `Phase::add_path_systems` runs in every shard, every
 //! bounce, on every path of its chunk, placed by the stage sets; a resource it writes there is each
@@ -112,6 +112,7 @@ pub mod gather;
 pub mod hit_point_state;
 pub mod integrators;
 pub mod light_paths;
+pub mod light_subpaths;
 pub mod passes;
 pub mod plan;
 pub mod report;

@@ -1,30 +1,20 @@
-//! Light tracing's own systems (`lt`): each light subpath's vertex connects to the camera
-//! (`scatter_light_paths`, the Scatter stage), and the connections whose segment is free add what
-//! they carry to the pixels the filter gives them (`splat_camera_connections`, the Shadow stage).
-//! Tracing and handing out subpaths are the photon systems'; `emit_light_paths` is
-//! `emit_photons` with each unit's own random numbers. Camera paths find what no
-//! connection can: a light seen directly or through mirrors and glass (`scatter_to_seen_emission`).
+//! Light-path code shared by `lt`, `bdpt` and `vcm`: the subpaths' random numbers and counters
+//! ([`LightPaths`]) and the splat of a connection to the camera ([`splat_connection`]). `lt`'s
+//! light subpaths run on shards (`crate::light_subpaths`), its camera rays too
+//! (`crate::camera_paths::scatter_to_seen_emission`); `bdpt` and `vcm`, still on the whole-World
+//! wavefront, splat their light vertices' connections with `splat_camera_connections`.
 //!
 //! | system | reads | writes |
 //! |---|---|---|
-//! | `emit_light_paths` | `SceneResource`, `PhotonWork`, `LightPaths` | `PhotonRay`, `PhotonState` |
-//! | `scatter_to_seen_emission` | `PathHit`, `SceneResource`, `RenderConfig` | `PathRay`, `PathState` |
-//! | `scatter_light_paths` | `PhotonHit`, `SceneResource`, `CameraResource`, `PhotonWork` | `PhotonRay`, `PhotonState`, `CameraSplat` |
 //! | `splat_camera_connections` | `CameraSplat`, `SceneResource`, `CameraResource` | `FilmResource`, `LightPaths` |
 
-use super::components::{
-    CameraSplat, PathAov, PathHit, PathRay, PathState, PathStatus, PhotonHit, PhotonRay, PhotonState,
-};
-use super::resources::{
-    CameraResource, FilmResource, PhotonWork, RenderConfig, SceneResource, wavefront_batching,
-};
+use super::components::CameraSplat;
+use super::resources::{CameraResource, FilmResource, PhotonWork, SceneResource, wavefront_batching};
 use bevy_ecs::prelude::*;
-use caustica_core::camera::{filter_radius, filter_weight};
-use caustica_core::film::fixed;
+use caustica_core::camera::{Camera, filter_radius, filter_weight};
+use caustica_core::film::{Film, fixed};
 use caustica_core::kernel::dimensions::photon_sampler;
-use caustica_core::kernel::light_path::light_vertex;
-use caustica_core::kernel::photon::{PhotonPassSettings, emit_photon, photon_time};
-use caustica_core::kernel::{Arrival, EmissionWeight, continue_path};
+use caustica_core::kernel::light_path::CameraConnection;
 use caustica_core::sampling::Sampler;
 use glam::Vec2;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -82,115 +72,6 @@ impl LightPaths {
     }
 }
 
-/// Start a light subpath wherever an entity needs one (`emit_photons`, with each unit's numbers).
-pub fn emit_light_paths(
-    scene: Res<SceneResource>,
-    work: Res<PhotonWork>,
-    light_paths: Res<LightPaths>,
-    mut paths: Query<(&mut PhotonRay, &mut PhotonState)>,
-) {
-    paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each(|(mut ray, mut state)| {
-        if state.status != PathStatus::NeedsStart {
-            return;
-        }
-        let sampler = light_paths.sampler(&work, state.index, false);
-        let time = photon_time(work.time, work.motion, &sampler);
-        // Each subpath is a whole estimate: its power is not divided among the pass's (which would
-        // round differently for passes of different lengths, and a part would not merge exactly).
-        let settings = PhotonPassSettings { total: 1, ..work.settings };
-        match emit_photon(&scene, &settings, &sampler, time) {
-            Some((first, path)) => {
-                ray.0 = first;
-                state.path = path;
-                state.status = PathStatus::Active;
-            }
-            None => state.status = PathStatus::Finished,
-        }
-    });
-}
-
-/// Follow every active camera path through delta bounces only, adding the emission it meets while
-/// it has seen nothing else (L S* E): it ends at its first non-delta surface, where the light
-/// subpaths' connections take over.
-pub fn scatter_to_seen_emission(
-    scene: Res<SceneResource>,
-    config: Res<RenderConfig>,
-    mut paths: Query<(&PathHit, &mut PathRay, &mut PathState, Option<&mut PathAov>)>,
-) {
-    let arrival =
-        Arrival { emission: Some(EmissionWeight::SeenDirectly), last_depth: config.limits.max_depth };
-    paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each(
-        |(hit, mut ray, mut state, mut aov)| {
-            if state.status != PathStatus::Active {
-                return;
-            }
-            state.rays += 1;
-            let state = &mut *state;
-            // The feature images of the first non-specular surface, as every camera path records them.
-            let aov = aov.as_deref_mut().map(|a| &mut a.0);
-            let goes_on = arrival.arrive(
-                &scene,
-                &mut ray.0,
-                &hit.0,
-                &mut state.path,
-                state.sampler,
-                aov,
-                |path, ray, v, u| {
-                    if !v.bsdf.is_delta() {
-                        return false;
-                    }
-                    match continue_path(path, v, ray.time, u, config.limits) {
-                        Some(next) => {
-                            *ray = next;
-                            true
-                        }
-                        None => false,
-                    }
-                },
-            );
-            if !goes_on {
-                state.status = PathStatus::Finished;
-            }
-        },
-    );
-}
-
-/// Connect every active light subpath's vertex to the camera, then continue it or end it.
-pub fn scatter_light_paths(
-    scene: Res<SceneResource>,
-    camera: Res<CameraResource>,
-    work: Res<PhotonWork>,
-    light_paths: Res<LightPaths>,
-    mut paths: Query<(&PhotonHit, &mut PhotonRay, &mut PhotonState, &mut CameraSplat)>,
-) {
-    paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each(
-        |(hit, mut ray, mut state, mut splat)| {
-            if state.status != PathStatus::Active {
-                return;
-            }
-            state.bounces += 1;
-            let sampler = light_paths.sampler(&work, state.index, false);
-            let u_lens = light_paths.lens_sample(&work, &camera, state.index, state.path.depth);
-            let bounce = light_vertex(
-                &scene,
-                &camera,
-                &work.settings,
-                &mut state.path,
-                &ray.0,
-                &hit.0,
-                &sampler,
-                u_lens,
-            );
-            splat.0 = bounce.connection;
-            state.roulette_kills += bounce.roulette_kill as u32;
-            match bounce.next {
-                Some(next) => ray.0 = next,
-                None => state.status = PathStatus::Finished,
-            }
-        },
-    );
-}
-
 /// Trace every pending connection to the camera; a free one adds what it carries to the pixels
 /// whose filter reaches where it lands, each its share (integer sums: the same bits in any order).
 pub fn splat_camera_connections(
@@ -200,8 +81,6 @@ pub fn splat_camera_connections(
     stats: Res<LightPaths>,
     mut splats: Query<&mut CameraSplat>,
 ) {
-    let (width, height) = (camera.width as i64, camera.height as i64);
-    let radius = filter_radius(camera.filter);
     splats.par_iter_mut().batching_strategy(wavefront_batching()).for_each(|mut splat| {
         let Some(connection) = splat.0.take() else { return };
         stats.connections.fetch_add(1, Ordering::Relaxed);
@@ -209,30 +88,43 @@ pub fn splat_camera_connections(
             return;
         }
         stats.splatted.fetch_add(1, Ordering::Relaxed);
-        let at = connection.raster;
-        // Pixel centres within the filter's reach of the point.
-        let (x0, x1) = (
-            ((at.x - 0.5 - radius).ceil() as i64).max(0),
-            ((at.x - 0.5 + radius).floor() as i64).min(width - 1),
-        );
-        let (y0, y1) = (
-            ((at.y - 0.5 - radius).ceil() as i64).max(0),
-            ((at.y - 0.5 + radius).floor() as i64).min(height - 1),
-        );
-        for y in y0..=y1 {
-            for x in x0..=x1 {
-                let offset = at - Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
-                let weight = filter_weight(camera.filter, offset);
-                if weight <= 0.0 {
-                    continue;
-                }
-                let value = connection.value * weight;
-                if fixed::accepts(value) {
-                    film.splat((y * width + x) as u32, value);
-                } else {
-                    stats.dropped.fetch_add(1, Ordering::Relaxed);
-                }
-            }
+        let dropped = splat_connection(&camera, &film, &connection);
+        if dropped > 0 {
+            stats.dropped.fetch_add(dropped, Ordering::Relaxed);
         }
     });
+}
+
+/// Add what a free connection carries to the pixels whose filter reaches where it lands, each its
+/// share (integer sums: the same bits in any order); the shares that cannot go to the film (beyond
+/// its range) are dropped and counted.
+#[inline]
+pub fn splat_connection(camera: &Camera, film: &Film, connection: &CameraConnection) -> u64 {
+    let (width, height) = (camera.width as i64, camera.height as i64);
+    let radius = filter_radius(camera.filter);
+    let mut dropped = 0;
+    let at = connection.raster;
+    // Pixel centres within the filter's reach of the point.
+    let (x0, x1) =
+        (((at.x - 0.5 - radius).ceil() as i64).max(0), ((at.x - 0.5 + radius).floor() as i64).min(width - 1));
+    let (y0, y1) = (
+        ((at.y - 0.5 - radius).ceil() as i64).max(0),
+        ((at.y - 0.5 + radius).floor() as i64).min(height - 1),
+    );
+    for y in y0..=y1 {
+        for x in x0..=x1 {
+            let offset = at - Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
+            let weight = filter_weight(camera.filter, offset);
+            if weight <= 0.0 {
+                continue;
+            }
+            let value = connection.value * weight;
+            if fixed::accepts(value) {
+                film.splat((y * width + x) as u32, value);
+            } else {
+                dropped += 1;
+            }
+        }
+    }
+    dropped
 }

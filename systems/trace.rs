@@ -135,6 +135,12 @@ impl TraceStatistics {
         self.count(&self.shadow, query)
     }
 
+    /// Run a photon's (or light subpath's) query, counting as [`TraceStatistics::count_paths`] does.
+    #[inline]
+    pub fn count_photons<R>(&self, query: impl FnOnce(&mut TraceCounts) -> R) -> R {
+        self.count(&self.photons, query)
+    }
+
     /// Add what another (a shard's) counted.
     pub fn absorb(&mut self, mut other: TraceStatistics) {
         for (mine, theirs) in [

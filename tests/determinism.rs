@@ -70,16 +70,20 @@ fn one_two_and_three_threads_give_bit_identical_images() {
 /// `pt` and `pt-naive` run on shards of `render.chunk` camera paths each, one shard per thread:
 /// the image is the same bits for any chunk size and thread count, with feature images, adaptive
 /// sampling and visibility-aware light selection too (each adds a column or a shared resource).
+/// So does `lt`, whose light subpaths run on shards of their own (their indices handed out from one
+/// counter): with its camera rays and feature images, and under point lights alone, without.
 #[test]
 fn chunk_sizes_and_thread_counts_give_bit_identical_path_traced_images() {
     let dir = std::env::temp_dir().join(format!("caustica-chunks-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let scene = common::data("cornell-spheres.gltf");
+    let punctual = common::data("punctual-lights.gltf");
     let render = |threads: u32, chunk: u32, extra: &[&str], name: &str| {
         let out = dir.join(format!("{name}-{threads}-{chunk}.exr"));
+        let scene = if name == "lt-punctual" { &punctual } else { &scene };
         let status = Command::new(env!("CARGO_BIN_EXE_caustica"))
             .arg("render")
-            .arg(&scene)
+            .arg(scene)
             .args(["--spp", "6", "--width", "40", "--height", "30", "--quiet", "--seed", "3"])
             .args(["--threads", &threads.to_string(), "--set", &format!("render.chunk={chunk}"), "-o"])
             .arg(&out)
@@ -98,6 +102,8 @@ fn chunk_sizes_and_thread_counts_give_bit_identical_path_traced_images() {
             "pt-adaptive-aov",
             &["--noise-threshold", "0.2", "--min-spp", "2", "--aov", "albedo,normal,depth"][..],
         ),
+        ("lt-aov", &["--integrator", "lt", "--aov", "albedo,normal,depth"][..]),
+        ("lt-punctual", &["--integrator", "lt"][..]),
     ] {
         let first = render(1, 4096, extra, name);
         for (threads, chunk) in [(1, 1), (1, 7), (2, 64), (3, 13), (2, 4096)] {

@@ -1,5 +1,5 @@
-//! Camera paths on the vector core: `pt` and `pt-naive`, a shard's chunk of paths at a time
-//! (`crate::shards`), each stage over its own columns.
+//! Camera paths on the vector core: `pt` and `pt-naive`, and `lt`'s camera rays (delta bounces
+//! only), a shard's chunk of paths at a time (`crate::shards`), each stage over its own columns.
 //!
 //! A path is an entity whose components are split by who reads them:
 //!
@@ -27,18 +27,20 @@
 //! |---|---|
 //! | `Emit` | `emit_paths<LENS, MOTION>` |
 //! | `Trace` | `trace_paths` |
-//! | `Scatter` | `scatter_paths<NEE>` |
-//! | `Shadow` | `trace_shadow_rays` |
+//! | `Scatter` | `scatter_paths<NEE>`; `lt`: `scatter_to_seen_emission` |
+//! | `Shadow` | `trace_shadow_rays` (`pt` with light sampling) |
 //! | `Gather` | `splat_paths` |
 
 mod emit;
 mod scatter;
+mod seen;
 mod shadow;
 mod splat;
 mod trace;
 
 pub use emit::{emit_paths, emit_paths_for};
 pub use scatter::{LANE_SCRATCH_BYTES_PER_ROW, scatter_paths};
+pub use seen::scatter_to_seen_emission;
 pub use shadow::trace_shadow_rays;
 pub use splat::splat_paths;
 pub use trace::trace_paths;

@@ -10,16 +10,24 @@
 //! | `max_depth` | u32 or none | none | maximum bounces of a light subpath |
 //! | `rr_depth` | u32 | 5 | first bounce at which Russian roulette may end a subpath |
 //! | `seed`, `sampler` | | | as `pt` |
+//! | `chunk` | u32 | 4096 | camera paths, and light subpaths, a worker keeps in flight |
 //!
 //! A unit is a camera ray per pixel that follows delta bounces only and adds the emission it meets on
 //! the way (lights and sky seen directly, in a mirror or through glass), and as many light subpaths
 //! as pixels; a pass groups units to about a million subpaths and is never cut short (a stop waits
 //! for its end: its camera samples count its splats).
 //!
-//! | phase | stages |
-//! |---|---|
-//! | camera | `emit_camera_paths` → `trace_paths` → `scatter_to_seen_emission` → `splat_paths_to_film` |
-//! | photons (the light subpaths) | `emit_photons` → `trace_photons` → `scatter_light_paths` → `splat_camera_connections` → `store_photons` |
+//! Both phases run on the vector core ([`crate::shards`]): each worker owns a chunk of camera paths
+//! ([`crate::camera_paths`]) in the camera phase and a chunk of light subpaths
+//! ([`crate::light_subpaths`]) in the photons phase, and runs the stages over it bounce after
+//! bounce. The camera phase's samples are handed out as `pt`'s; the subpaths' indices from one
+//! counter a pass, and each subpath's numbers are a function of its unit and index, so the image
+//! does not depend on the thread count or the chunk size.
+//!
+//! | phase | Emit | Trace | Scatter | Shadow | Gather |
+//! |---|---|---|---|---|---|
+//! | camera (when a camera ray can see light or feature images are asked for; else `count_camera_samples`) | `emit_paths<LENS, MOTION>` | `trace_paths` | `scatter_to_seen_emission` | | `splat_paths` |
+//! | photons (the light subpaths; begun by `begin_light_pass`, `begin_subpaths`) | `emit_subpaths` | `trace_subpaths` | `scatter_subpaths` | `splat_connections` | |
 //!
 //! The camera rays count the pass's samples, one a pixel, and the subpaths' splats add to the sums
 //! uncounted, so a pixel holds (emission seen + splats) / units, as pbrt-v4 scales its splats by
@@ -29,26 +37,23 @@
 //! directly (a point of no size, as in `pt`).
 
 use super::descriptor::{Integrator, LightSampling, MemoryNeed, no_checks, one_sample_per_unit};
-use super::{configure_stages, film_image, paths_busy, photons_busy, stage_order};
+use super::{configure_stages, film_image, stage_order};
 use crate::PassSystems;
-use crate::components::{CameraSplat, PathStatus, PhotonHit, PhotonRay, PhotonState};
-use crate::emit::emit_camera_paths_for;
-use crate::gather::{splat_paths_to_film, store_photons};
-use crate::light_paths::{
-    LightPaths, emit_light_paths, scatter_light_paths, scatter_to_seen_emission, splat_camera_connections,
-};
-use crate::passes::{begin_photon_pass, hand_out_samples};
-use crate::plan::{Phase, Plan, Repeat, Unit, When};
+use crate::camera_paths::{self, PathExtras};
+use crate::light_paths::LightPaths;
+use crate::light_subpaths::{self, SubpathHandout};
+use crate::passes::hand_out_samples;
+use crate::plan::{Phase, Plan, Unit, When};
 use crate::report::Report;
 use crate::resources::{
-    FilmResource, PassRange, PhotonBuffer, PhotonStats, PhotonWork, RenderConfig, RenderStats, SceneFeatures,
-    SceneResource,
+    AovFilmResource, FilmResource, PassRange, PhotonBuffer, PhotonStats, PhotonWork, RenderConfig,
+    RenderStats, SceneFeatures, SceneResource, Workload,
 };
-use crate::trace::{trace_paths, trace_photons};
-use crate::world::MAX_WAVEFRONT;
+use crate::shards::{ShardPlan, Shards};
 use bevy_ecs::prelude::*;
 use caustica_core::error::Result;
 use caustica_core::photon::PhotonMapKind;
+use caustica_core::scene::schedule::Stage;
 use caustica_core::scene::{IntegratorKind, RunFile};
 
 /// Light subpaths a pass aims at: enough to amortise a pass's fixed cost, few enough that a stop
@@ -70,21 +75,37 @@ pub static LT: Integrator = Integrator {
     plan,
 };
 
-/// The camera paths of a sample integrator, and a wavefront of light subpaths with their pending
-/// connections.
+/// A chunk of camera paths and one of light subpaths per worker: their columns and queues. (The
+/// camera chunks are counted even where no camera ray is traced, under delta lights alone: a few
+/// MiB.)
 fn memory(_: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
-    let paths = super::path::paths(pixels, run);
-    let subpaths = pixels.min(MAX_WAVEFRONT as u64)
-        * super::memory::entity_bytes(&[
-            size_of::<PhotonRay>(),
-            size_of::<PhotonHit>(),
-            size_of::<PhotonState>(),
-            size_of::<CameraSplat>(),
-        ]);
-    MemoryNeed {
-        bytes: paths.bytes + subpaths,
-        what: format!("a {pixels}-pixel film, its paths and light subpaths"),
+    use super::memory::entity_bytes;
+    use crate::camera_paths::{PathSample, PathSampler, PathShadow, PathThroughput};
+    use crate::components::{PathAov, PathHit, PathRay};
+    use crate::light_subpaths::{SubpathConnection, SubpathHit, SubpathPower, SubpathRay, SubpathSampler};
+    // A camera path's row is in at most two queues, and scatter's spare; a subpath's likewise.
+    const QUEUE_BYTES: u64 = 3 * size_of::<u32>() as u64;
+    let mut camera = vec![
+        size_of::<PathRay>(),
+        size_of::<PathHit>(),
+        size_of::<PathThroughput>(),
+        size_of::<PathSample>(),
+        size_of::<PathSampler>(),
+        size_of::<PathShadow>(),
+    ];
+    if !run.film.aovs.is_empty() {
+        camera.push(size_of::<PathAov>());
     }
+    let subpath = [
+        size_of::<SubpathRay>(),
+        size_of::<SubpathHit>(),
+        size_of::<SubpathPower>(),
+        size_of::<SubpathSampler>(),
+        size_of::<SubpathConnection>(),
+    ];
+    let rows = run.render.chunk as u64 * crate::shards::workers() as u64;
+    let bytes = rows * (entity_bytes(&camera) + entity_bytes(&subpath) + 2 * QUEUE_BYTES);
+    MemoryNeed { bytes, what: format!("a {pixels}-pixel film, its camera paths and light subpaths") }
 }
 
 fn plan(_: &Integrator, world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
@@ -96,33 +117,35 @@ fn plan(_: &Integrator, world: &mut World, run: &RunFile, features: SceneFeature
         film.width * film.height
     };
     insert_light_path_resources(world, pixels, features);
-    super::spawn_path_wavefront(world);
-    world.spawn_batch((0..pixels.min(MAX_WAVEFRONT)).map(|index| {
-        let state = PhotonState { index, status: PathStatus::Idle, ..Default::default() };
-        (PhotonRay::default(), PhotonHit::default(), state, CameraSplat::default())
-    }));
+    world.insert_resource(SubpathHandout::default());
 
     let units_per_pass = (SUBPATHS_PER_PASS / pixels.max(1)).max(1);
     let camera = if camera_rays_can_see_light(world, run) {
-        let mut camera = Phase::new("camera", When::EveryPass, Repeat::WhileBusy(paths_busy))
-            .with_begin(hand_out_samples(1));
-        configure_stages(&mut camera.schedule, order);
-        camera.schedule.add_systems(emit_camera_paths_for(features).in_set(PassSystems::Emit));
-        camera.schedule.add_systems(trace_paths.in_set(PassSystems::Trace));
-        camera.schedule.add_systems(scatter_to_seen_emission.in_set(PassSystems::Scatter));
-        camera.schedule.add_systems(splat_paths_to_film.in_set(PassSystems::Gather));
-        camera
+        // As pt's: one lane, which the pass's first schedule replaces keeping it.
+        world.insert_resource(Workload::new(pixels, 0, 0, 1));
+        let extras = PathExtras { aov: world.contains_resource::<AovFilmResource>(), learning: false };
+        let shards = Shards::new(ShardPlan {
+            chunk: run.render.chunk,
+            spawn: Box::new(move |world, rows, index, count| {
+                camera_paths::spawn_chunk(world, rows, index, count, extras)
+            }),
+            in_flight: camera_paths::in_flight,
+            systems: Box::new(move |schedule| add_camera_systems(schedule, features, order)),
+            links: super::path::camera_path_links(),
+        });
+        Phase::sharded("camera", When::EveryPass, shards).with_begin(hand_out_samples(1))
     } else {
         Phase::once("camera", When::EveryPass, count_camera_samples)
     };
-    let mut light = Phase::new("photons", When::EveryPass, Repeat::WhileBusy(photons_busy))
-        .with_begin((begin_light_pass(pixels), begin_photon_pass).chain());
-    configure_stages(&mut light.schedule, order);
-    light.schedule.add_systems(emit_light_paths.in_set(PassSystems::Emit));
-    light.schedule.add_systems(trace_photons.in_set(PassSystems::Trace));
-    light.schedule.add_systems(scatter_light_paths.in_set(PassSystems::Scatter));
-    light.schedule.add_systems(splat_camera_connections.in_set(PassSystems::Shadow));
-    light.schedule.add_systems(store_photons.in_set(PassSystems::Gather));
+    let shards = Shards::new(ShardPlan {
+        chunk: run.render.chunk,
+        spawn: Box::new(|world, rows, _, _| light_subpaths::spawn_chunk(world, rows)),
+        in_flight: light_subpaths::in_flight,
+        systems: Box::new(move |schedule| light_subpaths::add_bounce_systems(schedule, order)),
+        links: light_subpaths::links(),
+    });
+    let light = Phase::sharded("photons", When::EveryPass, shards)
+        .with_begin((begin_light_pass(pixels), light_subpaths::begin_subpaths).chain());
     Ok(Plan {
         phases: vec![camera, light],
         // Units enough for about a million subpaths a pass (a stop waits for the pass's end);
@@ -157,6 +180,17 @@ fn camera_rays_can_see_light(world: &World, run: &RunFile) -> bool {
     lights.environment.is_some()
         || lights.lights.iter().any(|l| !l.shape.is_delta())
         || !run.film.aovs.is_empty()
+}
+
+/// Add one bounce of lt's camera rays over a chunk of camera paths to `schedule` (a shard's): the
+/// stages in `order`, without light sampling (no Shadow stage).
+fn add_camera_systems(schedule: &mut Schedule, features: SceneFeatures, order: [Stage; 5]) {
+    use crate::camera_paths::{emit_paths_for, scatter_to_seen_emission, splat_paths, trace_paths};
+    configure_stages(schedule, order);
+    schedule.add_systems(emit_paths_for(features).in_set(PassSystems::Emit));
+    schedule.add_systems(trace_paths.in_set(PassSystems::Trace));
+    schedule.add_systems(scatter_to_seen_emission.in_set(PassSystems::Scatter));
+    schedule.add_systems(splat_paths.in_set(PassSystems::Gather));
 }
 
 /// Count the pass's camera samples, one a pixel a unit, each adding nothing.

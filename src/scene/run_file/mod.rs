@@ -42,8 +42,9 @@ pub struct RenderSettings {
     pub noise_threshold: f64,
     /// Samples every pixel takes before adaptive sampling may stop it.
     pub min_spp: u32,
-    /// Camera paths a worker keeps in flight (`pt`, `pt-naive`): its chunk of the wavefront, whose
-    /// columns stay in the core's cache from stage to stage. Any size renders the same image.
+    /// Camera paths (and `lt`'s light subpaths) a worker keeps in flight (`pt`, `pt-naive`, `lt`):
+    /// its chunk of the wavefront, whose columns stay in the core's cache from stage to stage. Any
+    /// size renders the same image.
     pub chunk: u32,
     /// The process's peak resident memory in MiB (`None`: half the machine's): what it holds once
     /// the scene is built, plus the film, paths, photons, hit points, the written image and
