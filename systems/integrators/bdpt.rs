@@ -45,7 +45,6 @@ use crate::plan::{Phase, Plan, Repeat, Unit, When};
 use crate::report::Report;
 use crate::resources::{FilmResource, SceneFeatures};
 use crate::trace::{trace_paths, trace_photons, trace_shadow_rays};
-use crate::world::MAX_WAVEFRONT;
 use bevy_ecs::prelude::*;
 use caustica_core::choice::Choice;
 use caustica_core::error::Result;
@@ -56,6 +55,11 @@ use std::sync::atomic::Ordering;
 /// Light subpaths a pass aims at: a pass's steps each cost a walk over every entity, so small
 /// images group units (256²: four), within what the kept vertices' table may hold.
 const SUBPATHS_PER_PASS: u32 = 1 << 18;
+
+/// Camera and light subpaths in flight at once: a quarter of the other wavefronts' 2^18, because a
+/// bidirectional path's entities are four times as large (a camera vertex and a light vertex ride
+/// on them, 1.2 kB a pair); at 1200² the full 2^18 held 300 MiB of them.
+pub(super) const WAVEFRONT: u32 = 1 << 16;
 
 /// Units a pass of a `pixels`-pixel image groups.
 fn units_per_pass(pixels: u32) -> u32 {
@@ -86,8 +90,8 @@ pub static BDPT: Integrator = Integrator {
 /// The camera paths of a sample integrator with their connection vertex, a wavefront of light
 /// subpaths, and the pass's kept light vertices.
 fn memory(_: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
-    let paths = super::path::paths(pixels, run);
-    let wavefront = pixels.min(MAX_WAVEFRONT as u64);
+    let paths = super::path::paths_of_wavefront(pixels, WAVEFRONT, run);
+    let wavefront = pixels.min(WAVEFRONT as u64);
     let camera = wavefront * size_of::<CameraSubpath>() as u64;
     let subpaths = wavefront
         * super::memory::entity_bytes(&[
@@ -152,12 +156,12 @@ pub(super) fn plan_bidirectional(
         ..Default::default()
     });
     let units = units_per_pass(pixels);
-    super::spawn_path_wavefront(world);
+    super::spawn_path_wavefront(world, WAVEFRONT);
     let camera_paths: Vec<Entity> = world.query_filtered::<Entity, With<PathState>>().iter(world).collect();
     for entity in camera_paths {
         world.entity_mut(entity).insert(CameraSubpath::default());
     }
-    world.spawn_batch((0..pixels.min(MAX_WAVEFRONT)).map(|index| {
+    world.spawn_batch((0..pixels.min(WAVEFRONT)).map(|index| {
         let state = PhotonState { index, status: PathStatus::Idle, ..Default::default() };
         (PhotonRay::default(), PhotonHit::default(), state, CameraSplat::default(), LightSubpath::default())
     }));

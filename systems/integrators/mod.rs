@@ -123,14 +123,15 @@ pub fn film_image(world: &World, _passes: u32) -> caustica_core::film::Image {
     world.resource::<crate::resources::FilmResource>().image()
 }
 
-/// The wavefront of the sample integrators: one camera-path entity per pixel, at most
-/// `MAX_WAVEFRONT`, idle until a pass hands them samples, and the work list they take them from.
-pub fn spawn_path_wavefront(world: &mut World) {
+/// The wavefront of the integrators whose camera paths are not yet on the vector core: one
+/// camera-path entity per pixel, at most `max`, idle until a pass hands them samples, and the work
+/// list they take them from.
+pub fn spawn_path_wavefront(world: &mut World, max: u32) {
     let pixels = {
         let film = world.resource::<crate::resources::FilmResource>();
         film.width * film.height
     };
-    let wavefront = pixels.min(crate::world::MAX_WAVEFRONT);
+    let wavefront = pixels.min(max);
     world.insert_resource(crate::resources::Workload::new(pixels, 0, 0, wavefront));
     spawn_paths(world, wavefront);
 }

@@ -58,13 +58,18 @@ const PATH_TRACER: Integrator = Integrator {
 /// What a sample integrator's wavefront of paths needs, with adaptive sampling's state per pixel (the
 /// samples' squares and the order of the pixels still sampled).
 pub fn paths(pixels: u64, run: &RunFile) -> MemoryNeed {
+    paths_of_wavefront(pixels, crate::world::MAX_WAVEFRONT, run)
+}
+
+/// [`paths`] for a wavefront of at most `max` paths.
+pub fn paths_of_wavefront(pixels: u64, max: u32, run: &RunFile) -> MemoryNeed {
     use crate::components::{PathAov, PathHit, PathRay, PathState, ShadowRay};
     let mut components =
         vec![size_of::<PathRay>(), size_of::<PathHit>(), size_of::<PathState>(), size_of::<ShadowRay>()];
     if !run.film.aovs.is_empty() {
         components.push(size_of::<PathAov>());
     }
-    let paths = pixels.min(crate::world::MAX_WAVEFRONT as u64) * super::memory::entity_bytes(&components);
+    let paths = pixels.min(max as u64) * super::memory::entity_bytes(&components);
     MemoryNeed {
         bytes: paths + adaptive_bytes(pixels, run),
         what: format!("a {pixels}-pixel film and its paths"),

@@ -101,7 +101,7 @@ fn plan(this: &Integrator, world: &mut World, run: &RunFile, features: SceneFeat
     let settings = &run.photons;
     let features = super::without_visibility_learning(world, features, "photon mapping uses the light tree");
     let order = stage_order(run);
-    super::spawn_path_wavefront(world);
+    super::spawn_path_wavefront(world, MAX_WAVEFRONT);
 
     let final_gather = settings.final_gather > 0;
     let mut maps = Vec::new();
