@@ -95,6 +95,28 @@ pub struct NewLightVertex {
 }
 
 impl NewLightVertex {
+    /// Vertex `v` reached with throughput `beta` and sums `mis` after `depth` bounces, with its
+    /// BSDF whole until it is kept.
+    #[inline]
+    pub fn new(v: &Vertex, beta: Vec3, mis: SubpathMis, depth: u32) -> Self {
+        let bsdf = match v.bsdf.lambert_albedo() {
+            Some(albedo) => KeptBsdf::Lambert(albedo),
+            None => KeptBsdf::InTable(u32::MAX),
+        };
+        let vertex = LightVertex {
+            p: v.si.p,
+            p_error: v.si.p_error,
+            ng: v.si.ng,
+            frame: v.frame,
+            wo: v.wo,
+            bsdf,
+            beta,
+            mis,
+            depth,
+        };
+        Self { vertex, bsdf: v.bsdf }
+    }
+
     /// The vertex as kept: a BSDF that is not Lambertian goes into `table`.
     #[inline]
     pub fn keep(self, table: &mut Vec<Bsdf>) -> LightVertex {
@@ -108,28 +130,6 @@ impl NewLightVertex {
 }
 
 impl LightVertex {
-    /// Vertex `v` reached with throughput `beta` and sums `mis` after `depth` bounces, with its
-    /// BSDF whole until it is kept.
-    #[inline]
-    pub fn new(v: &Vertex, beta: Vec3, mis: SubpathMis, depth: u32) -> NewLightVertex {
-        let bsdf = match v.bsdf.lambert_albedo() {
-            Some(albedo) => KeptBsdf::Lambert(albedo),
-            None => KeptBsdf::InTable(u32::MAX),
-        };
-        let vertex = Self {
-            p: v.si.p,
-            p_error: v.si.p_error,
-            ng: v.si.ng,
-            frame: v.frame,
-            wo: v.wo,
-            bsdf,
-            beta,
-            mis,
-            depth,
-        };
-        NewLightVertex { vertex, bsdf: v.bsdf }
-    }
-
     /// Its BSDF, from `table` (the pass's kept BSDFs) when it is not Lambertian.
     #[inline]
     pub fn bsdf(&self, table: &[Bsdf]) -> Bsdf {
@@ -215,7 +215,7 @@ pub fn light_subpath_vertex(
         if v.bsdf.reflects_nothing() {
             return step;
         }
-        *kept = Some(LightVertex::new(&v, path.power, *mis, path.depth));
+        *kept = Some(NewLightVertex::new(&v, path.power, *mis, path.depth));
         // The t = 1 path has this vertex's bounces and the one towards the camera.
         if path.depth < settings.max_depth {
             step.connection = connect(scene, camera, &v, path, u_lens, ray.time)

@@ -4,7 +4,7 @@
 //! the kernel's own weight functions, each subpath's sums by the recursion the systems run.
 
 use super::camera_side::{CameraVertex, connection_weight, emission_weight, light_sample_weight, sky_weight};
-use super::light_side::{LightOrigin, LightVertex, camera_connection_weight, first_vertex_mis};
+use super::light_side::{LightOrigin, NewLightVertex, camera_connection_weight, first_vertex_mis};
 use super::mis::{MisFactors, SubpathMis};
 use crate::camera::Camera;
 use crate::geometry::Ray;
@@ -103,7 +103,7 @@ fn weight_sum(
     // 2 ≤ s ≤ n: camera vertex i connects to light vertex i + 1.
     for i in 1..n {
         let (_, lv, lmis) = light_at(i + 1);
-        let l = LightVertex::new(lv, Vec3::ONE, *lmis, (n - i - 1) as u32);
+        let l = NewLightVertex::new(lv, Vec3::ONE, *lmis, (n - i - 1) as u32);
         let (l, l_bsdf) = (l.vertex, l.bsdf);
         let d = points[i + 1] - points[i];
         let c = camera_at(i);
