@@ -4,9 +4,9 @@
 //! `emit_camera_paths` reads `CameraResource`, `RenderConfig`; writes `PathRay`, `PathState` (reset
 //! for the new sample), and `PathAov` when the render makes feature images. The lens and time dimensions are compile-time switches, so a pinhole camera
 //! in a static scene draws neither (the integrator picks the instance from `SceneFeatures`).
-//! `emit_photons` reads `SceneResource` (lights), `PhotonWork`; writes `PhotonRay`, `PhotonState`.
+//! `emit_photons` reads `SceneResource` (lights), `PhotonWork`; writes `PhotonRay`, `PhotonState`, `PhotonDeposit`.
 
-use super::components::{PathAov, PathRay, PathState, PathStatus, PhotonRay, PhotonState};
+use super::components::{PathAov, PathRay, PathState, PathStatus, PhotonDeposit, PhotonRay, PhotonState};
 use super::resources::{CameraResource, PhotonWork, RenderConfig, SceneFeatures, SceneResource};
 use bevy_ecs::prelude::*;
 use caustica_core::kernel::CameraPath;
@@ -71,17 +71,17 @@ pub fn emit_camera_paths_for(
 pub fn emit_photons(
     scene: Res<SceneResource>,
     work: Res<PhotonWork>,
-    mut photons: Query<(&mut PhotonRay, &mut PhotonState)>,
+    mut photons: Query<(&mut PhotonRay, &mut PhotonState, &mut PhotonDeposit)>,
 ) {
     photons.par_iter_mut().batching_strategy(super::resources::wavefront_batching()).for_each(
-        |(mut ray, mut state)| {
+        |(mut ray, mut state, mut deposit)| {
             if state.status != PathStatus::NeedsStart {
                 return;
             }
             let sampler =
                 photon_sampler(work.sampler, work.seed, work.pass, work.settings.kind as u32, state.index);
             let time = photon_time(work.time, work.motion, &sampler);
-            state.deposit = None;
+            deposit.0 = None;
             match emit_photon(&scene, &work.settings, &sampler, time) {
                 Some((first, path)) => {
                     ray.0 = first;

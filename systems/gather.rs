@@ -5,7 +5,7 @@
 //! | system | reads | writes |
 //! |---|---|---|
 //! | `splat_paths_to_film` | finished `PathState`s and their `PathAov`s, `PassRange` | `FilmResource`, `AovFilmResource`, `RenderStats`, `Workload`, `PathState` (next pixel and sample) |
-//! | `store_photons` | `PhotonState` deposits | `PhotonBuffer`, `PhotonStats`, `PhotonWork` (next photon) |
+//! | `store_photons` | `PhotonState`, `PhotonDeposit` | `PhotonBuffer`, `PhotonStats`, `PhotonWork` (next photon) |
 //! | `learn_light_visibility` | fresh `ShadowRay`s | `SceneResource` (the visibility grid) |
 //! | `build_pass_photon_map` | `PhotonBuffer` | `PassPhotons` |
 //! | `gather_photons_into_hit_points` (`_into_chi2_cells`, `_with_laplacian`) | `PassPhotons` | `HitPoint::m`, `phi` (`Chi2Cells`, `AdaptiveStats`) |
@@ -16,7 +16,7 @@
 //! whatever the thread count. It does no more than an append per finished photon.
 
 use super::components::{
-    AdaptiveStats, Chi2Cells, HitPoint, PathAov, PathState, PathStatus, PhotonState, ShadowRay,
+    AdaptiveStats, Chi2Cells, HitPoint, PathAov, PathState, PathStatus, PhotonDeposit, PhotonState, ShadowRay,
 };
 use super::resources::{
     AdaptiveSampling, AovFilmResource, BadSample, FilmResource, PassPhotons, PassRange, PhotonBuffer,
@@ -181,12 +181,12 @@ pub fn store_photons(
     mut work: ResMut<PhotonWork>,
     mut buffer: ResMut<PhotonBuffer>,
     mut stats: ResMut<PhotonStats>,
-    mut photons: Query<&mut PhotonState>,
+    mut photons: Query<(&mut PhotonState, Option<&mut PhotonDeposit>)>,
 ) {
     let mut active = 0;
-    for mut state in &mut photons {
+    for (mut state, deposit) in &mut photons {
         let state = &mut *state;
-        if let Some(photon) = state.deposit.take() {
+        if let Some(photon) = deposit.and_then(|mut d| d.0.take()) {
             buffer.photons.push(photon);
             stats.stored += 1;
         }

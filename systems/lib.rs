@@ -80,12 +80,12 @@
 //! | `Shadow` | `camera_paths/shadow.rs` | `trace_shadow_rays` (on shards) | shadow rows | `PathShadow` | `PathThroughput` |
 //! | `Gather` | `camera_paths/splat.rs` | `splat_paths` (on shards) | finished rows | `PathSample`, `PathThroughput` | `FilmResource`, `RenderStats`, `PathQueues` |
 //! | `Emit` | `emit.rs` | `emit_camera_paths<LENS, MOTION>` (the other camera-path integrators) | camera paths | `CameraResource`, `RenderConfig` | `PathRay`, `PathState` |
-//! | `Emit` | `emit.rs` | `emit_photons` | photons | `SceneResource`, `PhotonWork` | `PhotonRay`, `PhotonState` |
+//! | `Emit` | `emit.rs` | `emit_photons` | photons | `SceneResource`, `PhotonWork` | `PhotonRay`, `PhotonState`, `PhotonDeposit` |
 //! | `Trace` | `trace.rs` | `trace_paths` | camera paths | `SceneResource`, `PathRay` | `PathHit` |
 //! | `Trace` | `trace.rs` | `trace_photons` | photons | `SceneResource`, `PhotonRay` | `PhotonHit` |
 //! | `Scatter` | `scatter.rs` | `scatter_photon_mapped` (`pm`) | camera paths | `PathHit`, `PhotonMaps` | `PathRay`, `PathState`, `ShadowRay` |
 //! | `Scatter` | `scatter.rs` | `scatter_to_visible_points<NEE>` (`ppm`…) | hit points | `PathHit` | `HitPoint`, `PathRay`, `PathState`, `ShadowRay` |
-//! | `Scatter` | `scatter.rs` | `scatter_photons` | photons | `PhotonHit`, `PhotonWork` | `PhotonRay`, `PhotonState` |
+//! | `Scatter` | `scatter.rs` | `scatter_photons` | photons | `PhotonHit`, `PhotonWork` | `PhotonRay`, `PhotonState`, `PhotonDeposit` |
 //! | `Shadow` | `trace.rs` | `trace_shadow_rays` | camera paths | `ShadowRay` | `PathState` |
 //! | `Gather` | `gather.rs` | `splat_paths_to_film` | camera paths | `PathState`, `PassRange` | `FilmResource`, `RenderStats`, `Workload` |
 //! | `Gather` | `gather.rs` | `learn_light_visibility` (visibility selection) | camera paths | `ShadowRay` | `SceneResource` |

@@ -5,7 +5,7 @@
 //! |---|---|---|---|
 //! | `scatter_photon_mapped` | `pm` | `PathHit`, `SceneResource`, `RenderConfig`, `PhotonMaps` | `PathRay`, `PathState`, `ShadowRay` |
 //! | `scatter_to_visible_points::<NEE>` | `ppm`, `sppm`, `appm`, `cppm` | `PathHit`, `SceneResource`, `RenderConfig` | `HitPoint`, `PathRay`, `PathState`, `ShadowRay` |
-//! | `scatter_photons` | photon passes | `PhotonHit`, `SceneResource`, `PhotonWork` | `PhotonRay`, `PhotonState` |
+//! | `scatter_photons` | photon passes | `PhotonHit`, `SceneResource`, `PhotonWork` | `PhotonRay`, `PhotonState`, `PhotonDeposit` |
 //!
 //! `pt` (its vertex in `caustica_core::kernel::path_vertex`, its system in `camera_paths/`) follows
 //! pbrt-v4's `PathIntegrator::Li`: emission found by BSDF sampling and light found by
@@ -17,7 +17,8 @@
 //! asks for them) at its first non-specular vertex, from the vertex it builds anyway.
 
 use super::components::{
-    HitPoint, PathAov, PathHit, PathRay, PathState, PathStatus, PhotonHit, PhotonRay, PhotonState, ShadowRay,
+    HitPoint, PathAov, PathHit, PathRay, PathState, PathStatus, PhotonDeposit, PhotonHit, PhotonRay,
+    PhotonState, ShadowRay,
 };
 use super::resources::{PhotonMaps, PhotonWork, RenderConfig, SceneResource, wavefront_batching};
 use bevy_ecs::prelude::*;
@@ -222,21 +223,23 @@ fn visible_point_vertex<const NEE: bool>(
 pub fn scatter_photons(
     scene: Res<SceneResource>,
     work: Res<PhotonWork>,
-    mut photons: Query<(&PhotonHit, &mut PhotonRay, &mut PhotonState)>,
+    mut photons: Query<(&PhotonHit, &mut PhotonRay, &mut PhotonState, &mut PhotonDeposit)>,
 ) {
-    photons.par_iter_mut().batching_strategy(wavefront_batching()).for_each(|(hit, mut ray, mut state)| {
-        if state.status != PathStatus::Active {
-            return;
-        }
-        state.bounces += 1;
-        let sampler =
-            photon_sampler(work.sampler, work.seed, work.pass, work.settings.kind as u32, state.index);
-        let bounce = scatter_photon(&scene, &work.settings, &mut state.path, &ray.0, &hit.0, &sampler);
-        state.deposit = bounce.deposit;
-        state.roulette_kills += bounce.roulette_kill as u32;
-        match bounce.next {
-            Some(next) => ray.0 = next,
-            None => state.status = PathStatus::Finished,
-        }
-    });
+    photons.par_iter_mut().batching_strategy(wavefront_batching()).for_each(
+        |(hit, mut ray, mut state, mut deposit)| {
+            if state.status != PathStatus::Active {
+                return;
+            }
+            state.bounces += 1;
+            let sampler =
+                photon_sampler(work.sampler, work.seed, work.pass, work.settings.kind as u32, state.index);
+            let bounce = scatter_photon(&scene, &work.settings, &mut state.path, &ray.0, &hit.0, &sampler);
+            deposit.0 = bounce.deposit;
+            state.roulette_kills += bounce.roulette_kill as u32;
+            match bounce.next {
+                Some(next) => ray.0 = next,
+                None => state.status = PathStatus::Finished,
+            }
+        },
+    );
 }

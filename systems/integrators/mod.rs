@@ -165,9 +165,9 @@ pub fn photon_summary(
 
 /// Spawn `count` photon entities, idle until a photon pass hands them photons.
 pub fn spawn_photons(world: &mut World, count: u32) {
-    use crate::components::{PathStatus, PhotonHit, PhotonRay, PhotonState};
+    use crate::components::{PathStatus, PhotonDeposit, PhotonHit, PhotonRay, PhotonState};
     world.spawn_batch((0..count).map(|index| {
         let state = PhotonState { index, status: PathStatus::Idle, ..Default::default() };
-        (PhotonRay::default(), PhotonHit::default(), state)
+        (PhotonRay::default(), PhotonHit::default(), state, PhotonDeposit::default())
     }));
 }

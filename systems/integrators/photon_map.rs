@@ -56,7 +56,7 @@ pub static PM: Integrator = Integrator {
 /// The paths of the path tracers, the photons in flight, and the photon maps (each stored photon
 /// twice while its kd-tree is built; a photon is stored about 1/(1 − albedo) times, counted as 4).
 fn memory(_: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
-    use crate::components::{PhotonHit, PhotonRay, PhotonState};
+    use crate::components::{PhotonDeposit, PhotonHit, PhotonRay, PhotonState};
     const STORES_PER_PHOTON: u64 = 4;
     let (photons, caustic) = (run.photons.photons, run.photons.caustic_photons);
     let paths = super::path::paths(pixels, run);
@@ -65,6 +65,7 @@ fn memory(_: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
             size_of::<PhotonRay>(),
             size_of::<PhotonHit>(),
             size_of::<PhotonState>(),
+            size_of::<PhotonDeposit>(),
         ]);
     let maps = (photons as u64 + caustic as u64)
         * STORES_PER_PHOTON

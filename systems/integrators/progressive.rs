@@ -18,8 +18,8 @@ use super::descriptor::{Integrator, LightSampling, MemoryNeed, PlanFn, Setting};
 use super::{add_photon_systems, configure_stages, paths_busy, photons_busy, spawn_photons, stage_order};
 use crate::PassSystems;
 use crate::components::{
-    AdaptiveStats, Chi2Cells, HitPoint, PathHit, PathRay, PathState, PathStatus, PhotonHit, PhotonRay,
-    PhotonState, ShadowRay,
+    AdaptiveStats, Chi2Cells, HitPoint, PathHit, PathRay, PathState, PathStatus, PhotonDeposit, PhotonHit,
+    PhotonRay, PhotonState, ShadowRay,
 };
 use crate::emit::emit_camera_paths_for;
 use crate::gather::splat_paths_to_film;
@@ -102,7 +102,12 @@ fn memory(this: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
     let needed = hit_points * per_hit_point
         + settings.photons_per_pass as u64 * BYTES_PER_PHOTON as u64
         + photon_wavefront as u64
-            * entity_bytes(&[size_of::<PhotonState>(), size_of::<PhotonRay>(), size_of::<PhotonHit>()]);
+            * entity_bytes(&[
+                size_of::<PhotonState>(),
+                size_of::<PhotonDeposit>(),
+                size_of::<PhotonRay>(),
+                size_of::<PhotonHit>(),
+            ]);
     let what = format!(
         "{hit_points} hit points ({per_hit_point} bytes each, see hit_points_per_pixel) and {} photons per pass",
         settings.photons_per_pass
