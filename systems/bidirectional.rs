@@ -1,37 +1,40 @@
-//! Bidirectional path tracing's own systems (`bdpt`). A pass traces one light subpath per pixel,
-//! keeping their non-delta vertices (`LightVertices`, by subpath index) and connecting each to the
-//! camera; then one camera subpath per pixel, which at each vertex adds the emission it hit, sends
-//! a light sample to the shadow stage, and connects to every kept vertex of the light subpath with
-//! its pixel's index in its unit (SmallVCM's pairing). Tracing, light sampling's shadow rays, the camera splats
-//! and handing out work are the other integrators' systems.
+//! Bidirectional path tracing's own systems (`bdpt`, `vcm`). A pass traces one light subpath per
+//! pixel, keeping their non-delta vertices (`LightVertices`, by subpath index) and connecting each
+//! to the camera; then one camera subpath per pixel, on the vector core's camera paths (a shard's
+//! chunk at a time, `crate::camera_paths`), which at each vertex adds the emission it hit, sends a
+//! light sample to the shadow queue, and connects to every kept vertex of the light subpath with
+//! its pixel's index in its unit (SmallVCM's pairing), the shards reading the pass's light vertices
+//! shared. Tracing, light sampling's shadow rays, the camera splats and handing out work are the
+//! other integrators' systems.
 //!
 //! | system | stage | reads | writes |
 //! |---|---|---|---|
 //! | `emit_light_subpaths` | Emit | `SceneResource`, `PhotonWork`, `LightPaths` | `PhotonRay`, `PhotonState`, `LightSubpath` |
-//! | `scatter_light_subpaths` | Scatter | `PhotonHit`, `SceneResource`, `CameraResource`, `PhotonWork`, `LightVertices` | `PhotonRay`, `PhotonState`, `LightSubpath`, `CameraSplat` |
-//! | `keep_light_vertices` | Gather, before `store_photons` | `PhotonState` | `LightSubpath`, `LightVertices` |
-//! | `scatter_camera_subpaths` | Scatter | `PathHit`, `SceneResource`, `CameraResource`, `RenderConfig`, `LightVertices` | `PathRay`, `PathState`, `ShadowRay`, `CameraSubpath` |
-//! | `connect_to_light_vertices` | Shadow | `CameraSubpath`, `LightVertices`, `SceneResource`, `RenderConfig` | `PathState` |
+//! | `scatter_light_subpaths` | Scatter | `PhotonHit`, `SceneResource`, `CameraResource`, `PhotonWork`, `LightVertexStore` | `PhotonRay`, `PhotonState`, `LightSubpath`, `CameraSplat` |
+//! | `keep_light_vertices` | Gather, before `store_photons` | `PhotonState` | `LightSubpath`, `LightVertexStore` |
+//! | `scatter_camera_subpaths` (shards) | Scatter | `PathHit`, `PathSampler`, `PathSample`, `SceneResource`, `CameraResource`, `RenderConfig`, `LightVertexStore` | `PathRay`, `PathThroughput`, `PathShadow`, `CameraSubpathSums`, `ConnectionVertex`, the queues |
+//! | `connect_to_light_vertices` (shards) | Shadow, after `trace_shadow_rays` | `PathRay`, `PathSample`, `LightVertexStore`, `SceneResource`, `RenderConfig` | `PathThroughput`, `ConnectionVertex` |
 
+use super::camera_paths::{PathQueues, PathSample, PathSampler, PathShadow, PathThroughput};
 use super::components::{
-    CameraSplat, CameraSubpath, LightSubpath, PathAov, PathHit, PathRay, PathState, PathStatus, PhotonHit,
-    PhotonRay, PhotonState, ShadowRay,
+    CameraSplat, LightSubpath, PathAov, PathHit, PathRay, PathStatus, PhotonHit, PhotonRay, PhotonState,
 };
 use super::light_paths::LightPaths;
 use super::resources::{
-    CameraResource, PassRange, PhotonWork, RenderConfig, SceneResource, wavefront_batching,
+    CameraResource, PassRange, PhotonWork, RenderConfig, RenderStats, SceneResource, wavefront_batching,
 };
 use bevy_ecs::prelude::*;
 use caustica_core::kernel::Quantity;
 use caustica_core::kernel::bidirectional::camera_side::CameraStep;
 use caustica_core::kernel::bidirectional::{
-    LightVertex, MisFactors, camera_vertex, connect_vertices, emit_light_subpath, light_subpath_vertex,
-    merge_vertices,
+    CameraVertex, LightVertex, MisFactors, SubpathMis, camera_vertex, connect_vertices, emit_light_subpath,
+    light_subpath_vertex, merge_vertices,
 };
 use caustica_core::kernel::photon::photon_time;
 use caustica_core::materials::Bsdf;
 use caustica_core::photon::hash_grid::HashGrid;
 use glam::Vec3;
+use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// No vertex: the end of a subpath's chain.
@@ -42,7 +45,7 @@ const NONE: u32 = u32::MAX;
 /// subpath's previous one, with each subpath's last vertex by index; and the weights' factors.
 /// Linked, not contiguous: an entity then holds one vertex, not a buffer as long as its longest
 /// subpath (65 536 of those took 300 MB).
-#[derive(Resource, Debug, Default)]
+#[derive(Debug, Default)]
 pub struct LightVertices {
     /// Light subpaths a unit (the pixels).
     pub light_paths: u32,
@@ -106,8 +109,34 @@ impl LightVertices {
     }
 }
 
+/// The pass's [`LightVertices`] as a resource the camera subpaths' shards share for a round
+/// (`ShardLink::share`: a clone is a reference). Between rounds only the main World holds it, and
+/// the light phase writes it.
+#[derive(Resource, Clone, Debug, Default)]
+pub struct LightVertexStore(Arc<LightVertices>);
+
+impl LightVertexStore {
+    /// A store of `vertices`.
+    pub fn new(vertices: LightVertices) -> Self {
+        Self(Arc::new(vertices))
+    }
+
+    /// The tables, to write: only between rounds, when no shard holds them.
+    pub fn tables_mut(&mut self) -> &mut LightVertices {
+        Arc::get_mut(&mut self.0).expect("the light vertices are written only while no shard reads them")
+    }
+}
+
+impl std::ops::Deref for LightVertexStore {
+    type Target = LightVertices;
+    fn deref(&self) -> &LightVertices {
+        &self.0
+    }
+}
+
 /// A system that empties the table for the pass's subpaths (keeping its memory).
-pub fn begin_light_vertices(mut store: ResMut<LightVertices>) {
+pub fn begin_light_vertices(mut store: ResMut<LightVertexStore>) {
+    let store = store.tables_mut();
     store.vertices.clear();
     store.bsdfs.clear();
     store.previous.clear();
@@ -149,7 +178,7 @@ pub fn scatter_light_subpaths(
     camera: Res<CameraResource>,
     work: Res<PhotonWork>,
     light_paths: Res<LightPaths>,
-    store: Res<LightVertices>,
+    store: Res<LightVertexStore>,
     mut paths: Query<(&PhotonHit, &mut PhotonRay, &mut PhotonState, &mut CameraSplat, &mut LightSubpath)>,
 ) {
     paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each(
@@ -189,10 +218,10 @@ pub fn scatter_light_subpaths(
 /// Append this bounce's kept vertices to the pass's table, and record the last vertex of every
 /// subpath that ended under its index.
 pub fn keep_light_vertices(
-    mut store: ResMut<LightVertices>,
+    mut store: ResMut<LightVertexStore>,
     mut paths: Query<(&PhotonState, &mut LightSubpath)>,
 ) {
-    let store = &mut *store;
+    let store = store.tables_mut();
     for (state, mut subpath) in &mut paths {
         // Only a subpath that moved this step has kept anything: the others' 370-byte components
         // stay unread (the tail of a pass has few subpaths left among 65 536 entities).
@@ -215,92 +244,146 @@ pub fn keep_light_vertices(
     }
 }
 
-/// One vertex of every active camera subpath: emission and the sky, weighted; its light sample to
-/// the shadow stage; its vertex to the connection stage; its continuation.
-#[allow(clippy::type_complexity)]
+/// A camera subpath's running MIS sums at its last vertex (on the vector core's camera paths).
+#[derive(Component, Clone, Copy, Debug, Default)]
+pub struct CameraSubpathSums(pub SubpathMis);
+
+/// The camera vertex a bounce leaves for the connection stage, if it is not a delta one.
+#[derive(Component, Clone, Copy, Debug, Default)]
+pub struct ConnectionVertex(pub Option<CameraVertex>);
+
+/// The rows whose vertex waits for its connections and merges.
+#[derive(Resource, Debug, Default)]
+pub struct ConnectionQueue(pub Vec<u32>);
+
+/// Add the camera subpaths' own columns to every camera path of a shard (spawned by
+/// `camera_paths::spawn_chunk`), and their queue.
+pub fn add_camera_subpath_columns(world: &mut World) {
+    let rows: Vec<Entity> = world.query_filtered::<Entity, With<PathRay>>().iter(world).collect();
+    for row in rows {
+        world.entity_mut(row).insert((CameraSubpathSums::default(), ConnectionVertex::default()));
+    }
+    world.insert_resource(ConnectionQueue::default());
+}
+
+/// What the camera subpaths' scatter reads and writes.
+type CameraSubpathColumns = (
+    &'static PathHit,
+    &'static PathSample,
+    &'static PathSampler,
+    &'static mut PathRay,
+    &'static mut PathThroughput,
+    &'static mut PathShadow,
+    &'static mut CameraSubpathSums,
+    &'static mut ConnectionVertex,
+    Option<&'static mut PathAov>,
+);
+
+/// One vertex of every active camera subpath of the shard: emission and the sky, weighted; its light
+/// sample to the shadow queue; its vertex to the connection queue; its continuation (active) or its
+/// end (finished).
 pub fn scatter_camera_subpaths(
     scene: Res<SceneResource>,
     camera: Res<CameraResource>,
     config: Res<RenderConfig>,
-    store: Res<LightVertices>,
-    mut paths: Query<(
-        &PathHit,
-        &mut PathRay,
-        &mut PathState,
-        &mut ShadowRay,
-        &mut CameraSubpath,
-        Option<&mut PathAov>,
-    )>,
+    store: Res<LightVertexStore>,
+    mut queues: ResMut<PathQueues>,
+    mut connections: ResMut<ConnectionQueue>,
+    mut paths: Query<CameraSubpathColumns>,
 ) {
-    paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each(
-        |(hit, mut ray, mut state, mut shadow, mut subpath, mut aov)| {
-            if state.status != PathStatus::Active {
-                return;
-            }
-            let factors = store.factors(state.sample);
-            state.rays += 1;
-            let state = &mut *state;
-            let subpath = &mut *subpath;
-            let mut step = CameraStep { shadow: None, vertex: &mut subpath.vertex };
-            let goes_on = camera_vertex(
-                &scene,
-                &camera,
-                &factors,
-                config.limits,
-                &mut ray.0,
-                &hit.0,
-                &mut state.path,
-                &mut subpath.mis,
-                state.sampler,
-                aov.as_deref_mut().map(|a| &mut a.0),
-                &mut step,
-            );
-            if let Some(sample) = step.shadow {
-                shadow.queue(sample);
-            }
-            if !goes_on {
-                state.status = PathStatus::Finished;
-            }
-        },
-    );
+    if queues.active.is_empty() {
+        return;
+    }
+    let Ok(mut tables) = paths.contiguous_iter_mut() else { return };
+    let Some((hits, samples, samplers, mut rays, mut states, mut shadows, mut sums, mut vertices, mut aovs)) =
+        tables.next()
+    else {
+        return;
+    };
+    let (rays, states, shadows) =
+        (rays.bypass_change_detection(), states.bypass_change_detection(), shadows.bypass_change_detection());
+    let (sums, vertices) = (sums.bypass_change_detection(), vertices.bypass_change_detection());
+    let mut aovs = aovs.as_mut().map(|a| a.bypass_change_detection());
+    let queues = &mut *queues;
+    let mut next = std::mem::take(&mut queues.next);
+    let mut active = std::mem::take(&mut queues.active);
+    for &row in &active {
+        let i = row as usize;
+        let factors = store.factors(samples[i].sample);
+        let mut step = CameraStep { shadow: None, vertex: &mut vertices[i].0 };
+        let goes_on = camera_vertex(
+            &scene,
+            &camera,
+            &factors,
+            config.limits,
+            &mut rays[i].0,
+            &hits[i].0,
+            &mut states[i].0,
+            &mut sums[i].0,
+            samplers[i].0,
+            aovs.as_deref_mut().map(|a| &mut a[i].0),
+            &mut step,
+        );
+        if let Some(sample) = step.shadow {
+            shadows[i] = PathShadow { ray: sample.ray, contribution: sample.contribution };
+            queues.shadow.push(row);
+        }
+        if vertices[i].0.is_some() {
+            connections.0.push(row);
+        }
+        if goes_on { next.push(row) } else { queues.finished.push(row) }
+    }
+    active.clear();
+    queues.active = next;
+    queues.next = active;
 }
 
-/// Connect every camera vertex left this bounce to each kept vertex of its pixel's light subpath,
-/// adding what each free segment carries (paths of at most `max_depth` bounces); with merging
-/// (vcm), also merge it with every light vertex of its unit within the unit's radius.
+/// Connect every queued camera vertex to each kept vertex of its pixel's light subpath, adding what
+/// each free segment carries (paths of at most `max_depth` bounces); with merging (vcm), also merge
+/// it with every light vertex of its unit within the unit's radius.
 pub fn connect_to_light_vertices(
     scene: Res<SceneResource>,
     config: Res<RenderConfig>,
     range: Res<PassRange>,
-    light_paths: Res<LightPaths>,
-    store: Res<LightVertices>,
-    mut paths: Query<(&PathRay, &mut PathState, &mut CameraSubpath)>,
+    store: Res<LightVertexStore>,
+    mut stats: ResMut<RenderStats>,
+    mut connections: ResMut<ConnectionQueue>,
+    mut paths: Query<(&PathRay, &PathSample, &mut PathThroughput, &mut ConnectionVertex)>,
 ) {
+    if connections.0.is_empty() {
+        return;
+    }
+    let Ok(mut tables) = paths.contiguous_iter_mut() else { return };
+    let Some((rays, samples, mut states, mut vertices)) = tables.next() else { return };
+    let (states, vertices) = (states.bypass_change_detection(), vertices.bypass_change_detection());
     let max_depth = config.limits.max_depth as u64;
-    paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each(|(ray, mut state, mut subpath)| {
-        let Some(c) = subpath.vertex.take() else { return };
-        let factors = store.factors(state.sample);
-        let mut traced = 0;
+    let (mut traced, mut merged_all) = (0u64, 0u64);
+    for &row in &connections.0 {
+        let i = row as usize;
+        let Some(c) = vertices[i].0.take() else { continue };
+        let path = &mut states[i].0;
+        let PathSample { pixel, sample } = samples[i];
+        let factors = store.factors(sample);
         // The light subpath of the same unit and pixel.
-        let unit_in_pass = state.sample - range.begin;
-        let index = unit_in_pass * light_paths.per_unit + state.pixel;
+        let unit_in_pass = sample - range.begin;
+        let index = unit_in_pass * store.light_paths + pixel;
         for l in store.subpath(index) {
             if (c.depth as u64 + l.depth as u64 + 2) > max_depth {
                 continue;
             }
             let Some((segment, contribution)) =
-                connect_vertices(&scene, &factors, &c, (l, &store.bsdfs), ray.0.time)
+                connect_vertices(&scene, &factors, &c, (l, &store.bsdfs), rays[i].0.time)
             else {
                 continue;
             };
             traced += 1;
             if !scene.geometry.occluded(&segment) {
-                state.path.add(contribution, Quantity::Connection);
+                path.add(contribution, Quantity::Connection);
             }
         }
-        state.shadow_rays += traced;
-        store.connections.fetch_add(traced as u64, Ordering::Relaxed);
-        let Some(grid) = store.grids.get(unit_in_pass as usize).filter(|_| factors.merges()) else { return };
+        let Some(grid) = store.grids.get(unit_in_pass as usize).filter(|_| factors.merges()) else {
+            continue;
+        };
         let (radius, mut merged, mut sum) = (factors.radius, 0u64, Vec3::ZERO);
         grid.for_each_within(c.v.si.p, radius, |id| {
             let l = &store.vertices[id as usize];
@@ -312,10 +395,14 @@ pub fn connect_to_light_vertices(
             merged += 1;
         });
         if merged > 0 {
-            state.path.add(sum * factors.merge_normalization(), Quantity::Merge);
-            store.merges.fetch_add(merged, Ordering::Relaxed);
+            path.add(sum * factors.merge_normalization(), Quantity::Merge);
+            merged_all += merged;
         }
-    });
+    }
+    connections.0.clear();
+    stats.shadow_rays += traced;
+    store.connections.fetch_add(traced, Ordering::Relaxed);
+    store.merges.fetch_add(merged_all, Ordering::Relaxed);
 }
 
 /// vcm: sort each unit's light vertices of the pass into its grid, at the unit's radius (before the
@@ -323,11 +410,11 @@ pub fn connect_to_light_vertices(
 pub fn build_merge_grids(
     range: Res<PassRange>,
     light_paths: Res<LightPaths>,
-    mut store: ResMut<LightVertices>,
+    mut store: ResMut<LightVertexStore>,
 ) {
     let Some(radii) = store.merging else { return };
     let units = (range.end - range.begin) as usize;
-    let store = &mut *store;
+    let store = store.tables_mut();
     store.grids.resize_with(units.max(store.grids.len()), HashGrid::default);
     let mut points = Vec::new();
     for k in 0..units {

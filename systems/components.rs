@@ -256,12 +256,3 @@ impl Default for LightSubpath {
         Self { origin: Default::default(), mis: Default::default(), kept: None, last: u32::MAX }
     }
 }
-
-/// A camera subpath of `bdpt`: its running sums and the vertex it left for the connection stage.
-#[derive(Component, Clone, Copy, Debug, Default)]
-pub struct CameraSubpath {
-    /// The running sums of its last vertex.
-    pub mis: caustica_core::kernel::bidirectional::SubpathMis,
-    /// This bounce's vertex, waiting to be connected to its light subpath's.
-    pub vertex: Option<caustica_core::kernel::bidirectional::CameraVertex>,
-}

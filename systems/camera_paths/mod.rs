@@ -112,7 +112,7 @@ pub struct PathQueues {
     /// Rows whose radiance waits to be splatted.
     pub finished: Vec<u32>,
     /// Scatter's next `active`, kept to reuse its allocation.
-    next: Vec<u32>,
+    pub(crate) next: Vec<u32>,
     /// Rows in the shard.
     pub rows: u32,
 }

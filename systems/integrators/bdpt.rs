@@ -20,35 +20,40 @@
 //! | phase | stages |
 //! |---|---|
 //! | photons (the light subpaths) | `emit_light_subpaths` → `trace_photons` → `scatter_light_subpaths` → `splat_camera_connections` → `keep_light_vertices`, `store_photons` |
-//! | camera | `emit_camera_paths` → `trace_paths` → `scatter_camera_subpaths` → `trace_shadow_rays`, `connect_to_light_vertices` → `splat_paths_to_film` |
+//! | camera (sharded: a chunk of camera subpaths a worker) | `emit_paths_for` → `trace_paths` → `scatter_camera_subpaths` → `trace_shadow_rays` → `connect_to_light_vertices` → `splat_paths` |
 //!
 //! A pass is a few units (about 2^18 light subpaths): the light subpaths first (their vertices kept by index, their camera
 //! connections splatted), then the camera subpaths, the one of pixel i connecting to light
-//! subpath i of its unit. Each unit's subpaths draw their numbers from its index, so the film alone is the
+//! subpath i of its unit. The camera subpaths run on the vector core as `pt`'s do — each worker a
+//! chunk of rows in its own World, queues of live rows, the kept light vertices shared read-only
+//! (`LightVertexStore`, an `Arc`) — and a row's vertex is connected while its columns are in cache. Each unit's subpaths draw their numbers from its index, so the film alone is the
 //! state: `--part` and checkpoints work as for `pt`.
 
 use super::descriptor::{Integrator, LightSampling, MemoryNeed, no_checks, one_sample_per_unit};
-use super::{configure_stages, film_image, paths_busy, photons_busy, stage_order};
+use super::{configure_stages, film_image, photons_busy, stage_order};
 use crate::PassSystems;
 use crate::bidirectional::{
-    LightVertices, RadiusSequence, begin_light_vertices, build_merge_grids, connect_to_light_vertices,
+    CameraSubpathSums, ConnectionVertex, LightVertexStore, LightVertices, RadiusSequence,
+    add_camera_subpath_columns, begin_light_vertices, build_merge_grids, connect_to_light_vertices,
     emit_light_subpaths, keep_light_vertices, scatter_camera_subpaths, scatter_light_subpaths,
 };
-use crate::components::{
-    CameraSplat, CameraSubpath, LightSubpath, PathState, PathStatus, PhotonHit, PhotonRay, PhotonState,
+use crate::camera_paths::{
+    PathExtras, emit_paths_for, spawn_chunk, splat_paths, trace_paths, trace_shadow_rays,
 };
-use crate::emit::emit_camera_paths_for;
-use crate::gather::{splat_paths_to_film, store_photons};
+use crate::components::{CameraSplat, LightSubpath, PathStatus, PhotonHit, PhotonRay, PhotonState};
+use crate::gather::store_photons;
 use crate::light_paths::{LightPaths, splat_camera_connections};
 use crate::passes::{begin_photon_pass, hand_out_samples};
 use crate::plan::{Phase, Plan, Repeat, Unit, When};
 use crate::report::Report;
 use crate::resources::{FilmResource, SceneFeatures};
-use crate::trace::{trace_paths, trace_photons, trace_shadow_rays};
+use crate::shards::{ShardLink, ShardPlan, Shards};
+use crate::trace::trace_photons;
 use bevy_ecs::prelude::*;
 use caustica_core::choice::Choice;
 use caustica_core::error::Result;
 use caustica_core::kernel::bidirectional::LightVertex;
+use caustica_core::scene::schedule::Stage;
 use caustica_core::scene::{IntegratorKind, LightSelection, RunFile};
 use std::sync::atomic::Ordering;
 
@@ -56,9 +61,9 @@ use std::sync::atomic::Ordering;
 /// images group units (256²: four), within what the kept vertices' table may hold.
 const SUBPATHS_PER_PASS: u32 = 1 << 18;
 
-/// Camera and light subpaths in flight at once: a quarter of the other wavefronts' 2^18, because a
-/// bidirectional path's entities are four times as large (a camera vertex and a light vertex ride
-/// on them, 1.2 kB a pair); at 1200² the full 2^18 held 300 MiB of them.
+/// Light subpaths in flight at once: a quarter of the other wavefronts' 2^18, because a light
+/// subpath's entity is large (it carries the vertex it keeps, 600 bytes); at 1200² the full 2^18
+/// of them and of the camera subpaths, then in the same wavefront, held 300 MiB.
 pub(super) const WAVEFRONT: u32 = 1 << 16;
 
 /// Units a pass of a `pixels`-pixel image groups.
@@ -87,12 +92,17 @@ pub static BDPT: Integrator = Integrator {
     plan,
 };
 
-/// The camera paths of a sample integrator with their connection vertex, a wavefront of light
-/// subpaths, and the pass's kept light vertices.
+/// The camera paths' chunks with their sums and connection vertex, a wavefront of light subpaths,
+/// and the pass's kept light vertices.
 fn memory(_: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
-    let paths = super::path::paths_of_wavefront(pixels, WAVEFRONT, run);
+    let paths = super::path::chunked_paths(pixels, run);
+    let rows = run.render.chunk as u64 * crate::shards::workers() as u64;
+    // The two columns of their own (their change ticks too) and the connection queue.
+    let camera = rows
+        * (super::memory::entity_bytes(&[size_of::<CameraSubpathSums>(), size_of::<ConnectionVertex>()])
+            - super::memory::entity_bytes(&[])
+            + size_of::<u32>() as u64);
     let wavefront = pixels.min(WAVEFRONT as u64);
-    let camera = wavefront * size_of::<CameraSubpath>() as u64;
     let subpaths = wavefront
         * super::memory::entity_bytes(&[
             size_of::<PhotonRay>(),
@@ -149,18 +159,15 @@ pub(super) fn plan_bidirectional(
         film.width * film.height
     };
     super::light_tracing::insert_light_path_resources(world, pixels, features);
-    world.insert_resource(LightVertices {
+    world.insert_resource(LightVertexStore::new(LightVertices {
         light_paths: pixels,
         merging,
         last: vec![u32::MAX; (pixels * units_per_pass(pixels)) as usize],
         ..Default::default()
-    });
+    }));
     let units = units_per_pass(pixels);
-    super::spawn_path_wavefront(world, WAVEFRONT);
-    let camera_paths: Vec<Entity> = world.query_filtered::<Entity, With<PathState>>().iter(world).collect();
-    for entity in camera_paths {
-        world.entity_mut(entity).insert(CameraSubpath::default());
-    }
+    // The camera subpaths' shards take samples from one lane, as pt's do.
+    world.insert_resource(crate::resources::Workload::new(pixels, 0, 0, 1));
     world.spawn_batch((0..pixels.min(WAVEFRONT)).map(|index| {
         let state = PhotonState { index, status: PathStatus::Idle, ..Default::default() };
         (PhotonRay::default(), PhotonHit::default(), state, CameraSplat::default(), LightSubpath::default())
@@ -175,14 +182,22 @@ pub(super) fn plan_bidirectional(
     light.schedule.add_systems(scatter_light_subpaths.in_set(PassSystems::Scatter));
     light.schedule.add_systems(splat_camera_connections.in_set(PassSystems::Shadow));
     light.schedule.add_systems((keep_light_vertices, store_photons).chain().in_set(PassSystems::Gather));
-    let mut camera = Phase::new("camera", When::EveryPass, Repeat::WhileBusy(paths_busy))
+    let extras =
+        PathExtras { aov: world.contains_resource::<crate::resources::AovFilmResource>(), learning: false };
+    let mut links = super::path::camera_path_links();
+    links.push(ShardLink::share::<LightVertexStore>());
+    let shards = Shards::new(ShardPlan {
+        chunk: run.render.chunk,
+        spawn: Box::new(move |world, rows, index, count| {
+            spawn_chunk(world, rows, index, count, extras);
+            add_camera_subpath_columns(world);
+        }),
+        in_flight: crate::camera_paths::in_flight,
+        systems: Box::new(move |schedule| add_camera_subpath_systems(schedule, features, order)),
+        links,
+    });
+    let camera = Phase::sharded("camera", When::EveryPass, shards)
         .with_begin((hand_out_samples(1), build_merge_grids).chain());
-    configure_stages(&mut camera.schedule, order);
-    camera.schedule.add_systems(emit_camera_paths_for(features).in_set(PassSystems::Emit));
-    camera.schedule.add_systems(trace_paths.in_set(PassSystems::Trace));
-    camera.schedule.add_systems(scatter_camera_subpaths.in_set(PassSystems::Scatter));
-    camera.schedule.add_systems((trace_shadow_rays, connect_to_light_vertices).in_set(PassSystems::Shadow));
-    camera.schedule.add_systems(splat_paths_to_film.in_set(PassSystems::Gather));
     Ok(Plan {
         phases: vec![light, camera],
         // Units enough for about 2^18 light subpaths a pass; each unit's subpaths have its own
@@ -194,10 +209,21 @@ pub(super) fn plan_bidirectional(
     })
 }
 
+/// One bounce of the camera subpaths over a shard's chunk: emission, light samples and continuation,
+/// then the shadow rays and the connections (and merges), then the finished paths to the film.
+fn add_camera_subpath_systems(schedule: &mut Schedule, features: SceneFeatures, order: [Stage; 5]) {
+    configure_stages(schedule, order);
+    schedule.add_systems(emit_paths_for(features).in_set(PassSystems::Emit));
+    schedule.add_systems(trace_paths.in_set(PassSystems::Trace));
+    schedule.add_systems(scatter_camera_subpaths.in_set(PassSystems::Scatter));
+    schedule.add_systems((trace_shadow_rays, connect_to_light_vertices).chain().in_set(PassSystems::Shadow));
+    schedule.add_systems(splat_paths.in_set(PassSystems::Gather));
+}
+
 /// The subpaths and their connections.
 fn report(world: &World, report: &mut Report) {
     report.photons = Some(super::photon_summary(world, (0, None), Vec::new()));
-    let store = world.resource::<LightVertices>();
+    let store = world.resource::<LightVertexStore>();
     report.notes.push((
         "connections",
         format!(

@@ -85,7 +85,7 @@ fn adaptive_bytes(pixels: u64, run: &RunFile) -> u64 {
 
 /// What `pt`'s and `pt-naive`'s shards hold: a chunk of camera paths per worker (their columns and
 /// queues), with adaptive sampling's state per pixel.
-fn chunked_paths(pixels: u64, run: &RunFile) -> MemoryNeed {
+pub(super) fn chunked_paths(pixels: u64, run: &RunFile) -> MemoryNeed {
     use crate::camera_paths::{PathSample, PathSampler, PathShadow, PathThroughput, ShadowLearning};
     use crate::components::{PathAov, PathHit, PathRay};
     let mut components = vec![
