@@ -12,6 +12,8 @@
 //! | `emit_light_subpaths` | Emit | `SceneResource`, `PhotonWork`, `LightPaths` | `PhotonRay`, `PhotonState`, `LightSubpath` |
 //! | `scatter_light_subpaths` | Scatter | `PhotonHit`, `SceneResource`, `CameraResource`, `PhotonWork`, `LightVertexStore` | `PhotonRay`, `PhotonState`, `LightSubpath`, `CameraSplat` |
 //! | `keep_light_vertices` | Gather, before `store_photons` | `PhotonState` | `LightSubpath`, `LightVertexStore` |
+//! | `order_light_vertices` | the camera phase's begin | | `LightVertexStore` (each subpath's vertices side by side) |
+//! | `build_merge_grids` (vcm) | the camera phase's begin, after ordering | `PassRange`, `LightPaths` | `LightVertexStore`'s grids |
 //! | `scatter_camera_subpaths` (shards) | Scatter | `PathHit`, `PathSampler`, `PathSample`, `SceneResource`, `CameraResource`, `RenderConfig`, `LightVertexStore` | `PathRay`, `PathThroughput`, `PathShadow`, `CameraSubpathSums`, `ConnectionVertex`, the queues |
 //! | `connect_to_light_vertices` (shards) | Shadow, after `trace_shadow_rays` | `PathRay`, `PathSample`, `LightVertexStore`, `SceneResource`, `RenderConfig` | `PathThroughput`, `ConnectionVertex` |
 
@@ -27,8 +29,8 @@ use bevy_ecs::prelude::*;
 use caustica_core::kernel::Quantity;
 use caustica_core::kernel::bidirectional::camera_side::CameraStep;
 use caustica_core::kernel::bidirectional::{
-    CameraVertex, LightVertex, MisFactors, SubpathMis, camera_vertex, connect_vertices, emit_light_subpath,
-    light_subpath_vertex, merge_vertices,
+    CameraVertex, LightVertex, MergeVertex, MisFactors, SubpathMis, camera_vertex, connect_vertices,
+    emit_light_subpath, light_subpath_vertex, merge_vertices,
 };
 use caustica_core::kernel::photon::photon_time;
 use caustica_core::materials::Bsdf;
@@ -37,14 +39,13 @@ use glam::Vec3;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 
-/// No vertex: the end of a subpath's chain.
-const NONE: u32 = u32::MAX;
-
-/// The light vertices of the pass's subpaths in one table, in the order they were kept (the
-/// wavefront's steps, in entity order: the same for any thread count), each linked to its
-/// subpath's previous one, with each subpath's last vertex by index; and the weights' factors.
-/// Linked, not contiguous: an entity then holds one vertex, not a buffer as long as its longest
-/// subpath (65 536 of those took 300 MB).
+/// The light vertices of the pass's subpaths in one table, subpath by subpath, and the weights'
+/// factors. The light phase appends them in the order they are kept (a bounce of every subpath at a
+/// time), each with its subpath's index, so an entity holds one vertex, not a buffer as long as its
+/// longest subpath; [`order_light_vertices`] then puts each subpath's vertices side by side, in
+/// place, so a camera vertex reads its light subpath in one run (linked through the table, each
+/// vertex was a cache miss, a third of vcm's connection stage), and consecutive pixels read
+/// consecutive runs.
 #[derive(Debug, Default)]
 pub struct LightVertices {
     /// Light subpaths a unit (the pixels).
@@ -55,12 +56,14 @@ pub struct LightVertices {
     pub vertices: Vec<LightVertex>,
     /// The BSDFs of the kept vertices that are not Lambertian, which keep their index here.
     pub bsdfs: Vec<Bsdf>,
-    /// For each vertex, its subpath's previous one (`NONE` for the first).
-    pub previous: Vec<u32>,
-    /// Each subpath's last vertex, by index.
-    pub last: Vec<u32>,
-    /// vcm: each unit's vertices by cell, for merging.
-    pub grids: Vec<HashGrid>,
+    /// While the light phase keeps them: each vertex's subpath, by its index in the pass.
+    pub owners: Vec<u32>,
+    /// Once ordered: where each subpath's vertices start (one more entry than subpaths).
+    pub starts: Vec<u32>,
+    /// Subpaths in the pass.
+    pub subpaths: u32,
+    /// vcm: each unit's vertices by cell (what a merge reads of them), for merging.
+    pub grids: Vec<HashGrid<MergeVertex>>,
     /// Connections between camera and light vertices made (segments traced).
     pub connections: AtomicU64,
     /// Light vertices merged with camera vertices (vcm).
@@ -97,15 +100,52 @@ impl LightVertices {
         }
     }
 
-    /// The kept vertices of subpath `index` of this pass, last first.
+    /// The kept vertices of subpath `index` of this pass, first first (once ordered).
     #[inline]
-    pub fn subpath(&self, index: u32) -> impl Iterator<Item = &LightVertex> {
-        let mut at = self.last.get(index as usize).copied().unwrap_or(NONE);
-        std::iter::from_fn(move || {
-            let vertex = self.vertices.get(at as usize)?;
-            at = self.previous[at as usize];
-            Some(vertex)
-        })
+    pub fn subpath(&self, index: u32) -> &[LightVertex] {
+        let i = index as usize;
+        match (self.starts.get(i), self.starts.get(i + 1)) {
+            (Some(&start), Some(&end)) => &self.vertices[start as usize..end as usize],
+            _ => &[],
+        }
+    }
+
+    /// Put each subpath's vertices side by side in subpath order, each subpath's in the order kept
+    /// (its bounces'), in place: a counting sort of the owners into destinations, then the
+    /// permutation's cycles followed with swaps (a second table would double the largest buffer
+    /// of the pass).
+    pub fn order_by_subpath(&mut self) {
+        let subpaths = self.subpaths as usize;
+        self.starts.clear();
+        self.starts.resize(subpaths + 1, 0);
+        for &owner in &self.owners {
+            self.starts[owner as usize + 1] += 1;
+        }
+        for i in 1..self.starts.len() {
+            self.starts[i] += self.starts[i - 1];
+        }
+        // Each vertex's place, written over its owner; `starts[s]` walks past subpath s's places.
+        let mut destinations = std::mem::take(&mut self.owners);
+        for owner in &mut destinations {
+            let next = &mut self.starts[*owner as usize];
+            *owner = *next;
+            *next += 1;
+        }
+        // Now starts[s] is where subpath s + 1 starts: shift back by one.
+        self.starts.copy_within(0..subpaths, 1);
+        self.starts[0] = 0;
+        for i in 0..destinations.len() {
+            loop {
+                let to = destinations[i] as usize;
+                if to == i {
+                    break;
+                }
+                self.vertices.swap(i, to);
+                destinations.swap(i, to);
+            }
+        }
+        destinations.clear();
+        self.owners = destinations;
     }
 }
 
@@ -139,8 +179,14 @@ pub fn begin_light_vertices(mut store: ResMut<LightVertexStore>) {
     let store = store.tables_mut();
     store.vertices.clear();
     store.bsdfs.clear();
-    store.previous.clear();
-    store.last.fill(NONE);
+    store.owners.clear();
+    store.starts.clear();
+}
+
+/// A system that orders the pass's light vertices by subpath ([`LightVertices::order_by_subpath`]),
+/// between the light phase that keeps them and the camera phase that reads them.
+pub fn order_light_vertices(mut store: ResMut<LightVertexStore>) {
+    store.tables_mut().order_by_subpath();
 }
 
 /// Start a light subpath wherever an entity needs one, with its unit's own numbers.
@@ -215,8 +261,7 @@ pub fn scatter_light_subpaths(
     );
 }
 
-/// Append this bounce's kept vertices to the pass's table, and record the last vertex of every
-/// subpath that ended under its index.
+/// Append this bounce's kept vertices to the pass's table, each with its subpath's index.
 pub fn keep_light_vertices(
     mut store: ResMut<LightVertexStore>,
     mut paths: Query<(&PhotonState, &mut LightSubpath)>,
@@ -229,17 +274,10 @@ pub fn keep_light_vertices(
             continue;
         }
         if let Some(vertex) = subpath.kept.take() {
-            store.previous.push(subpath.last);
-            subpath.last = store.vertices.len() as u32;
+            store.owners.push(state.index);
             let vertex = vertex.keep(&mut store.bsdfs);
             store.vertices.push(vertex);
             store.kept += 1;
-        }
-        if state.status == PathStatus::Finished && subpath.last != NONE {
-            if let Some(last) = store.last.get_mut(state.index as usize) {
-                *last = subpath.last;
-            }
-            subpath.last = NONE;
         }
     }
 }
@@ -367,7 +405,8 @@ pub fn connect_to_light_vertices(
         // The light subpath of the same unit and pixel.
         let unit_in_pass = sample - range.begin;
         let index = unit_in_pass * store.light_paths + pixel;
-        for l in store.subpath(index) {
+        // Last first: the order the sums have always been made in.
+        for l in store.subpath(index).iter().rev() {
             if (c.depth as u64 + l.depth as u64 + 2) > max_depth {
                 continue;
             }
@@ -385,8 +424,7 @@ pub fn connect_to_light_vertices(
             continue;
         };
         let (radius, mut merged, mut sum) = (factors.radius, 0u64, Vec3::ZERO);
-        grid.for_each_within(c.v.si.p, radius, |id| {
-            let l = &store.vertices[id as usize];
+        grid.for_each_within(c.v.si.p, radius, |l| {
             // The merged vertex is both subpaths' last: c.depth + l.depth + 1 bounces.
             if c.depth as u64 + l.depth as u64 + 1 > max_depth {
                 return;
@@ -421,11 +459,8 @@ pub fn build_merge_grids(
         points.clear();
         let subpaths = k as u32 * light_paths.per_unit..(k as u32 + 1) * light_paths.per_unit;
         for index in subpaths {
-            let mut at = store.last.get(index as usize).copied().unwrap_or(NONE);
-            while let Some(vertex) = store.vertices.get(at as usize) {
-                points.push((at, vertex.p));
-                at = store.previous[at as usize];
-            }
+            // Each subpath last first: the order of the grid's cells that merges have been summed in.
+            points.extend(store.subpath(index).iter().rev().map(LightVertex::merge_vertex));
         }
         store.grids[k].build(&points, radii.radius(range.begin + k as u32));
     }
@@ -434,6 +469,44 @@ pub fn build_merge_grids(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Vertices kept bounce by bounce, in any order of subpaths come out subpath by subpath, each
+    /// subpath's in the order it kept them, and a subpath that kept nothing has none.
+    #[test]
+    fn ordering_puts_each_subpaths_vertices_side_by_side_in_the_order_kept() {
+        use caustica_core::kernel::bidirectional::KeptBsdf;
+        use caustica_core::sampling::warp::Frame;
+        let vertex = |subpath: u32, bounce: u32| LightVertex {
+            p: Vec3::new(subpath as f32, bounce as f32, 0.0),
+            p_error: Vec3::ZERO,
+            ng: Vec3::Z,
+            frame: Frame { x: Vec3::X, y: Vec3::Y, z: Vec3::Z },
+            wo: Vec3::Z,
+            bsdf: KeptBsdf::Lambert(Vec3::ONE),
+            beta: Vec3::ONE,
+            mis: SubpathMis::default(),
+            depth: bounce,
+        };
+        // Bounce 0 of subpaths 4, 0, 2, 5; bounce 1 of 2, 4; bounce 2 of 4 (subpaths 1 and 3 keep none).
+        let kept = [(4, 0), (0, 0), (2, 0), (5, 0), (2, 1), (4, 1), (4, 2)];
+        let mut store = LightVertices { subpaths: 6, ..LightVertices::default() };
+        for (subpath, bounce) in kept {
+            store.vertices.push(vertex(subpath, bounce));
+            store.owners.push(subpath);
+        }
+        store.order_by_subpath();
+        for subpath in 0..6u32 {
+            let bounces: Vec<u32> = store.subpath(subpath).iter().map(|v| v.depth).collect();
+            let want: Vec<u32> = kept.iter().filter(|k| k.0 == subpath).map(|k| k.1).collect();
+            assert_eq!(bounces, want, "subpath {subpath}");
+            assert!(
+                store.subpath(subpath).iter().all(|v| v.p.x == subpath as f32),
+                "subpath {subpath}'s own"
+            );
+        }
+        assert!(store.subpath(6).is_empty() && store.owners.is_empty());
+        assert_eq!(store.starts, vec![0, 1, 1, 3, 3, 6, 7]);
+    }
 
     /// Unit k (counted from one) merges at r₀ · k^((α − 1)/2): the radius that sets the variance and
     /// bias rates (tests/caustics.rs renders both), and the weights of a unit use its own radius.

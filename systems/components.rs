@@ -237,9 +237,9 @@ pub struct Chi2Cells {
 #[derive(Component, Clone, Copy, Debug, Default)]
 pub struct AdaptiveStats(pub AdaptiveStatistics);
 
-/// A light subpath of `bdpt`: where it started, its running MIS sums, the vertex it kept this
-/// bounce (for `keep_light_vertices`) and the last one it kept before.
-#[derive(Component, Clone, Copy, Debug)]
+/// A light subpath of `bdpt`: where it started, its running MIS sums, and the vertex it kept this
+/// bounce (for `keep_light_vertices`).
+#[derive(Component, Clone, Copy, Debug, Default)]
 pub struct LightSubpath {
     /// Its light and the densities of its start.
     pub origin: caustica_core::kernel::bidirectional::LightOrigin,
@@ -247,12 +247,4 @@ pub struct LightSubpath {
     pub mis: caustica_core::kernel::bidirectional::SubpathMis,
     /// This bounce's vertex, if it keeps one.
     pub kept: Option<caustica_core::kernel::bidirectional::NewLightVertex>,
-    /// The place of its last kept vertex in the pass's table (`u32::MAX`: none yet).
-    pub last: u32,
-}
-
-impl Default for LightSubpath {
-    fn default() -> Self {
-        Self { origin: Default::default(), mis: Default::default(), kept: None, last: u32::MAX }
-    }
 }

@@ -1,39 +1,52 @@
 //! A hash grid over points for fixed-radius queries (vcm's merging; Georgiev et al. 2012 and
 //! SmallVCM use one): cells twice the radius wide, so a query visits at most 2 × 2 × 2 cells, their
-//! points sorted by bucket with a counting sort. Each point's position is kept beside its id, so a
-//! query tests distances in the grid's own contiguous buckets and the caller fetches only the points
-//! within the radius (in vcm a light vertex is 280 bytes, and fetching every candidate of the eight
-//! cells was a third of the render's time). Built in the order the points come, so the order a
-//! query visits them in is the same for any thread count.
+//! points sorted by bucket with a counting sort. The grid holds the points themselves, not their
+//! ids: a query tests and hands out the candidates of a cell from one contiguous run (in vcm a point
+//! is what a merge reads of a light vertex, and fetching each from the vertex table by id was a
+//! cache miss a merge, the larger part of the render's connection stage). Built in the order the
+//! points come, so the order a query visits them in is the same for any thread count.
 
 use glam::Vec3;
 
+/// A point the grid can sort: anything with a position.
+pub trait GridPoint: Copy + Default {
+    /// Where it is.
+    fn position(&self) -> Vec3;
+}
+
+impl GridPoint for (u32, Vec3) {
+    #[inline]
+    fn position(&self) -> Vec3 {
+        self.1
+    }
+}
+
 /// The points of one pass by cell.
 #[derive(Clone, Debug, Default)]
-pub struct HashGrid {
+pub struct HashGrid<T = (u32, Vec3)> {
     /// 1 / the cell's width.
     inv_cell: f32,
     /// Buckets − 1 (a power of two).
     mask: u32,
     /// Where each bucket's points start in `items`; one more entry than buckets.
     starts: Vec<u32>,
-    /// The points (id and position), bucket by bucket.
-    items: Vec<(u32, Vec3)>,
+    /// The points, bucket by bucket.
+    items: Vec<T>,
     /// Each point's bucket (kept between the counting and the filling pass).
     buckets: Vec<u32>,
 }
 
-impl HashGrid {
-    /// Rebuild over `points` (id and position) for queries of radius `radius`, keeping the memory.
-    pub fn build(&mut self, points: &[(u32, Vec3)], radius: f32) {
+impl<T: GridPoint> HashGrid<T> {
+    /// Rebuild over `points` for queries of radius `radius`, keeping the memory.
+    pub fn build(&mut self, points: &[T], radius: f32) {
         self.inv_cell = 1.0 / (2.0 * radius);
         let buckets = (2 * points.len()).next_power_of_two().max(1);
         self.mask = buckets as u32 - 1;
         self.starts.clear();
         self.starts.resize(buckets + 1, 0);
         self.buckets.clear();
-        for &(_, p) in points {
-            let bucket = self.bucket(self.cell(p));
+        for point in points {
+            let bucket = self.bucket(self.cell(point.position()));
             self.buckets.push(bucket);
             self.starts[bucket as usize + 1] += 1;
         }
@@ -41,7 +54,7 @@ impl HashGrid {
             self.starts[i] += self.starts[i - 1];
         }
         self.items.clear();
-        self.items.resize(points.len(), (0, Vec3::ZERO));
+        self.items.resize(points.len(), T::default());
         let mut next = self.starts.clone();
         for (&point, &bucket) in points.iter().zip(&self.buckets) {
             let slot = &mut next[bucket as usize];
@@ -55,10 +68,10 @@ impl HashGrid {
         self.items.is_empty()
     }
 
-    /// Call `visit` with the id of every point within `radius` of `x` (distance ≤ radius), each once.
+    /// Call `visit` with every point within `radius` of `x` (distance ≤ radius), each once.
     /// `radius` is at most the one the grid was built for.
     #[inline]
-    pub fn for_each_within(&self, x: Vec3, radius: f32, mut visit: impl FnMut(u32)) {
+    pub fn for_each_within(&self, x: Vec3, radius: f32, mut visit: impl FnMut(&T)) {
         if self.items.is_empty() {
             return;
         }
@@ -80,9 +93,9 @@ impl HashGrid {
         let radius2 = radius * radius;
         for &bucket in &buckets[..count] {
             let (start, end) = (self.starts[bucket as usize], self.starts[bucket as usize + 1]);
-            for &(id, p) in &self.items[start as usize..end as usize] {
-                if (p - x).length_squared() <= radius2 {
-                    visit(id);
+            for point in &self.items[start as usize..end as usize] {
+                if (point.position() - x).length_squared() <= radius2 {
+                    visit(point);
                 }
             }
         }
@@ -124,7 +137,7 @@ mod tests {
         for q in 0..200 {
             let x = points[q * 7].1 + Vec3::splat(0.01);
             let mut seen = Vec::new();
-            grid.for_each_within(x, radius, |id| seen.push(id));
+            grid.for_each_within(x, radius, |&(id, _)| seen.push(id));
             let mut within = seen;
             let before = within.len();
             within.sort_unstable();

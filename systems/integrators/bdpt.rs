@@ -35,7 +35,8 @@ use crate::PassSystems;
 use crate::bidirectional::{
     CameraSubpathSums, ConnectionVertex, LightVertexStore, LightVertices, RadiusSequence,
     add_camera_subpath_columns, begin_light_vertices, build_merge_grids, connect_to_light_vertices,
-    emit_light_subpaths, keep_light_vertices, scatter_camera_subpaths, scatter_light_subpaths,
+    emit_light_subpaths, keep_light_vertices, order_light_vertices, scatter_camera_subpaths,
+    scatter_light_subpaths,
 };
 use crate::camera_paths::{
     PathExtras, emit_paths_for, spawn_chunk, splat_paths, trace_paths, trace_shadow_rays,
@@ -111,7 +112,7 @@ fn memory(_: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
             size_of::<CameraSplat>(),
             size_of::<LightSubpath>(),
         ]);
-    // Each subpath's last vertex, and each kept vertex with its link to the one before.
+    // Where each subpath's vertices start, and each kept vertex with its subpath's index.
     let kept = subpaths_per_pass(pixels) * size_of::<u32>() as u64
         + kept_vertices_per_pass(pixels) * (size_of::<LightVertex>() + size_of::<u32>()) as u64;
     MemoryNeed {
@@ -162,7 +163,7 @@ pub(super) fn plan_bidirectional(
     world.insert_resource(LightVertexStore::new(LightVertices {
         light_paths: pixels,
         merging,
-        last: vec![u32::MAX; (pixels * units_per_pass(pixels)) as usize],
+        subpaths: pixels * units_per_pass(pixels),
         ..Default::default()
     }));
     let units = units_per_pass(pixels);
@@ -197,7 +198,7 @@ pub(super) fn plan_bidirectional(
         links,
     });
     let camera = Phase::sharded("camera", When::EveryPass, shards)
-        .with_begin((hand_out_samples(1), build_merge_grids).chain());
+        .with_begin((hand_out_samples(1), order_light_vertices, build_merge_grids).chain());
     Ok(Plan {
         phases: vec![light, camera],
         // Units enough for about 2^18 light subpaths a pass; each unit's subpaths have its own

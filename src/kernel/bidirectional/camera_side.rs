@@ -2,7 +2,7 @@
 //! samples (s = 1), each weighted, the vertex it leaves for connections (s, t ≥ 2), and its
 //! continuation.
 
-use super::light_side::LightVertex;
+use super::light_side::{LightVertex, MergeVertex};
 use super::mis::{MisFactors, SubpathMis, positive, to_area, weight};
 use crate::camera::Camera;
 use crate::geometry::Ray;
@@ -303,9 +303,8 @@ pub fn connect_vertices(
 /// to the camera path before the kernel's normalization, weighted (Georgiev et al. 2012's vertex
 /// merging: the light vertex's flux, through the camera vertex's BSDF).
 #[inline]
-pub fn merge_vertices(factors: &MisFactors, c: &CameraVertex, l: &LightVertex) -> Vec3 {
-    let wi_world = l.frame.to_world(l.wo);
-    let wi = c.v.frame.to_local(wi_world);
+pub fn merge_vertices(factors: &MisFactors, c: &CameraVertex, l: &MergeVertex) -> Vec3 {
+    let wi = c.v.frame.to_local(l.wi);
     let f = c.v.bsdf.eval(c.v.wo, wi, TransportMode::Radiance);
     if !positive(f.max_element()) {
         return Vec3::ZERO;

@@ -74,6 +74,31 @@ pub struct LightVertex {
     pub depth: u32,
 }
 
+/// What a merge reads of a kept light vertex (52 bytes of its 128): vcm's grid holds these in its
+/// cells, so a camera vertex tests and merges the candidates of a cell from one contiguous run
+/// instead of fetching each from the vertex table (a cache miss a merge, the larger part of vcm's
+/// connection stage).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct MergeVertex {
+    /// The point.
+    pub p: Vec3,
+    /// Bounces before it.
+    pub depth: u32,
+    /// Towards where the subpath came from, in world space.
+    pub wi: Vec3,
+    /// The subpath's throughput arriving there.
+    pub beta: Vec3,
+    /// Its running sums there.
+    pub mis: SubpathMis,
+}
+
+impl crate::photon::hash_grid::GridPoint for MergeVertex {
+    #[inline]
+    fn position(&self) -> Vec3 {
+        self.p
+    }
+}
+
 /// The BSDF of a kept light vertex: a Lambertian one by its albedo (most surfaces of most scenes),
 /// any other by its place in the pass's table of kept BSDFs.
 #[derive(Clone, Copy, Debug)]
@@ -136,6 +161,18 @@ impl LightVertex {
         match self.bsdf {
             KeptBsdf::Lambert(albedo) => Bsdf::lambert(albedo),
             KeptBsdf::InTable(index) => table[index as usize],
+        }
+    }
+
+    /// What a merge reads of it, for the merging grid to hold in its own cells.
+    #[inline]
+    pub fn merge_vertex(&self) -> MergeVertex {
+        MergeVertex {
+            p: self.p,
+            depth: self.depth,
+            wi: self.frame.to_world(self.wo),
+            beta: self.beta,
+            mis: self.mis,
         }
     }
 
@@ -286,4 +323,4 @@ pub fn camera_connection_weight(
     weight(mis.towards(factors, camera_pdf_a / factors.light_paths, v.bsdf.pdf(wi, v.wo)), 0.0)
 }
 
-const _: () = assert!(size_of::<LightVertex>() == 128);
+const _: () = assert!(size_of::<LightVertex>() == 128 && size_of::<MergeVertex>() == 52);

@@ -18,6 +18,6 @@ mod tests;
 
 pub use camera_side::{CameraVertex, camera_vertex, connect_vertices, merge_vertices};
 pub use light_side::{
-    KeptBsdf, LightOrigin, LightVertex, NewLightVertex, emit_light_subpath, light_subpath_vertex,
+    KeptBsdf, LightOrigin, LightVertex, MergeVertex, NewLightVertex, emit_light_subpath, light_subpath_vertex,
 };
 pub use mis::{MisFactors, SubpathMis};
