@@ -1,38 +1,33 @@
 //! Bidirectional path tracing's own systems (`bdpt`, `vcm`). A pass traces one light subpath per
-//! pixel, keeping their non-delta vertices (`LightVertices`, by subpath index) and connecting each
-//! to the camera; then one camera subpath per pixel, on the vector core's camera paths (a shard's
-//! chunk at a time, `crate::camera_paths`), which at each vertex adds the emission it hit, sends a
-//! light sample to the shadow queue, and connects to every kept vertex of the light subpath with
-//! its pixel's index in its unit (SmallVCM's pairing), the shards reading the pass's light vertices
-//! shared. Tracing, light sampling's shadow rays, the camera splats and handing out work are the
-//! other integrators' systems.
+//! pixel on the vector core (`crate::light_subpaths::bidirectional`), keeping their non-delta
+//! vertices (`LightVertices`, by subpath index) and connecting each to the camera; then one camera
+//! subpath per pixel, on the vector core's camera paths (a shard's chunk at a time,
+//! `crate::camera_paths`), which at each vertex adds the emission it hit, sends a light sample to
+//! the shadow queue, and connects to every kept vertex of the light subpath with its pixel's index
+//! in its unit (SmallVCM's pairing), the shards reading the pass's light vertices shared. Tracing,
+//! light sampling's shadow rays, the camera splats and handing out work are the other integrators'
+//! systems.
 //!
 //! | system | stage | reads | writes |
 //! |---|---|---|---|
-//! | `emit_light_subpaths` | Emit | `SceneResource`, `PhotonWork`, `LightPaths` | `PhotonRay`, `PhotonState`, `LightSubpath` |
-//! | `scatter_light_subpaths` | Scatter | `PhotonHit`, `SceneResource`, `CameraResource`, `PhotonWork`, `LightVertexStore` | `PhotonRay`, `PhotonState`, `LightSubpath`, `CameraSplat` |
-//! | `keep_light_vertices` | Gather, before `store_photons` | `PhotonState` | `LightSubpath`, `LightVertexStore` |
+//! | `begin_light_vertices` | the light phase's begin | | `LightVertexStore` (emptied) |
+//! | light subpaths (shards) | `crate::light_subpaths::bidirectional` | | `LightVertexStore` (each round's kept vertices, folded) |
 //! | `order_light_vertices` | the camera phase's begin | | `LightVertexStore` (each subpath's vertices side by side) |
 //! | `build_merge_grids` (vcm) | the camera phase's begin, after ordering | `PassRange`, `LightPaths` | `LightVertexStore`'s grids |
 //! | `scatter_camera_subpaths` (shards) | Scatter | `PathHit`, `PathSampler`, `PathSample`, `SceneResource`, `CameraResource`, `RenderConfig`, `LightVertexStore` | `PathRay`, `PathThroughput`, `PathShadow`, `CameraSubpathSums`, `ConnectionVertex`, the queues |
 //! | `connect_to_light_vertices` (shards) | Shadow, after `trace_shadow_rays` | `PathRay`, `PathSample`, `LightVertexStore`, `SceneResource`, `RenderConfig` | `PathThroughput`, `ConnectionVertex` |
 
 use super::camera_paths::{PathQueues, PathSample, PathSampler, PathShadow, PathThroughput};
-use super::components::{
-    CameraSplat, LightSubpath, PathAov, PathHit, PathRay, PathStatus, PhotonHit, PhotonRay, PhotonState,
-};
+use super::components::{PathAov, PathHit, PathRay};
 use super::light_paths::LightPaths;
-use super::resources::{
-    CameraResource, PassRange, PhotonWork, RenderConfig, RenderStats, SceneResource, wavefront_batching,
-};
+use super::resources::{CameraResource, PassRange, RenderConfig, RenderStats, SceneResource};
 use bevy_ecs::prelude::*;
 use caustica_core::kernel::Quantity;
 use caustica_core::kernel::bidirectional::camera_side::CameraStep;
 use caustica_core::kernel::bidirectional::{
     CameraVertex, LightVertex, MergeVertex, MisFactors, SubpathMis, camera_vertex, connect_vertices,
-    emit_light_subpath, light_subpath_vertex, merge_vertices,
+    merge_vertices,
 };
-use caustica_core::kernel::photon::photon_time;
 use caustica_core::materials::Bsdf;
 use caustica_core::photon::hash_grid::HashGrid;
 use glam::Vec3;
@@ -90,7 +85,18 @@ impl RadiusSequence {
     }
 }
 
-impl LightVertices {
+/// What the weights' factors of a unit follow from: the subpaths a unit, and vcm's radii. The
+/// light subpaths' shards read this, not the pass's table (which the main World writes between
+/// their rounds).
+#[derive(Resource, Clone, Copy, Debug, Default)]
+pub struct SubpathWeights {
+    /// Light subpaths a unit (the pixels).
+    pub light_paths: u32,
+    /// vcm's merging radius sequence; none for bdpt.
+    pub merging: Option<RadiusSequence>,
+}
+
+impl SubpathWeights {
     /// The weights' factors of unit `unit`.
     #[inline]
     pub fn factors(&self, unit: u32) -> MisFactors {
@@ -98,6 +104,20 @@ impl LightVertices {
             Some(radii) => MisFactors::merging(self.light_paths, radii.radius(unit)),
             None => MisFactors::connections_only(self.light_paths),
         }
+    }
+}
+
+impl LightVertices {
+    /// What the weights' factors follow from.
+    #[inline]
+    pub fn weights(&self) -> SubpathWeights {
+        SubpathWeights { light_paths: self.light_paths, merging: self.merging }
+    }
+
+    /// The weights' factors of unit `unit`.
+    #[inline]
+    pub fn factors(&self, unit: u32) -> MisFactors {
+        self.weights().factors(unit)
     }
 
     /// The kept vertices of subpath `index` of this pass, first first (once ordered).
@@ -187,99 +207,6 @@ pub fn begin_light_vertices(mut store: ResMut<LightVertexStore>) {
 /// between the light phase that keeps them and the camera phase that reads them.
 pub fn order_light_vertices(mut store: ResMut<LightVertexStore>) {
     store.tables_mut().order_by_subpath();
-}
-
-/// Start a light subpath wherever an entity needs one, with its unit's own numbers.
-pub fn emit_light_subpaths(
-    scene: Res<SceneResource>,
-    work: Res<PhotonWork>,
-    light_paths: Res<LightPaths>,
-    mut paths: Query<(&mut PhotonRay, &mut PhotonState, &mut LightSubpath)>,
-) {
-    paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each(
-        |(mut ray, mut state, mut subpath)| {
-            if state.status != PathStatus::NeedsStart {
-                return;
-            }
-            let sampler = light_paths.sampler(&work, state.index, false);
-            let time = photon_time(work.time, work.motion, &sampler);
-            match emit_light_subpath(&scene, &sampler, time) {
-                Some((first, path, origin)) => {
-                    ray.0 = first;
-                    state.path = path;
-                    subpath.origin = origin;
-                    state.status = PathStatus::Active;
-                }
-                None => state.status = PathStatus::Finished,
-            }
-        },
-    );
-}
-
-/// Weigh every active light subpath's vertex, keep it, connect it to the camera, and continue the
-/// subpath or end it.
-#[allow(clippy::type_complexity)]
-pub fn scatter_light_subpaths(
-    scene: Res<SceneResource>,
-    camera: Res<CameraResource>,
-    work: Res<PhotonWork>,
-    light_paths: Res<LightPaths>,
-    store: Res<LightVertexStore>,
-    mut paths: Query<(&PhotonHit, &mut PhotonRay, &mut PhotonState, &mut CameraSplat, &mut LightSubpath)>,
-) {
-    paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each(
-        |(hit, mut ray, mut state, mut splat, mut subpath)| {
-            if state.status != PathStatus::Active {
-                return;
-            }
-            let factors = store.factors(work.pass + state.index / light_paths.per_unit);
-            state.bounces += 1;
-            let sampler = light_paths.sampler(&work, state.index, false);
-            let u_lens = light_paths.lens_sample(&work, &camera, state.index, state.path.depth);
-            let subpath = &mut *subpath;
-            let step = light_subpath_vertex(
-                &scene,
-                &camera,
-                &factors,
-                &work.settings,
-                &subpath.origin,
-                &mut subpath.mis,
-                &mut state.path,
-                &ray.0,
-                &hit.0,
-                &sampler,
-                u_lens,
-                &mut subpath.kept,
-            );
-            splat.0 = step.connection;
-            state.roulette_kills += step.roulette_kill as u32;
-            match step.next {
-                Some(next) => ray.0 = next,
-                None => state.status = PathStatus::Finished,
-            }
-        },
-    );
-}
-
-/// Append this bounce's kept vertices to the pass's table, each with its subpath's index.
-pub fn keep_light_vertices(
-    mut store: ResMut<LightVertexStore>,
-    mut paths: Query<(&PhotonState, &mut LightSubpath)>,
-) {
-    let store = store.tables_mut();
-    for (state, mut subpath) in &mut paths {
-        // Only a subpath that moved this step has kept anything: the others' 370-byte components
-        // stay unread (the tail of a pass has few subpaths left among 65 536 entities).
-        if !matches!(state.status, PathStatus::Active | PathStatus::Finished) {
-            continue;
-        }
-        if let Some(vertex) = subpath.kept.take() {
-            store.owners.push(state.index);
-            let vertex = vertex.keep(&mut store.bsdfs);
-            store.vertices.push(vertex);
-            store.kept += 1;
-        }
-    }
 }
 
 /// A camera subpath's running MIS sums at its last vertex (on the vector core's camera paths).

@@ -153,10 +153,6 @@ pub struct PhotonState {
 #[derive(Component, Clone, Copy, Debug, Default)]
 pub struct PhotonDeposit(pub Option<caustica_core::photon::Photon>);
 
-/// A light subpath's vertex connected to the camera (`lt`), waiting for its segment to be traced.
-#[derive(Component, Clone, Copy, Debug, Default)]
-pub struct CameraSplat(pub Option<caustica_core::kernel::light_path::CameraConnection>);
-
 /// A measurement point of progressive photon mapping: where a camera path first met a non-specular
 /// surface, and the photon statistics gathered there (Hachisuka, Ogaki & Jensen 2008, §4).
 ///
@@ -236,15 +232,3 @@ pub struct Chi2Cells {
 /// Per-hit-point estimates behind `appm`'s radius (Kaplanyan & Dachsbacher 2013).
 #[derive(Component, Clone, Copy, Debug, Default)]
 pub struct AdaptiveStats(pub AdaptiveStatistics);
-
-/// A light subpath of `bdpt`: where it started, its running MIS sums, and the vertex it kept this
-/// bounce (for `keep_light_vertices`).
-#[derive(Component, Clone, Copy, Debug, Default)]
-pub struct LightSubpath {
-    /// Its light and the densities of its start.
-    pub origin: caustica_core::kernel::bidirectional::LightOrigin,
-    /// The running sums of its last vertex.
-    pub mis: caustica_core::kernel::bidirectional::SubpathMis,
-    /// This bounce's vertex, if it keeps one.
-    pub kept: Option<caustica_core::kernel::bidirectional::NewLightVertex>,
-}

@@ -1,15 +1,8 @@
 //! Light-path code shared by `lt`, `bdpt` and `vcm`: the subpaths' random numbers and counters
-//! ([`LightPaths`]) and the splat of a connection to the camera ([`splat_connection`]). `lt`'s
-//! light subpaths run on shards (`crate::light_subpaths`), its camera rays too
-//! (`crate::camera_paths::scatter_to_seen_emission`); `bdpt` and `vcm`, still on the whole-World
-//! wavefront, splat their light vertices' connections with `splat_camera_connections`.
-//!
-//! | system | reads | writes |
-//! |---|---|---|
-//! | `splat_camera_connections` | `CameraSplat`, `SceneResource`, `CameraResource` | `FilmResource`, `LightPaths` |
+//! ([`LightPaths`]) and the splat of a connection to the camera ([`splat_connection`]). Their light
+//! subpaths run on shards (`crate::light_subpaths`), their camera paths too (`crate::camera_paths`).
 
-use super::components::CameraSplat;
-use super::resources::{CameraResource, FilmResource, PhotonWork, SceneResource, wavefront_batching};
+use super::resources::PhotonWork;
 use bevy_ecs::prelude::*;
 use caustica_core::camera::{Camera, filter_radius, filter_weight};
 use caustica_core::film::{Film, fixed};
@@ -70,29 +63,6 @@ impl LightPaths {
         let stream = if lens { LENS_STREAM } else { work.settings.kind as u32 };
         photon_sampler(work.sampler, work.seed, unit, stream, index % self.per_unit)
     }
-}
-
-/// Trace every pending connection to the camera; a free one adds what it carries to the pixels
-/// whose filter reaches where it lands, each its share (integer sums: the same bits in any order).
-pub fn splat_camera_connections(
-    scene: Res<SceneResource>,
-    camera: Res<CameraResource>,
-    film: Res<FilmResource>,
-    stats: Res<LightPaths>,
-    mut splats: Query<&mut CameraSplat>,
-) {
-    splats.par_iter_mut().batching_strategy(wavefront_batching()).for_each(|mut splat| {
-        let Some(connection) = splat.0.take() else { return };
-        stats.connections.fetch_add(1, Ordering::Relaxed);
-        if scene.geometry.occluded(&connection.shadow) {
-            return;
-        }
-        stats.splatted.fetch_add(1, Ordering::Relaxed);
-        let dropped = splat_connection(&camera, &film, &connection);
-        if dropped > 0 {
-            stats.dropped.fetch_add(dropped, Ordering::Relaxed);
-        }
-    });
 }
 
 /// Add what a free connection carries to the pixels whose filter reaches where it lands, each its

@@ -19,7 +19,7 @@
 //!
 //! | phase | stages |
 //! |---|---|
-//! | photons (the light subpaths) | `emit_light_subpaths` → `trace_photons` → `scatter_light_subpaths` → `splat_camera_connections` → `keep_light_vertices`, `store_photons` |
+//! | photons (the light subpaths, sharded: a chunk a worker) | `emit_bidirectional_subpaths` → `trace_subpaths` → `scatter_bidirectional_subpaths` → `splat_connections` |
 //! | camera (sharded: a chunk of camera subpaths a worker) | `emit_paths_for` → `trace_paths` → `scatter_camera_subpaths` → `trace_shadow_rays` → `connect_to_light_vertices` → `splat_paths` |
 //!
 //! A pass is a few units (about 2^18 light subpaths): the light subpaths first (their vertices kept by index, their camera
@@ -30,26 +30,23 @@
 //! state: `--part` and checkpoints work as for `pt`.
 
 use super::descriptor::{Integrator, LightSampling, MemoryNeed, no_checks, one_sample_per_unit};
-use super::{configure_stages, film_image, photons_busy, stage_order};
+use super::{configure_stages, film_image, stage_order};
 use crate::PassSystems;
 use crate::bidirectional::{
     CameraSubpathSums, ConnectionVertex, LightVertexStore, LightVertices, RadiusSequence,
     add_camera_subpath_columns, begin_light_vertices, build_merge_grids, connect_to_light_vertices,
-    emit_light_subpaths, keep_light_vertices, order_light_vertices, scatter_camera_subpaths,
-    scatter_light_subpaths,
+    order_light_vertices, scatter_camera_subpaths,
 };
 use crate::camera_paths::{
     PathExtras, emit_paths_for, spawn_chunk, splat_paths, trace_paths, trace_shadow_rays,
 };
-use crate::components::{CameraSplat, LightSubpath, PathStatus, PhotonHit, PhotonRay, PhotonState};
-use crate::gather::store_photons;
-use crate::light_paths::{LightPaths, splat_camera_connections};
-use crate::passes::{begin_photon_pass, hand_out_samples};
-use crate::plan::{Phase, Plan, Repeat, Unit, When};
+use crate::light_paths::LightPaths;
+use crate::light_subpaths::{self, SubpathHandout, bidirectional as subpaths};
+use crate::passes::hand_out_samples;
+use crate::plan::{Phase, Plan, Unit, When};
 use crate::report::Report;
 use crate::resources::{FilmResource, SceneFeatures};
 use crate::shards::{ShardLink, ShardPlan, Shards};
-use crate::trace::trace_photons;
 use bevy_ecs::prelude::*;
 use caustica_core::choice::Choice;
 use caustica_core::error::Result;
@@ -58,14 +55,10 @@ use caustica_core::scene::schedule::Stage;
 use caustica_core::scene::{IntegratorKind, LightSelection, RunFile};
 use std::sync::atomic::Ordering;
 
-/// Light subpaths a pass aims at: a pass's steps each cost a walk over every entity, so small
-/// images group units (256²: four), within what the kept vertices' table may hold.
+/// Light subpaths a pass aims at: small images group units (256²: four) to amortise a pass's
+/// fixed cost (ordering the table, building the grids, the shards' rounds), within what the kept
+/// vertices' table may hold.
 const SUBPATHS_PER_PASS: u32 = 1 << 18;
-
-/// Light subpaths in flight at once: a quarter of the other wavefronts' 2^18, because a light
-/// subpath's entity is large (it carries the vertex it keeps, 600 bytes); at 1200² the full 2^18
-/// of them and of the camera subpaths, then in the same wavefront, held 300 MiB.
-pub(super) const WAVEFRONT: u32 = 1 << 16;
 
 /// Units a pass of a `pixels`-pixel image groups.
 fn units_per_pass(pixels: u32) -> u32 {
@@ -103,15 +96,9 @@ fn memory(_: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
         * (super::memory::entity_bytes(&[size_of::<CameraSubpathSums>(), size_of::<ConnectionVertex>()])
             - super::memory::entity_bytes(&[])
             + size_of::<u32>() as u64);
-    let wavefront = pixels.min(WAVEFRONT as u64);
-    let subpaths = wavefront
-        * super::memory::entity_bytes(&[
-            size_of::<PhotonRay>(),
-            size_of::<PhotonHit>(),
-            size_of::<PhotonState>(),
-            size_of::<CameraSplat>(),
-            size_of::<LightSubpath>(),
-        ]);
+    // A chunk of light subpaths a worker: lt's columns, two of their own, the queues, and what a
+    // round keeps before it is folded (about four vertices a row).
+    let subpaths = rows * light_subpath_row_bytes();
     // Where each subpath's vertices start, and each kept vertex with its subpath's index.
     let kept = subpaths_per_pass(pixels) * size_of::<u32>() as u64
         + kept_vertices_per_pass(pixels) * (size_of::<LightVertex>() + size_of::<u32>()) as u64;
@@ -119,6 +106,23 @@ fn memory(_: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
         bytes: paths.bytes + camera + subpaths + kept,
         what: format!("a {pixels}-pixel film, its paths, light subpaths and their kept vertices"),
     }
+}
+
+/// Bytes a row of a light subpaths' chunk costs: its columns, its place in the queues, and the
+/// vertices it keeps in a round before they are folded into the pass's table.
+fn light_subpath_row_bytes() -> u64 {
+    use crate::light_subpaths::{SubpathConnection, SubpathHit, SubpathPower, SubpathRay, SubpathSampler};
+    const QUEUE_BYTES: usize = 3 * size_of::<u32>();
+    const KEPT_IN_A_ROUND: usize = 4 * (size_of::<LightVertex>() + size_of::<u32>());
+    super::memory::entity_bytes(&[
+        size_of::<SubpathRay>(),
+        size_of::<SubpathHit>(),
+        size_of::<SubpathPower>(),
+        size_of::<SubpathSampler>(),
+        size_of::<SubpathConnection>(),
+        size_of::<subpaths::SubpathOrigin>(),
+        size_of::<subpaths::SubpathSums>(),
+    ]) + (QUEUE_BYTES + KEPT_IN_A_ROUND) as u64
 }
 
 /// Light subpaths a pass of a `pixels`-pixel image traces.
@@ -169,20 +173,22 @@ pub(super) fn plan_bidirectional(
     let units = units_per_pass(pixels);
     // The camera subpaths' shards take samples from one lane, as pt's do.
     world.insert_resource(crate::resources::Workload::new(pixels, 0, 0, 1));
-    world.spawn_batch((0..pixels.min(WAVEFRONT)).map(|index| {
-        let state = PhotonState { index, status: PathStatus::Idle, ..Default::default() };
-        (PhotonRay::default(), PhotonHit::default(), state, CameraSplat::default(), LightSubpath::default())
-    }));
-
-    let mut light = Phase::new("photons", When::EveryPass, Repeat::WhileBusy(photons_busy)).with_begin(
-        (super::light_tracing::begin_light_pass(pixels), begin_photon_pass, begin_light_vertices).chain(),
+    world.insert_resource(SubpathHandout::default());
+    let light_shards = Shards::new(ShardPlan {
+        chunk: run.render.chunk,
+        spawn: Box::new(|world, rows, _, _| subpaths::spawn_bidirectional_chunk(world, rows)),
+        in_flight: light_subpaths::in_flight,
+        systems: Box::new(move |schedule| subpaths::add_bidirectional_systems(schedule, order)),
+        links: subpaths::bidirectional_links(),
+    });
+    let light = Phase::sharded("photons", When::EveryPass, light_shards).with_begin(
+        (
+            super::light_tracing::begin_light_pass(pixels),
+            begin_light_vertices,
+            light_subpaths::begin_subpaths,
+        )
+            .chain(),
     );
-    configure_stages(&mut light.schedule, order);
-    light.schedule.add_systems(emit_light_subpaths.in_set(PassSystems::Emit));
-    light.schedule.add_systems(trace_photons.in_set(PassSystems::Trace));
-    light.schedule.add_systems(scatter_light_subpaths.in_set(PassSystems::Scatter));
-    light.schedule.add_systems(splat_camera_connections.in_set(PassSystems::Shadow));
-    light.schedule.add_systems((keep_light_vertices, store_photons).chain().in_set(PassSystems::Gather));
     let extras =
         PathExtras { aov: world.contains_resource::<crate::resources::AovFilmResource>(), learning: false };
     let mut links = super::path::camera_path_links();

@@ -32,6 +32,7 @@
 //! | `Scatter` | `scatter_subpaths` |
 //! | `Shadow` | `splat_connections` |
 
+pub mod bidirectional;
 mod emit;
 mod scatter;
 mod splat;

@@ -1,0 +1,252 @@
+//! bdpt's and vcm's light subpaths on the vector core: `lt`'s columns, queues and stages (a shard's
+//! chunk of subpaths at a time), with two columns of their own and the vertices they keep for the
+//! camera subpaths.
+//!
+//! | component | bytes | written by | read by |
+//! |---|---|---|---|
+//! | `SubpathRay`, `SubpathHit`, `SubpathPower`, `SubpathSampler`, `SubpathConnection` | 160 | as `lt`'s | as `lt`'s |
+//! | `SubpathOrigin` (its light and the densities of its start) | 40 | emit | scatter |
+//! | `SubpathSums` (the running MIS sums of its last vertex) | 12 | scatter | scatter |
+//!
+//! | stage | system |
+//! |---|---|
+//! | `Emit` | `emit_bidirectional_subpaths` |
+//! | `Trace` | `trace_subpaths` |
+//! | `Scatter` | `scatter_bidirectional_subpaths` |
+//! | `Shadow` | `splat_connections` |
+//!
+//! Scatter appends each non-delta vertex, with its subpath's index, to the shard's
+//! [`ShardLightVertices`]; after every round they are folded into the pass's table
+//! (`LightVertexStore`), whose order the camera phase makes canonical (subpath by subpath,
+//! `order_light_vertices`): the same table, hence the same bits, whichever shard kept what.
+
+use super::{
+    SubpathConnection, SubpathCounts, SubpathHandout, SubpathHit, SubpathPower, SubpathQueues, SubpathRay,
+    SubpathSampler,
+};
+use crate::bidirectional::{LightVertexStore, SubpathWeights};
+use crate::light_paths::LightPaths;
+use crate::resources::{CameraResource, PhotonWork, SceneResource};
+use crate::shards::ShardLink;
+use bevy_ecs::prelude::*;
+use caustica_core::kernel::bidirectional::{
+    KeptBsdf, LightOrigin, LightVertex, SubpathMis, emit_light_subpath, light_subpath_vertex,
+};
+use caustica_core::kernel::photon::photon_time;
+use caustica_core::materials::Bsdf;
+
+/// Where a subpath started: its light and the densities of its start.
+#[derive(Component, Clone, Copy, Debug, Default)]
+pub struct SubpathOrigin(pub LightOrigin);
+
+/// The running MIS sums of a subpath's last vertex.
+#[derive(Component, Clone, Copy, Debug, Default)]
+pub struct SubpathSums(pub SubpathMis);
+
+// The layout table above, held to the code.
+const _: () = assert!(size_of::<SubpathOrigin>() == 40 && size_of::<SubpathSums>() == 12);
+
+/// The vertices a shard's subpaths kept in a round, each with its subpath's index, and the BSDFs of
+/// those that are not Lambertian (by their index here until folded).
+#[derive(Resource, Debug, Default)]
+pub struct ShardLightVertices {
+    /// The vertices, in the order kept.
+    pub vertices: Vec<LightVertex>,
+    /// Their BSDFs that are not Lambertian.
+    pub bsdfs: Vec<Bsdf>,
+    /// Each vertex's subpath, by its index in the pass.
+    pub owners: Vec<u32>,
+}
+
+/// What emit writes.
+type EmitColumns = (
+    &'static mut SubpathRay,
+    &'static mut SubpathPower,
+    &'static mut SubpathSampler,
+    &'static mut SubpathOrigin,
+);
+
+/// Take the pass's next subpath indices for the free rows and start their subpaths on the lights,
+/// each with its unit's own numbers. A subpath whose light sample fails leaves its row free for the
+/// next index (it keeps nothing and connects nothing, as before it had a row).
+pub fn emit_bidirectional_subpaths(
+    scene: Res<SceneResource>,
+    work: Res<PhotonWork>,
+    light_paths: Res<LightPaths>,
+    handout: Res<SubpathHandout>,
+    mut queues: ResMut<SubpathQueues>,
+    mut subpaths: Query<EmitColumns>,
+) {
+    if queues.free.is_empty() || !handout.has_more() {
+        return;
+    }
+    let Ok(mut tables) = subpaths.contiguous_iter_mut() else { return };
+    let Some((mut rays, mut powers, mut samplers, mut origins)) = tables.next() else { return };
+    let (rays, powers, samplers, origins) = (
+        rays.bypass_change_detection(),
+        powers.bypass_change_detection(),
+        samplers.bypass_change_detection(),
+        origins.bypass_change_detection(),
+    );
+    let queues = &mut *queues;
+    loop {
+        let indices = handout.take(queues.free.len() as u32);
+        if indices.is_empty() {
+            break;
+        }
+        for index in indices {
+            let row = *queues.free.last().expect("no more indices than free rows");
+            let i = row as usize;
+            let sampler = light_paths.sampler(&work, index, false);
+            let time = photon_time(work.time, work.motion, &sampler);
+            if let Some((first, path, origin)) = emit_light_subpath(&scene, &sampler, time) {
+                rays[i].0 = first;
+                powers[i].0 = path;
+                origins[i].0 = origin;
+                samplers[i] = SubpathSampler { sampler, index };
+                queues.free.pop();
+                queues.active.push(row);
+            }
+        }
+        if queues.free.is_empty() {
+            break;
+        }
+    }
+}
+
+/// What scatter reads and writes.
+type ScatterColumns = (
+    &'static SubpathHit,
+    &'static SubpathSampler,
+    &'static SubpathOrigin,
+    &'static mut SubpathRay,
+    &'static mut SubpathPower,
+    &'static mut SubpathSums,
+    &'static mut SubpathConnection,
+);
+
+/// Weigh every active subpath's vertex, keep it (if it is not a delta one), connect it to the
+/// camera (queueing the connection), then continue the subpath (active) or end it (its row is
+/// free again).
+#[allow(clippy::too_many_arguments)]
+pub fn scatter_bidirectional_subpaths(
+    scene: Res<SceneResource>,
+    camera: Res<CameraResource>,
+    (work, weights, light_paths): (Res<PhotonWork>, Res<SubpathWeights>, Res<LightPaths>),
+    mut kept: ResMut<ShardLightVertices>,
+    mut counts: ResMut<SubpathCounts>,
+    mut queues: ResMut<SubpathQueues>,
+    mut subpaths: Query<ScatterColumns>,
+) {
+    if queues.active.is_empty() {
+        return;
+    }
+    let Ok(mut tables) = subpaths.contiguous_iter_mut() else { return };
+    let Some((hits, samplers, origins, mut rays, mut powers, mut sums, mut connections)) = tables.next()
+    else {
+        return;
+    };
+    let (rays, powers, sums, connections) = (
+        rays.bypass_change_detection(),
+        powers.bypass_change_detection(),
+        sums.bypass_change_detection(),
+        connections.bypass_change_detection(),
+    );
+    let (queues, kept) = (&mut *queues, &mut *kept);
+    let mut next = std::mem::take(&mut queues.next);
+    let mut active = std::mem::take(&mut queues.active);
+    let mut roulette_kills = 0;
+    let mut vertex = None;
+    for &row in &active {
+        let i = row as usize;
+        let SubpathSampler { sampler, index } = samplers[i];
+        let factors = weights.factors(work.pass + index / light_paths.per_unit);
+        let path = &mut powers[i].0;
+        let u_lens = light_paths.lens_sample(&work, &camera, index, path.depth);
+        let step = light_subpath_vertex(
+            &scene,
+            &camera,
+            &factors,
+            &work.settings,
+            &origins[i].0,
+            &mut sums[i].0,
+            path,
+            &rays[i].0,
+            &hits[i].0,
+            &sampler,
+            u_lens,
+            &mut vertex,
+        );
+        if let Some(new) = vertex.take() {
+            kept.owners.push(index);
+            kept.vertices.push(new.keep(&mut kept.bsdfs));
+        }
+        if let Some(connection) = step.connection {
+            connections[i].0 = connection;
+            queues.connections.push(row);
+        }
+        roulette_kills += step.roulette_kill as u64;
+        match step.next {
+            Some(ray) => {
+                rays[i].0 = ray;
+                next.push(row);
+            }
+            None => queues.free.push(row),
+        }
+    }
+    counts.traced += active.len() as u64;
+    counts.roulette_kills += roulette_kills;
+    active.clear();
+    queues.active = next;
+    queues.next = active;
+}
+
+/// Spawn `rows` light subpaths of bdpt or vcm into a shard's World: `lt`'s chunk and two columns.
+pub fn spawn_bidirectional_chunk(world: &mut World, rows: u32) {
+    super::spawn_chunk(world, rows);
+    let entities: Vec<Entity> = world.query_filtered::<Entity, With<SubpathRay>>().iter(world).collect();
+    for entity in entities {
+        world.entity_mut(entity).insert((SubpathOrigin::default(), SubpathSums::default()));
+    }
+    world.insert_resource(ShardLightVertices::default());
+}
+
+/// `lt`'s links, the weights' factors, and the fold of each round's kept vertices into the pass's
+/// table (its BSDF indices moved past the table's).
+pub fn bidirectional_links() -> Vec<ShardLink> {
+    let mut links = super::links();
+    links.push(ShardLink::custom(
+        |main, shard| shard.insert_resource(main.resource::<LightVertexStore>().weights()),
+        |shard, main| {
+            shard.remove_resource::<SubpathWeights>();
+            let mut own = shard.resource_mut::<ShardLightVertices>();
+            if own.vertices.is_empty() {
+                return;
+            }
+            let mut store = main.resource_mut::<LightVertexStore>();
+            let store = store.tables_mut();
+            let moved = store.bsdfs.len() as u32;
+            store.kept += own.vertices.len() as u64;
+            store.vertices.extend(own.vertices.drain(..).map(|mut vertex| {
+                if let KeptBsdf::InTable(at) = &mut vertex.bsdf {
+                    *at += moved;
+                }
+                vertex
+            }));
+            store.bsdfs.append(&mut own.bsdfs);
+            store.owners.append(&mut own.owners);
+        },
+    ));
+    links
+}
+
+/// Add one bounce of bdpt's or vcm's light subpaths over a chunk to `schedule` (a shard's): the
+/// stages in `order` (a rotation of the cycle).
+pub fn add_bidirectional_systems(schedule: &mut Schedule, order: [caustica_core::scene::schedule::Stage; 5]) {
+    use crate::PassSystems;
+    crate::integrators::configure_stages(schedule, order);
+    schedule.add_systems(emit_bidirectional_subpaths.in_set(PassSystems::Emit));
+    schedule.add_systems(super::trace_subpaths.in_set(PassSystems::Trace));
+    schedule.add_systems(scatter_bidirectional_subpaths.in_set(PassSystems::Scatter));
+    schedule.add_systems(super::splat_connections.in_set(PassSystems::Shadow));
+}
