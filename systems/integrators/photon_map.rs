@@ -16,13 +16,13 @@
 //! for what it has: no caustic pass without specular surfaces.
 
 use super::descriptor::{Integrator, LightSampling, MemoryNeed, Setting};
-use super::{
-    add_photon_systems, configure_stages, film_image, paths_busy, photons_busy, spawn_photons, stage_order,
-};
+use super::{configure_stages, film_image, paths_busy, stage_order};
 use crate::PassSystems;
 use crate::emit::emit_camera_paths_for;
 use crate::gather::splat_paths_to_film;
-use crate::passes::{begin_photon_map, begin_photon_pass, finish_photon_map, hand_out_samples};
+use crate::light_subpaths::SubpathHandout;
+use crate::light_subpaths::photons::{PhotonTrail, begin_photon_subpaths, order_photon_deposits, photon_shards};
+use crate::passes::{begin_photon_map, finish_photon_map, hand_out_samples};
 use crate::plan::{Phase, Plan, Repeat, Unit, When};
 use crate::report::Report;
 use crate::resources::{
@@ -131,15 +131,16 @@ fn plan(this: &Integrator, world: &mut World, run: &RunFile, features: SceneFeat
     world.insert_resource(PhotonWork::new(PhotonMapKind::Global, 0, &config, features.motion));
     world.insert_resource(PhotonBuffer::default());
     world.insert_resource(PhotonStats::default());
-    spawn_photons(world, maps.iter().map(|&(_, count)| count.min(MAX_WAVEFRONT)).max().unwrap_or(0));
+    world.insert_resource(PhotonTrail::default());
+    world.insert_resource(SubpathHandout::default());
 
     let mut phases = Vec::new();
     for (kind, count) in maps {
-        let mut photons = Phase::new("photons", When::FirstPassOfProcess, Repeat::WhileBusy(photons_busy))
-            .with_begin((begin_photon_map(kind, count), begin_photon_pass).chain())
-            .with_end(finish_photon_map(kind))
+        let shards = photon_shards(run.render.chunk, order);
+        let photons = Phase::sharded("photons", When::FirstPassOfProcess, shards)
+            .with_begin((begin_photon_map(kind, count), begin_photon_subpaths).chain())
+            .with_end((order_photon_deposits, finish_photon_map(kind)).chain())
             .dropped_on_stop();
-        add_photon_systems(&mut photons.schedule, order);
         phases.push(photons);
     }
     let mut bounce = Phase::new("bounce", When::EveryPass, Repeat::WhileBusy(paths_busy))

@@ -15,7 +15,7 @@
 //! | `memory_budget_mib` | u64 | half the RAM | hit points + photons may not exceed it |
 
 use super::descriptor::{Integrator, LightSampling, MemoryNeed, PlanFn, Setting};
-use super::{add_photon_systems, configure_stages, paths_busy, photons_busy, spawn_photons, stage_order};
+use super::{configure_stages, paths_busy, stage_order};
 use crate::PassSystems;
 use crate::components::{
     AdaptiveStats, Chi2Cells, HitPoint, PathHit, PathRay, PathState, PathStatus, PhotonDeposit, PhotonHit,
@@ -23,7 +23,9 @@ use crate::components::{
 };
 use crate::emit::emit_camera_paths_for;
 use crate::gather::splat_paths_to_film;
-use crate::passes::{begin_camera_pass, begin_photon_pass, begin_progressive_pass, cap_initial_radius};
+use crate::light_subpaths::SubpathHandout;
+use crate::light_subpaths::photons::{PhotonTrail, begin_photon_subpaths, order_photon_deposits, photon_shards};
+use crate::passes::{begin_camera_pass, begin_progressive_pass, cap_initial_radius};
 use crate::plan::{Phase, Plan, Repeat, Unit, When};
 use crate::report::{HitPointSummary, Report};
 use crate::resources::{
@@ -172,7 +174,8 @@ pub fn plan(
     world.insert_resource(PhotonBuffer::default());
     world.insert_resource(PhotonStats::default());
     world.insert_resource(PassPhotons::default());
-    spawn_photons(world, settings.photons_per_pass.min(MAX_WAVEFRONT));
+    world.insert_resource(PhotonTrail::default());
+    world.insert_resource(SubpathHandout::default());
 
     let mut phases = vec![Phase::once("pass", When::EveryPass, begin_progressive_pass(features.motion))];
     for group in run.schedule.pass_order().unwrap_or([Pass::Camera, Pass::Photons, Pass::Statistics]) {
@@ -185,9 +188,10 @@ pub fn plan(
                 phases.push(camera);
             }
             Pass::Photons => {
-                let mut photons = Phase::new("photons", When::EveryPass, Repeat::WhileBusy(photons_busy))
-                    .with_begin(begin_photon_pass);
-                add_photon_systems(&mut photons.schedule, order);
+                let shards = photon_shards(run.render.chunk, order);
+                let photons = Phase::sharded("photons", When::EveryPass, shards)
+                    .with_begin(begin_photon_subpaths)
+                    .with_end(order_photon_deposits);
                 phases.push(photons);
             }
             Pass::Statistics => {

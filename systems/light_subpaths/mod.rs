@@ -33,6 +33,7 @@
 //! | `Shadow` | `splat_connections` |
 
 mod emit;
+pub mod photons;
 mod scatter;
 mod splat;
 mod trace;
