@@ -147,12 +147,6 @@ pub struct PhotonState {
     pub roulette_kills: u32,
 }
 
-/// A photon left at this bounce's hit, waiting for `store_photons`: only on the photon maps'
-/// photons. The light subpaths of bdpt and vcm ride `PhotonState` too, but leave vertices, not
-/// photons, so they do not carry it.
-#[derive(Component, Clone, Copy, Debug, Default)]
-pub struct PhotonDeposit(pub Option<caustica_core::photon::Photon>);
-
 /// A light subpath's vertex connected to the camera (`lt`), waiting for its segment to be traced.
 #[derive(Component, Clone, Copy, Debug, Default)]
 pub struct CameraSplat(pub Option<caustica_core::kernel::light_path::CameraConnection>);

@@ -1,22 +1,23 @@
-//! Gather: splat finished camera paths onto the film and hand their entity the next work item; store
-//! photon deposits; gather each progressive pass's photons into the hit points; learn light
-//! visibility from shadow rays.
+//! Gather: splat finished camera paths onto the film and hand their entity the next work item; hand
+//! `bdpt`'s and `vcm`'s light subpaths their next subpath; gather each progressive pass's photons
+//! into the hit points; learn light visibility from shadow rays.
 //!
 //! | system | reads | writes |
 //! |---|---|---|
 //! | `splat_paths_to_film` | finished `PathState`s and their `PathAov`s, `PassRange` | `FilmResource`, `AovFilmResource`, `RenderStats`, `Workload`, `PathState` (next pixel and sample) |
-//! | `store_photons` | `PhotonState`, `PhotonDeposit` | `PhotonBuffer`, `PhotonStats`, `PhotonWork` (next photon) |
+//! | `store_photons` (`bdpt`, `vcm`) | `PhotonState` | `PhotonStats`, `PhotonWork` (next light subpath) |
 //! | `learn_light_visibility` | fresh `ShadowRay`s | `SceneResource` (the visibility grid) |
-//! | `build_pass_photon_map` | `PhotonBuffer` | `PassPhotons` |
+//! | `build_pass_photon_map` | `PhotonBuffer` (ordered by `order_photon_deposits`) | `PassPhotons` |
 //! | `gather_photons_into_hit_points` (`_into_chi2_cells`, `_with_laplacian`) | `PassPhotons` | `HitPoint::m`, `phi` (`Chi2Cells`, `AdaptiveStats`) |
 //!
 //! The splat runs on every thread: the film's sums are fixed point, so their bits do not depend on
-//! the order samples arrive in; nor do the learned grid's, which are integer counts. The photon store
-//! runs on one thread on purpose: visiting entities in order makes the photon maps bit-identical
-//! whatever the thread count. It does no more than an append per finished photon.
+//! the order samples arrive in; nor do the learned grid's, which are integer counts. The light
+//! subpaths' hand-out runs on one thread on purpose: visiting entities in order gives each the same
+//! subpath whatever the thread count. The photon maps' deposits are ordered on the vector core
+//! (`order_photon_deposits`), so their kd-trees are the same bits whatever the thread count.
 
 use super::components::{
-    AdaptiveStats, Chi2Cells, HitPoint, PathAov, PathState, PathStatus, PhotonDeposit, PhotonState, ShadowRay,
+    AdaptiveStats, Chi2Cells, HitPoint, PathAov, PathState, PathStatus, PhotonState, ShadowRay,
 };
 use super::resources::{
     AdaptiveSampling, AovFilmResource, BadSample, FilmResource, PassPhotons, PassRange, PhotonBuffer,
@@ -176,20 +177,17 @@ fn finished(status: PathStatus, active: &mut u32) -> bool {
     }
 }
 
-/// Append this bounce's deposits to the photon buffer and hand finished entities their next photon.
+/// Count the light subpaths of `bdpt` and `vcm` that ended this bounce and hand their entities the
+/// pass's next subpaths, in entity order. (The photon maps' photons run on the vector core and store
+/// their deposits there: `light_subpaths::photons`.)
 pub fn store_photons(
     mut work: ResMut<PhotonWork>,
-    mut buffer: ResMut<PhotonBuffer>,
     mut stats: ResMut<PhotonStats>,
-    mut photons: Query<(&mut PhotonState, Option<&mut PhotonDeposit>)>,
+    mut photons: Query<&mut PhotonState>,
 ) {
     let mut active = 0;
-    for (mut state, deposit) in &mut photons {
+    for mut state in &mut photons {
         let state = &mut *state;
-        if let Some(photon) = deposit.and_then(|mut d| d.0.take()) {
-            buffer.photons.push(photon);
-            stats.stored += 1;
-        }
         if !finished(state.status, &mut active) {
             continue;
         }

@@ -10,8 +10,11 @@
 //! | `begin_progressive_pass` | each progressive pass | `PassRange` | `RenderConfig::pass_time`, `PhotonWork`, `ProgressiveConfig::pass` |
 //! | `begin_camera_pass` | each camera pass | `PassRange`, `ProgressiveConfig` | `PathState` (sample, status) |
 //! | `cap_initial_radius` | after the first camera pass | `CameraResource`, `HitPoint` | `ProgressiveConfig::r0`, `HitPoint::r2` |
-//! | `begin_photon_pass` | each photon pass | `PhotonWork` | `PhotonState`, `PhotonStats` |
+//! | `begin_photon_pass` | each light-subpath pass of `bdpt`, `vcm` | `PhotonWork` | `PhotonState`, `PhotonStats` |
 //! | `begin_photon_map` / `finish_photon_map` | `pm`'s first pass, per map | `PhotonBuffer` | `PhotonWork`, `PhotonMaps` |
+//!
+//! A photon pass of `pm` or a progressive mapper begins and ends on the vector core
+//! (`light_subpaths::photons`: `begin_photon_subpaths`, `order_photon_deposits`).
 
 use crate::components::{HitPoint, PathState, PathStatus, PhotonState};
 use crate::resources::{
@@ -144,12 +147,13 @@ pub fn cap_initial_radius(
     }
 }
 
-/// Start a photon pass: every photon entity takes a photon of the pass in entity order (those beyond
-/// the pass's count stay idle), and the rest are handed out as photons land (`store_photons`).
+/// Start a pass of `bdpt`'s or `vcm`'s light subpaths: every subpath entity takes a subpath of the
+/// pass in entity order (those beyond the pass's count stay idle), and the rest are handed out as
+/// subpaths end (`store_photons`). The photon maps' passes start on the vector core instead
+/// (`light_subpaths::photons::begin_photon_subpaths`).
 pub fn begin_photon_pass(
     mut work: ResMut<PhotonWork>,
     mut stats: ResMut<PhotonStats>,
-    mut buffer: ResMut<PhotonBuffer>,
     mut photons: Query<&mut PhotonState>,
 ) {
     let total = work.settings.total;
@@ -164,7 +168,6 @@ pub fn begin_photon_pass(
     }
     work.next = handed;
     stats.emitted += total as u64;
-    buffer.photons.clear();
 }
 
 /// A system that sets up `pm`'s photon pass for the map `kind` with `count` photons (each map's

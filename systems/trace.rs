@@ -2,7 +2,10 @@
 //!
 //! `trace_paths` reads `SceneResource`, `PathRay`, `PathState::status`; writes `PathHit`.
 //! `trace_shadow_rays` reads `ShadowRay`; writes `PathState` (adds the contribution when the
-//! segment is free). `trace_photons` reads `PhotonRay`; writes `PhotonHit`.
+//! segment is free). `trace_photons` (the light subpaths of `bdpt` and `vcm`) reads `PhotonRay`;
+//! writes `PhotonHit`. The photons of `pm` and the progressive mappers, and `lt`'s light subpaths,
+//! are traced on the vector core (`light_subpaths::trace_subpaths`); the trace counters count their
+//! rays in `trace_photons`' row.
 //! With a [`TraceStatistics`] resource in the world (`--profile` inserts it) each stage also counts
 //! its rays and the BVH nodes and leaves they visited; without it the counting compiles away.
 

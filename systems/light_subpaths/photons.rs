@@ -23,7 +23,9 @@
 //! so the kd-tree, hence every gather's float sums, is the same to the bit whatever the thread
 //! count.
 
-use super::{SubpathCounts, SubpathHandout, SubpathHit, SubpathPower, SubpathQueues, SubpathRay, SubpathSampler};
+use super::{
+    SubpathCounts, SubpathHandout, SubpathHit, SubpathPower, SubpathQueues, SubpathRay, SubpathSampler,
+};
 use crate::resources::{PhotonBuffer, PhotonStats, PhotonWork, SceneResource};
 use crate::shards::ShardLink;
 use crate::world::MAX_WAVEFRONT;
@@ -52,6 +54,19 @@ pub struct PhotonTrail {
 /// Bytes a stored photon costs while its pass is ordered: its tagged deposit and its place in the
 /// ordered buffer (which becomes the kd-tree).
 pub const BYTES_PER_DEPOSIT: usize = size_of::<(u64, Photon)>() + size_of::<Photon>();
+
+/// Bytes a shard's chunk of `rows` photons costs: their columns and their queues (a row is in at
+/// most two, and scatter's spare).
+pub fn photon_chunk_bytes(rows: u32) -> u64 {
+    const QUEUE_BYTES: u64 = 3 * size_of::<u32>() as u64;
+    let columns = [
+        size_of::<SubpathRay>(),
+        size_of::<SubpathHit>(),
+        size_of::<SubpathPower>(),
+        size_of::<SubpathSampler>(),
+    ];
+    rows as u64 * (crate::integrators::memory::entity_bytes(&columns) + QUEUE_BYTES)
+}
 
 /// What emit writes.
 type EmitColumns = (&'static mut SubpathRay, &'static mut SubpathPower, &'static mut SubpathSampler);
