@@ -3,7 +3,6 @@
 
 use bevy_ecs::component::Component;
 use caustica_core::geometry::{Ray, bvh::Hit};
-use caustica_core::kernel::photon::PhotonPath;
 use caustica_core::kernel::{CameraPath, Vertex};
 use caustica_core::photon::estimate::GatherPoint;
 use caustica_core::photon::progressive::AdaptiveStatistics;
@@ -117,41 +116,6 @@ impl PathState {
 /// them (a scene pays for what it uses).
 #[derive(Component, Clone, Copy, Debug, Default)]
 pub struct PathAov(pub caustica_core::kernel::aov::FirstSurface);
-
-/// The ray a photon will trace next.
-#[derive(Component, Clone, Copy, Debug, Default)]
-pub struct PhotonRay(pub Ray);
-
-/// The closest hit of a photon's last trace.
-#[derive(Component, Clone, Copy, Debug)]
-pub struct PhotonHit(pub Hit);
-
-impl Default for PhotonHit {
-    fn default() -> Self {
-        Self(Hit::MISS)
-    }
-}
-
-/// A photon in flight. `status` reuses the path life cycle (`NeedsStart`: needs emitting).
-#[derive(Component, Clone, Copy, Debug, Default)]
-pub struct PhotonState {
-    /// Photon number within its pass (selects its random numbers).
-    pub index: u32,
-    /// Power, bounces, and whether it is still a caustic path (the kernel's).
-    pub path: PhotonPath,
-    /// Life-cycle state.
-    pub status: PathStatus,
-    /// Rays traced since the last store (statistics).
-    pub bounces: u32,
-    /// Russian-roulette terminations since the last store (statistics).
-    pub roulette_kills: u32,
-}
-
-/// A photon left at this bounce's hit, waiting for `store_photons`: only on the photon maps'
-/// photons. The light subpaths of bdpt and vcm ride `PhotonState` too, but leave vertices, not
-/// photons, so they do not carry it.
-#[derive(Component, Clone, Copy, Debug, Default)]
-pub struct PhotonDeposit(pub Option<caustica_core::photon::Photon>);
 
 /// A measurement point of progressive photon mapping: where a camera path first met a non-specular
 /// surface, and the photon statistics gathered there (Hachisuka, Ogaki & Jensen 2008, §4).

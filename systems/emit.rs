@@ -1,19 +1,17 @@
-//! Emit: start a camera path for the next sample wherever a path ended, and a photon on a light
-//! wherever a photon entity needs one.
+//! Emit: start a camera path for the next sample wherever a path ended. (Photons start on the
+//! vector core: `light_subpaths::photons::emit_photon_subpaths`.)
 //!
 //! `emit_camera_paths` reads `CameraResource`, `RenderConfig`; writes `PathRay`, `PathState` (reset
 //! for the new sample), and `PathAov` when the render makes feature images. The lens and time dimensions are compile-time switches, so a pinhole camera
 //! in a static scene draws neither (the integrator picks the instance from `SceneFeatures`).
-//! `emit_photons` reads `SceneResource` (lights), `PhotonWork`; writes `PhotonRay`, `PhotonState`, `PhotonDeposit`.
 
-use super::components::{PathAov, PathRay, PathState, PathStatus, PhotonDeposit, PhotonRay, PhotonState};
-use super::resources::{CameraResource, PhotonWork, RenderConfig, SceneFeatures, SceneResource};
+use super::components::{PathAov, PathRay, PathState, PathStatus};
+use super::resources::{CameraResource, RenderConfig, SceneFeatures};
 use bevy_ecs::prelude::*;
 use caustica_core::kernel::CameraPath;
 use caustica_core::kernel::aov::FirstSurface;
 use caustica_core::kernel::camera_sample::{camera_sampler, filter_sample};
-use caustica_core::kernel::dimensions::{camera as dim, photon_sampler};
-use caustica_core::kernel::photon::{emit_photon, photon_time};
+use caustica_core::kernel::dimensions::camera as dim;
 use glam::Vec2;
 
 /// Generate camera rays for paths that need one. `LENS`: sample the aperture; `MOTION`: sample the shutter.
@@ -65,31 +63,4 @@ pub fn emit_camera_paths_for(
         (false, true) => emit_camera_paths::<false, true>.into_configs(),
         (true, true) => emit_camera_paths::<true, true>.into_configs(),
     }
-}
-
-/// Start photons on lights wherever an entity needs one.
-pub fn emit_photons(
-    scene: Res<SceneResource>,
-    work: Res<PhotonWork>,
-    mut photons: Query<(&mut PhotonRay, &mut PhotonState, &mut PhotonDeposit)>,
-) {
-    photons.par_iter_mut().batching_strategy(super::resources::wavefront_batching()).for_each(
-        |(mut ray, mut state, mut deposit)| {
-            if state.status != PathStatus::NeedsStart {
-                return;
-            }
-            let sampler =
-                photon_sampler(work.sampler, work.seed, work.pass, work.settings.kind as u32, state.index);
-            let time = photon_time(work.time, work.motion, &sampler);
-            deposit.0 = None;
-            match emit_photon(&scene, &work.settings, &sampler, time) {
-                Some((first, path)) => {
-                    ray.0 = first;
-                    state.path = path;
-                    state.status = PathStatus::Active;
-                }
-                None => state.status = PathStatus::Finished,
-            }
-        },
-    );
 }

@@ -1,26 +1,24 @@
-//! Gather: splat finished camera paths onto the film and hand their entity the next work item; store
-//! photon deposits; gather each progressive pass's photons into the hit points; learn light
-//! visibility from shadow rays.
+//! Gather: splat finished camera paths onto the film and hand their entity the next work item; hand
+//! `bdpt`'s and `vcm`'s light subpaths their next subpath; gather each progressive pass's photons
+//! into the hit points; learn light visibility from shadow rays.
 //!
 //! | system | reads | writes |
 //! |---|---|---|
 //! | `splat_paths_to_film` | finished `PathState`s and their `PathAov`s, `PassRange` | `FilmResource`, `AovFilmResource`, `RenderStats`, `Workload`, `PathState` (next pixel and sample) |
-//! | `store_photons` | `PhotonState`, `PhotonDeposit` | `PhotonBuffer`, `PhotonStats`, `PhotonWork` (next photon) |
 //! | `learn_light_visibility` | fresh `ShadowRay`s | `SceneResource` (the visibility grid) |
-//! | `build_pass_photon_map` | `PhotonBuffer` | `PassPhotons` |
+//! | `build_pass_photon_map` | `PhotonBuffer` (ordered by `order_photon_deposits`) | `PassPhotons` |
 //! | `gather_photons_into_hit_points` (`_into_chi2_cells`, `_with_laplacian`) | `PassPhotons` | `HitPoint::m`, `phi` (`Chi2Cells`, `AdaptiveStats`) |
 //!
 //! The splat runs on every thread: the film's sums are fixed point, so their bits do not depend on
-//! the order samples arrive in; nor do the learned grid's, which are integer counts. The photon store
-//! runs on one thread on purpose: visiting entities in order makes the photon maps bit-identical
-//! whatever the thread count. It does no more than an append per finished photon.
+//! the order samples arrive in; nor do the learned grid's, which are integer counts. The light
+//! subpaths' hand-out runs on one thread on purpose: visiting entities in order gives each the same
+//! subpath whatever the thread count. The photon maps' deposits are ordered on the vector core
+//! (`order_photon_deposits`), so their kd-trees are the same bits whatever the thread count.
 
-use super::components::{
-    AdaptiveStats, Chi2Cells, HitPoint, PathAov, PathState, PathStatus, PhotonDeposit, PhotonState, ShadowRay,
-};
+use super::components::{AdaptiveStats, Chi2Cells, HitPoint, PathAov, PathState, PathStatus, ShadowRay};
 use super::resources::{
     AdaptiveSampling, AovFilmResource, BadSample, FilmResource, PassPhotons, PassRange, PhotonBuffer,
-    PhotonStats, PhotonWork, ProgressiveConfig, RenderStats, SceneResource, Workload, wavefront_batching,
+    ProgressiveConfig, RenderStats, SceneResource, Workload, wavefront_batching,
 };
 use bevy_ecs::prelude::*;
 use caustica_core::lights::light::luminance;
@@ -174,40 +172,6 @@ fn finished(status: PathStatus, active: &mut u32) -> bool {
         }
         PathStatus::Finished => true,
     }
-}
-
-/// Append this bounce's deposits to the photon buffer and hand finished entities their next photon.
-pub fn store_photons(
-    mut work: ResMut<PhotonWork>,
-    mut buffer: ResMut<PhotonBuffer>,
-    mut stats: ResMut<PhotonStats>,
-    mut photons: Query<(&mut PhotonState, Option<&mut PhotonDeposit>)>,
-) {
-    let mut active = 0;
-    for (mut state, deposit) in &mut photons {
-        let state = &mut *state;
-        if let Some(photon) = deposit.and_then(|mut d| d.0.take()) {
-            buffer.photons.push(photon);
-            stats.stored += 1;
-        }
-        if !finished(state.status, &mut active) {
-            continue;
-        }
-        stats.traced += state.bounces as u64;
-        stats.roulette_kills += state.roulette_kills as u64;
-        state.bounces = 0;
-        state.roulette_kills = 0;
-        if work.next < work.settings.total {
-            state.index = work.next;
-            work.next += 1;
-            state.status = PathStatus::NeedsStart;
-            active += 1;
-        } else {
-            state.status = PathStatus::Idle;
-        }
-    }
-    stats.active = active;
-    stats.steps += 1;
 }
 
 /// Visibility-aware light selection: learn from every shadow ray traced this step which light

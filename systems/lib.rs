@@ -80,23 +80,23 @@
 //! | `Shadow` | `camera_paths/shadow.rs` | `trace_shadow_rays` (on shards) | shadow rows | `PathShadow` | `PathThroughput` |
 //! | `Gather` | `camera_paths/splat.rs` | `splat_paths` (on shards) | finished rows | `PathSample`, `PathThroughput` | `FilmResource`, `RenderStats`, `PathQueues` |
 //! | `Emit` | `emit.rs` | `emit_camera_paths<LENS, MOTION>` (the other camera-path integrators) | camera paths | `CameraResource`, `RenderConfig` | `PathRay`, `PathState` |
-//! | `Emit` | `emit.rs` | `emit_photons` | photons | `SceneResource`, `PhotonWork` | `PhotonRay`, `PhotonState`, `PhotonDeposit` |
+//! | `Emit` | `light_subpaths/photons.rs` | `emit_photon_subpaths` (`pm`, progressive; on shards) | free rows | `SceneResource`, `PhotonWork`, `SubpathHandout` | `SubpathRay`, `SubpathPower`, `SubpathSampler`, `SubpathQueues` |
 //! | `Trace` | `trace.rs` | `trace_paths` | camera paths | `SceneResource`, `PathRay` | `PathHit` |
-//! | `Trace` | `trace.rs` | `trace_photons` | photons | `SceneResource`, `PhotonRay` | `PhotonHit` |
+//! | `Trace` | `light_subpaths/trace.rs` | `trace_subpaths` (photons, `lt`; on shards) | active rows | `SceneResource`, `SubpathRay` | `SubpathHit` |
 //! | `Scatter` | `scatter.rs` | `scatter_photon_mapped` (`pm`) | camera paths | `PathHit`, `PhotonMaps` | `PathRay`, `PathState`, `ShadowRay` |
 //! | `Scatter` | `scatter.rs` | `scatter_to_visible_points<NEE>` (`ppm`…) | hit points | `PathHit` | `HitPoint`, `PathRay`, `PathState`, `ShadowRay` |
-//! | `Scatter` | `scatter.rs` | `scatter_photons` | photons | `PhotonHit`, `PhotonWork` | `PhotonRay`, `PhotonState`, `PhotonDeposit` |
+//! | `Scatter` | `light_subpaths/photons.rs` | `scatter_photon_subpaths` (`pm`, progressive; on shards) | active rows | `SubpathHit`, `SubpathSampler`, `PhotonWork` | `SubpathRay`, `SubpathPower`, `SubpathQueues`, `PhotonTrail` |
 //! | `Shadow` | `trace.rs` | `trace_shadow_rays` | camera paths | `ShadowRay` | `PathState` |
 //! | `Gather` | `gather.rs` | `splat_paths_to_film` | camera paths | `PathState`, `PassRange` | `FilmResource`, `RenderStats`, `Workload` |
 //! | `Gather` | `gather.rs` | `learn_light_visibility` (visibility selection) | camera paths | `ShadowRay` | `SceneResource` |
-//! | `Gather` | `gather.rs` | `store_photons` | photons | `PhotonState` | `PhotonBuffer`, `PhotonStats`, `PhotonWork` |
 //! | `Gather` | `gather.rs` | `build_pass_photon_map` | | `PhotonBuffer` | `PassPhotons` |
 //! | `Gather` | `gather.rs` | `gather_photons_into_hit_points` (`_into_chi2_cells`, `_with_laplacian`) | hit points | `PassPhotons` | `HitPoint` (`Chi2Cells`, `AdaptiveStats`) |
 //! | `Update` | `update.rs` | `update_hit_point_radii`, `update_radii_by_chi2`, `update_radii_adaptive` | hit points | `ProgressiveConfig` | `HitPoint` |
 //! | `Gather` | `integrators/pppm.rs` | `set_global_radius` (`pppm`, before the gather) | hit points | `ProgressiveConfig` | `HitPoint::r2` |
 //! | `Update` | `integrators/pppm.rs` | `add_pass_estimates_to_film` (`pppm`) | hit points | `PathState` | `FilmResource`, `HitPoint` |
 //! | pass edges | `passes.rs` | `select_unconverged_pixels` (adaptive sampling, after each pass) | | `PassRange`, `FilmResource` | `AdaptiveSampling` |
-//! | pass edges | `passes.rs` | `hand_out_samples`, `finish_light_learning`, `begin_progressive_pass`, `begin_camera_pass`, `cap_initial_radius`, `begin_photon_pass`, `begin_photon_map`, `finish_photon_map` | | `PassRange` | see the file |
+//! | pass edges | `passes.rs` | `hand_out_samples`, `finish_light_learning`, `begin_progressive_pass`, `begin_camera_pass`, `cap_initial_radius`, `begin_photon_map`, `finish_photon_map` | | `PassRange` | see the file |
+//! | photon pass edges | `light_subpaths/photons.rs` | `begin_photon_subpaths`, `order_photon_deposits` (the pass's deposits in a thread-independent order) | | `PhotonWork`, `PhotonTrail` | `SubpathHandout`, `PhotonBuffer` |
 //!
 //! Entities are spawned once and reused: a camera path that ends takes the next work item (pixel,
 //! sample) (Laine, Karras & Aila 2013), and state lives in component fields, so no entity changes

@@ -10,13 +10,16 @@
 //! | `begin_progressive_pass` | each progressive pass | `PassRange` | `RenderConfig::pass_time`, `PhotonWork`, `ProgressiveConfig::pass` |
 //! | `begin_camera_pass` | each camera pass | `PassRange`, `ProgressiveConfig` | `PathState` (sample, status) |
 //! | `cap_initial_radius` | after the first camera pass | `CameraResource`, `HitPoint` | `ProgressiveConfig::r0`, `HitPoint::r2` |
-//! | `begin_photon_pass` | each photon pass | `PhotonWork` | `PhotonState`, `PhotonStats` |
 //! | `begin_photon_map` / `finish_photon_map` | `pm`'s first pass, per map | `PhotonBuffer` | `PhotonWork`, `PhotonMaps` |
+//!
+//! A photon pass of `pm` or a progressive mapper begins and ends on the vector core
+//! (`light_subpaths::photons`: `begin_photon_subpaths`, `order_photon_deposits`), and a light
+//! subpaths' pass of `lt`, `bdpt` or `vcm` begins there too (`light_subpaths::begin_subpaths`).
 
-use crate::components::{HitPoint, PathState, PathStatus, PhotonState};
+use crate::components::{HitPoint, PathState, PathStatus};
 use crate::resources::{
     AdaptiveSampling, CameraResource, FilmResource, PassRange, PhotonBuffer, PhotonMapSummary, PhotonMaps,
-    PhotonStats, PhotonWork, ProgressiveConfig, RenderConfig, SceneResource, Workload,
+    PhotonWork, ProgressiveConfig, RenderConfig, SceneResource, Workload,
 };
 use bevy_ecs::prelude::*;
 use caustica_core::kernel::camera_sample::pass_time;
@@ -142,29 +145,6 @@ pub fn cap_initial_radius(
     for mut hp in &mut hit_points {
         hp.r2 = cap * cap;
     }
-}
-
-/// Start a photon pass: every photon entity takes a photon of the pass in entity order (those beyond
-/// the pass's count stay idle), and the rest are handed out as photons land (`store_photons`).
-pub fn begin_photon_pass(
-    mut work: ResMut<PhotonWork>,
-    mut stats: ResMut<PhotonStats>,
-    mut buffer: ResMut<PhotonBuffer>,
-    mut photons: Query<&mut PhotonState>,
-) {
-    let total = work.settings.total;
-    let mut handed = 0;
-    for mut state in &mut photons {
-        if handed < total {
-            (state.index, state.status) = (handed, PathStatus::NeedsStart);
-            handed += 1;
-        } else {
-            state.status = PathStatus::Idle;
-        }
-    }
-    work.next = handed;
-    stats.emitted += total as u64;
-    buffer.photons.clear();
 }
 
 /// A system that sets up `pm`'s photon pass for the map `kind` with `count` photons (each map's

@@ -5,7 +5,6 @@
 //! |---|---|---|---|
 //! | `scatter_photon_mapped` | `pm` | `PathHit`, `SceneResource`, `RenderConfig`, `PhotonMaps` | `PathRay`, `PathState`, `ShadowRay` |
 //! | `scatter_to_visible_points::<NEE>` | `ppm`, `sppm`, `appm`, `cppm` | `PathHit`, `SceneResource`, `RenderConfig` | `HitPoint`, `PathRay`, `PathState`, `ShadowRay` |
-//! | `scatter_photons` | photon passes | `PhotonHit`, `SceneResource`, `PhotonWork` | `PhotonRay`, `PhotonState`, `PhotonDeposit` |
 //!
 //! `pt` (its vertex in `caustica_core::kernel::path_vertex`, its system in `camera_paths/`) follows
 //! pbrt-v4's `PathIntegrator::Li`: emission found by BSDF sampling and light found by
@@ -16,17 +15,12 @@
 //! Every camera-path scatter also records the path's feature images (`PathAov`, when the render
 //! asks for them) at its first non-specular vertex, from the vertex it builds anyway.
 
-use super::components::{
-    HitPoint, PathAov, PathHit, PathRay, PathState, PathStatus, PhotonDeposit, PhotonHit, PhotonRay,
-    PhotonState, ShadowRay,
-};
-use super::resources::{PhotonMaps, PhotonWork, RenderConfig, SceneResource, wavefront_batching};
+use super::components::{HitPoint, PathAov, PathHit, PathRay, PathState, PathStatus, ShadowRay};
+use super::resources::{PhotonMaps, RenderConfig, SceneResource, wavefront_batching};
 use bevy_ecs::prelude::*;
 use caustica_core::geometry::Ray;
 use caustica_core::geometry::bvh::Hit;
 use caustica_core::kernel::aov::FirstSurface;
-use caustica_core::kernel::dimensions::photon_sampler;
-use caustica_core::kernel::photon::scatter_photon;
 use caustica_core::kernel::{Arrival, EmissionWeight, Quantity, continue_path, sample_light};
 use caustica_core::photon::estimate::radiance_estimate;
 use caustica_core::photon::{Neighbors, PhotonMap};
@@ -216,30 +210,4 @@ fn visible_point_vertex<const NEE: bool>(
         hit_point.record(v, -ray.d, path.beta);
         false
     })
-}
-
-/// Deposit each photon where its map wants it, then continue it by BSDF sampling or end it by
-/// Russian roulette.
-pub fn scatter_photons(
-    scene: Res<SceneResource>,
-    work: Res<PhotonWork>,
-    mut photons: Query<(&PhotonHit, &mut PhotonRay, &mut PhotonState, &mut PhotonDeposit)>,
-) {
-    photons.par_iter_mut().batching_strategy(wavefront_batching()).for_each(
-        |(hit, mut ray, mut state, mut deposit)| {
-            if state.status != PathStatus::Active {
-                return;
-            }
-            state.bounces += 1;
-            let sampler =
-                photon_sampler(work.sampler, work.seed, work.pass, work.settings.kind as u32, state.index);
-            let bounce = scatter_photon(&scene, &work.settings, &mut state.path, &ray.0, &hit.0, &sampler);
-            deposit.0 = bounce.deposit;
-            state.roulette_kills += bounce.roulette_kill as u32;
-            match bounce.next {
-                Some(next) => ray.0 = next,
-                None => state.status = PathStatus::Finished,
-            }
-        },
-    );
 }

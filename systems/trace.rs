@@ -1,14 +1,14 @@
-//! Trace: closest-hit queries for camera paths and photons, any-hit queries for shadow rays.
+//! Trace: closest-hit queries for camera paths, any-hit queries for shadow rays, and the trace
+//! counters of every stage.
 //!
 //! `trace_paths` reads `SceneResource`, `PathRay`, `PathState::status`; writes `PathHit`.
 //! `trace_shadow_rays` reads `ShadowRay`; writes `PathState` (adds the contribution when the
-//! segment is free). `trace_photons` reads `PhotonRay`; writes `PhotonHit`.
+//! segment is free). Photons and light subpaths (of every integrator that has them) are traced on
+//! the vector core (`light_subpaths::trace_subpaths`), counted in its row.
 //! With a [`TraceStatistics`] resource in the world (`--profile` inserts it) each stage also counts
 //! its rays and the BVH nodes and leaves they visited; without it the counting compiles away.
 
-use super::components::{
-    PathHit, PathRay, PathState, PathStatus, PhotonHit, PhotonRay, PhotonState, ShadowRay,
-};
+use super::components::{PathHit, PathRay, PathState, PathStatus, ShadowRay};
 use super::resources::{SceneResource, wavefront_batching};
 use bevy_ecs::prelude::*;
 use bevy_utils::Parallel;
@@ -58,25 +58,6 @@ pub fn trace_shadow_rays(
         if shadow.visible {
             state.path.add(shadow.contribution, Quantity::LightSample);
         }
-    });
-}
-
-/// Closest hit of every flying photon.
-pub fn trace_photons(
-    scene: Res<SceneResource>,
-    statistics: Option<Res<TraceStatistics>>,
-    mut photons: Query<(&PhotonRay, &mut PhotonHit, &PhotonState)>,
-) {
-    let statistics = statistics.as_deref();
-    photons.par_iter_mut().batching_strategy(wavefront_batching()).for_each(|(ray, mut hit, state)| {
-        if state.status != PathStatus::Active {
-            return;
-        }
-        hit.0 = match statistics {
-            None => scene.geometry.intersect(&ray.0),
-            Some(statistics) => statistics
-                .count(&statistics.photons, |counts| scene.geometry.intersect_counted(&ray.0, counts)),
-        };
     });
 }
 
@@ -160,7 +141,7 @@ impl TraceStatistics {
         result
     }
 
-    /// The totals of each stage so far, named after its system: camera-path rays, shadow rays, photons.
+    /// The totals of each stage so far, named after its system: camera-path rays, shadow rays, photons and light subpaths.
     pub fn totals(&mut self) -> [(&'static str, TraversalTotals); 3] {
         let sum = |stage: &mut Parallel<TraversalTotals>| {
             stage.iter_mut().fold(TraversalTotals::default(), |a, b| a.plus(b))
@@ -168,7 +149,7 @@ impl TraceStatistics {
         [
             ("trace_paths", sum(&mut self.paths)),
             ("trace_shadow_rays", sum(&mut self.shadow)),
-            ("trace_photons", sum(&mut self.photons)),
+            ("trace_subpaths", sum(&mut self.photons)),
         ]
     }
 }

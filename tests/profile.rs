@@ -60,10 +60,11 @@ fn progressive_profile_lists_the_camera_photon_and_statistics_systems() {
     let stdout = render(&dir, &["--integrator", "sppm", "--passes", "3", "--photons-per-pass", "2000"]);
     for system in [
         "scatter_to_visible_points<true>",
-        "emit_photons",
-        "trace_photons",
-        "scatter_photons",
-        "store_photons",
+        "begin_photon_subpaths",
+        "emit_photon_subpaths",
+        "trace_subpaths",
+        "scatter_photon_subpaths",
+        "order_photon_deposits",
         "build_pass_photon_map",
         "gather_photons_into_hit_points",
         "update_hit_point_radii",

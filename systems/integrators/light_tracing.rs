@@ -46,8 +46,8 @@ use crate::passes::hand_out_samples;
 use crate::plan::{Phase, Plan, Unit, When};
 use crate::report::Report;
 use crate::resources::{
-    AovFilmResource, FilmResource, PassRange, PhotonBuffer, PhotonStats, PhotonWork, RenderConfig,
-    RenderStats, SceneFeatures, SceneResource, Workload,
+    AovFilmResource, FilmResource, PassRange, PhotonStats, PhotonWork, RenderConfig, RenderStats,
+    SceneFeatures, SceneResource, Workload,
 };
 use crate::shards::{ShardPlan, Shards};
 use bevy_ecs::prelude::*;
@@ -204,11 +204,10 @@ fn count_camera_samples(range: Res<PassRange>, film: Res<FilmResource>, mut stat
 }
 
 /// What light subpaths of one a pixel a unit share with photon passes: the pass's work (one
-/// subpath a pixel a unit), its buffer and counters, and the subpaths' own numbers.
+/// subpath a pixel a unit), its counters, and the subpaths' own numbers.
 pub(super) fn insert_light_path_resources(world: &mut World, pixels: u32, features: SceneFeatures) {
     let config = world.resource::<RenderConfig>().clone();
     world.insert_resource(PhotonWork::new(PhotonMapKind::Global, pixels, &config, features.motion));
-    world.insert_resource(PhotonBuffer::default());
     world.insert_resource(PhotonStats::default());
     world.insert_resource(LightPaths { per_unit: pixels, ..Default::default() });
 }

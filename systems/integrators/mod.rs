@@ -99,25 +99,6 @@ pub fn paths_busy(world: &World) -> bool {
     world.resource::<crate::resources::RenderStats>().active_paths > 0
 }
 
-/// Whether any photon is still in flight.
-pub fn photons_busy(world: &World) -> bool {
-    world.resource::<crate::resources::PhotonStats>().active > 0
-}
-
-/// The photon pass's systems, one bounce of every photon per run (Emit → Trace → Scatter → Gather),
-/// in `order`.
-pub fn add_photon_systems(schedule: &mut Schedule, order: [Stage; 5]) {
-    use crate::emit::emit_photons;
-    use crate::gather::store_photons;
-    use crate::scatter::scatter_photons;
-    use crate::trace::trace_photons;
-    configure_stages(schedule, order);
-    schedule.add_systems(emit_photons.in_set(PassSystems::Emit));
-    schedule.add_systems(trace_photons.in_set(PassSystems::Trace));
-    schedule.add_systems(scatter_photons.in_set(PassSystems::Scatter));
-    schedule.add_systems(store_photons.in_set(PassSystems::Gather));
-}
-
 /// The film's mean per pixel: the image of the integrators whose every sample goes to the film.
 pub fn film_image(world: &World, _passes: u32) -> caustica_core::film::Image {
     world.resource::<crate::resources::FilmResource>().image()
@@ -161,13 +142,4 @@ pub fn photon_summary(
         first_dropped_pass,
         maps,
     }
-}
-
-/// Spawn `count` photon entities, idle until a photon pass hands them photons.
-pub fn spawn_photons(world: &mut World, count: u32) {
-    use crate::components::{PathStatus, PhotonDeposit, PhotonHit, PhotonRay, PhotonState};
-    world.spawn_batch((0..count).map(|index| {
-        let state = PhotonState { index, status: PathStatus::Idle, ..Default::default() };
-        (PhotonRay::default(), PhotonHit::default(), state, PhotonDeposit::default())
-    }));
 }

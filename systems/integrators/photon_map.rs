@@ -10,19 +10,28 @@
 //! | `kernel` | name | `epanechnikov` | density kernel over the gather disc (`caustica density --help`) |
 //! | `final_gather` | u32 | 0 | final-gather rays per pixel sample; 0 reads the indirect map directly |
 //!
-//! Each map is three phases of the first pass: set up the photon pass, the photon schedule (Emit →
-//! Trace → Scatter → Store) until every photon has landed, and the kd-tree build. The camera side is
-//! the path tracer's bounce schedule with `scatter_photon_mapped` in the Scatter set. A scene pays
-//! for what it has: no caustic pass without specular surfaces.
+//! Each map is a phase of the first pass on the vector core (`light_subpaths::photons`): it begins
+//! (`begin_photon_map`, `begin_photon_subpaths`), runs a shard's chunk of photons a worker, a bounce
+//! a round (`emit_photon_subpaths` → `trace_subpaths` → `scatter_photon_subpaths`), until every
+//! photon has landed, and ends (`order_photon_deposits`, then `finish_photon_map`'s kd-tree build).
+//! The camera side is the path tracer's bounce schedule with `scatter_photon_mapped` in the Scatter
+//! set. A scene pays for what it has: no caustic pass without specular surfaces.
+//!
+//! | phase | stages (a round) | begin | end |
+//! |---|---|---|---|
+//! | `photons` (per map, first pass, on shards) | `emit_photon_subpaths` → `trace_subpaths` → `scatter_photon_subpaths` | `begin_photon_map`, `begin_photon_subpaths` | `order_photon_deposits`, `finish_photon_map` |
+//! | `bounce` (every pass) | `emit_camera_paths` → `trace_paths` → `scatter_photon_mapped` → `trace_shadow_rays` → `splat_paths_to_film` | `hand_out_samples` | |
 
 use super::descriptor::{Integrator, LightSampling, MemoryNeed, Setting};
-use super::{
-    add_photon_systems, configure_stages, film_image, paths_busy, photons_busy, spawn_photons, stage_order,
-};
+use super::{configure_stages, film_image, paths_busy, stage_order};
 use crate::PassSystems;
 use crate::emit::emit_camera_paths_for;
 use crate::gather::splat_paths_to_film;
-use crate::passes::{begin_photon_map, begin_photon_pass, finish_photon_map, hand_out_samples};
+use crate::light_subpaths::SubpathHandout;
+use crate::light_subpaths::photons::{
+    PhotonTrail, begin_photon_subpaths, order_photon_deposits, photon_shards,
+};
+use crate::passes::{begin_photon_map, finish_photon_map, hand_out_samples};
 use crate::plan::{Phase, Plan, Repeat, Unit, When};
 use crate::report::Report;
 use crate::resources::{
@@ -53,29 +62,28 @@ pub static PM: Integrator = Integrator {
     plan,
 };
 
-/// The paths of the path tracers, the photons in flight, and the photon maps (each stored photon
-/// twice while its kd-tree is built; a photon is stored about 1/(1 − albedo) times, counted as 4).
+/// The paths of the path tracers, each map's photon shards (a chunk of photons a worker), and the
+/// photon maps (a stored photon is tagged in its pass's trail and copied into the ordered buffer
+/// that becomes its kd-tree; a photon is stored about 1/(1 − albedo) times, counted as 4).
 fn memory(_: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
-    use crate::components::{PhotonDeposit, PhotonHit, PhotonRay, PhotonState};
+    use crate::light_subpaths::photons::{BYTES_PER_DEPOSIT, photon_chunk_bytes};
     const STORES_PER_PHOTON: u64 = 4;
     let (photons, caustic) = (run.photons.photons, run.photons.caustic_photons);
     let paths = super::path::paths(pixels, run);
-    let in_flight = photons.max(caustic).min(MAX_WAVEFRONT) as u64
-        * super::memory::entity_bytes(&[
-            size_of::<PhotonRay>(),
-            size_of::<PhotonHit>(),
-            size_of::<PhotonState>(),
-            size_of::<PhotonDeposit>(),
-        ]);
-    let maps = (photons as u64 + caustic as u64)
-        * STORES_PER_PHOTON
-        * 2
-        * size_of::<caustica_core::photon::Photon>() as u64;
+    let shards = 2 * photon_chunk_bytes(run.render.chunk) * crate::shards::workers() as u64;
+    let maps = (photons as u64 + caustic as u64) * STORES_PER_PHOTON * BYTES_PER_DEPOSIT as u64;
+    // A pass of more photons than 2^18 keeps when each photon ended, to order its deposits.
+    let largest = photons.max(caustic);
+    let replay = if largest > MAX_WAVEFRONT { largest as u64 * REPLAY_BYTES_PER_PHOTON } else { 0 };
     MemoryNeed {
-        bytes: paths.bytes + in_flight + maps,
+        bytes: paths.bytes + shards + maps + replay,
         what: format!("a {pixels}-pixel film, its paths and the maps of {photons} + {caustic} photons"),
     }
 }
+
+/// Bytes a photon of a pass larger than 2^18 costs while its deposits are ordered: its end, its
+/// start and its entity in the replayed hand-out.
+pub const REPLAY_BYTES_PER_PHOTON: u64 = 24;
 
 /// The caustic map cannot be dropped; a map of no photons is said.
 fn check(_: &Scene, run: &RunFile) -> Result<()> {
@@ -131,15 +139,16 @@ fn plan(this: &Integrator, world: &mut World, run: &RunFile, features: SceneFeat
     world.insert_resource(PhotonWork::new(PhotonMapKind::Global, 0, &config, features.motion));
     world.insert_resource(PhotonBuffer::default());
     world.insert_resource(PhotonStats::default());
-    spawn_photons(world, maps.iter().map(|&(_, count)| count.min(MAX_WAVEFRONT)).max().unwrap_or(0));
+    world.insert_resource(PhotonTrail::default());
+    world.insert_resource(SubpathHandout::default());
 
     let mut phases = Vec::new();
     for (kind, count) in maps {
-        let mut photons = Phase::new("photons", When::FirstPassOfProcess, Repeat::WhileBusy(photons_busy))
-            .with_begin((begin_photon_map(kind, count), begin_photon_pass).chain())
-            .with_end(finish_photon_map(kind))
+        let shards = photon_shards(run.render.chunk, order);
+        let photons = Phase::sharded("photons", When::FirstPassOfProcess, shards)
+            .with_begin((begin_photon_map(kind, count), begin_photon_subpaths).chain())
+            .with_end((order_photon_deposits, finish_photon_map(kind)).chain())
             .dropped_on_stop();
-        add_photon_systems(&mut photons.schedule, order);
         phases.push(photons);
     }
     let mut bounce = Phase::new("bounce", When::EveryPass, Repeat::WhileBusy(paths_busy))

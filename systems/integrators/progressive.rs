@@ -1,8 +1,10 @@
 //! What the progressive photon mappers (`ppm`, `sppm`, `appm`, `cppm`) share: hit-point entities per
-//! pixel and one wavefront of photon entities, both spawned once, and a pass of three groups of
-//! phases, like pbrt-v4's SPPM loop:
+//! pixel, spawned once, photon shards (a chunk of photons a worker, on the vector core), and a pass
+//! of three groups of phases, like pbrt-v4's SPPM loop:
 //! - camera: every pixel's camera paths to their hit points (`ppm`: the first pass only);
-//! - photons: one pass of photons, a bounce per run, until every photon has landed;
+//! - photons: one pass of photons on the shards (`light_subpaths::photons`: `begin_photon_subpaths`,
+//!   then a bounce a round, `emit_photon_subpaths` → `trace_subpaths` → `scatter_photon_subpaths`,
+//!   until every photon has landed, then `order_photon_deposits`);
 //! - statistics: Gather (the pass's kd-tree, then the integrator's gather) → Update (its radius rule).
 //!
 //! | parameter (`[progressive]`) | type | default | meaning |
@@ -15,15 +17,18 @@
 //! | `memory_budget_mib` | u64 | half the RAM | hit points + photons may not exceed it |
 
 use super::descriptor::{Integrator, LightSampling, MemoryNeed, PlanFn, Setting};
-use super::{add_photon_systems, configure_stages, paths_busy, photons_busy, spawn_photons, stage_order};
+use super::{configure_stages, paths_busy, stage_order};
 use crate::PassSystems;
 use crate::components::{
-    AdaptiveStats, Chi2Cells, HitPoint, PathHit, PathRay, PathState, PathStatus, PhotonDeposit, PhotonHit,
-    PhotonRay, PhotonState, ShadowRay,
+    AdaptiveStats, Chi2Cells, HitPoint, PathHit, PathRay, PathState, PathStatus, ShadowRay,
 };
 use crate::emit::emit_camera_paths_for;
 use crate::gather::splat_paths_to_film;
-use crate::passes::{begin_camera_pass, begin_photon_pass, begin_progressive_pass, cap_initial_radius};
+use crate::light_subpaths::SubpathHandout;
+use crate::light_subpaths::photons::{
+    PhotonTrail, begin_photon_subpaths, order_photon_deposits, photon_shards,
+};
+use crate::passes::{begin_camera_pass, begin_progressive_pass, cap_initial_radius};
 use crate::plan::{Phase, Plan, Repeat, Unit, When};
 use crate::report::{HitPointSummary, Report};
 use crate::resources::{
@@ -43,8 +48,10 @@ use caustica_core::scene::{IntegratorKind, RunFile, Scene};
 use glam::Vec3;
 use std::sync::atomic::Ordering;
 
-/// Bytes a photon of one pass costs: its deposit in the buffer and in the pass's kd-tree.
-pub const BYTES_PER_PHOTON: usize = 2 * size_of::<caustica_core::photon::Photon>();
+/// Bytes a photon of one pass costs: its tagged deposit in the pass's trail and its place in the
+/// ordered buffer that becomes the pass's kd-tree, while the previous pass's kd-tree is still held.
+pub const BYTES_PER_PHOTON: usize =
+    crate::light_subpaths::photons::BYTES_PER_DEPOSIT + size_of::<caustica_core::photon::Photon>();
 
 /// The descriptor the progressive mappers share: progress in passes, each building on the statistics
 /// of the one before, light sampling at the hit points unless the run turns it off, one hit point per
@@ -94,20 +101,20 @@ fn check(scene: &Scene, run: &RunFile) -> Result<()> {
 /// Hit points for every pixel (entities: their statistics, the camera path that re-traces them, and
 /// the adaptive or χ² statistics of the variants that keep them) plus one pass of photons.
 fn memory(this: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
-    use super::memory::entity_bytes;
     let settings = run.progressive;
     let hit_points = pixels * this.hit_points_per_pixel(run) as u64;
-    let photon_wavefront = settings.photons_per_pass.min(MAX_WAVEFRONT);
     let per_hit_point = bytes_per_hit_point(!run.film.aovs.is_empty());
+    let shards = crate::light_subpaths::photons::photon_chunk_bytes(run.render.chunk)
+        * crate::shards::workers() as u64;
+    // A pass of more photons than 2^18 keeps when each photon ended, to order its deposits.
+    let replay = if settings.photons_per_pass > MAX_WAVEFRONT {
+        super::photon_map::REPLAY_BYTES_PER_PHOTON
+    } else {
+        0
+    };
     let needed = hit_points * per_hit_point
-        + settings.photons_per_pass as u64 * BYTES_PER_PHOTON as u64
-        + photon_wavefront as u64
-            * entity_bytes(&[
-                size_of::<PhotonState>(),
-                size_of::<PhotonDeposit>(),
-                size_of::<PhotonRay>(),
-                size_of::<PhotonHit>(),
-            ]);
+        + settings.photons_per_pass as u64 * (BYTES_PER_PHOTON as u64 + replay)
+        + shards;
     let what = format!(
         "{hit_points} hit points ({per_hit_point} bytes each, see hit_points_per_pixel) and {} photons per pass",
         settings.photons_per_pass
@@ -172,7 +179,8 @@ pub fn plan(
     world.insert_resource(PhotonBuffer::default());
     world.insert_resource(PhotonStats::default());
     world.insert_resource(PassPhotons::default());
-    spawn_photons(world, settings.photons_per_pass.min(MAX_WAVEFRONT));
+    world.insert_resource(PhotonTrail::default());
+    world.insert_resource(SubpathHandout::default());
 
     let mut phases = vec![Phase::once("pass", When::EveryPass, begin_progressive_pass(features.motion))];
     for group in run.schedule.pass_order().unwrap_or([Pass::Camera, Pass::Photons, Pass::Statistics]) {
@@ -185,9 +193,10 @@ pub fn plan(
                 phases.push(camera);
             }
             Pass::Photons => {
-                let mut photons = Phase::new("photons", When::EveryPass, Repeat::WhileBusy(photons_busy))
-                    .with_begin(begin_photon_pass);
-                add_photon_systems(&mut photons.schedule, order);
+                let shards = photon_shards(run.render.chunk, order);
+                let photons = Phase::sharded("photons", When::EveryPass, shards)
+                    .with_begin(begin_photon_subpaths)
+                    .with_end(order_photon_deposits);
                 phases.push(photons);
             }
             Pass::Statistics => {

@@ -34,6 +34,7 @@
 
 pub mod bidirectional;
 mod emit;
+pub mod photons;
 mod scatter;
 mod splat;
 mod trace;

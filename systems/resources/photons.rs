@@ -12,8 +12,6 @@ use std::sync::atomic::AtomicU64;
 pub struct PhotonWork {
     /// Which photons are kept, how many are emitted, and their limits.
     pub settings: PhotonPassSettings,
-    /// Next photon to hand out.
-    pub next: u32,
     /// Sampler seed.
     pub seed: u64,
     /// How the photons' numbers are drawn.
@@ -36,7 +34,7 @@ impl PhotonWork {
             max_depth: config.limits.max_depth,
             rr_depth: config.limits.rr_depth,
         };
-        Self { settings, next: 0, seed: config.seed, sampler: config.sampler, motion, time: None, pass: 0 }
+        Self { settings, seed: config.seed, sampler: config.sampler, motion, time: None, pass: 0 }
     }
 }
 
@@ -58,10 +56,6 @@ pub struct PhotonStats {
     pub traced: u64,
     /// Photons ended by Russian roulette.
     pub roulette_kills: u64,
-    /// Photons still in flight after the last step.
-    pub active: u32,
-    /// Steps run.
-    pub steps: u64,
 }
 
 /// One photon map of a `pm` render, as the report shows it.
