@@ -381,16 +381,20 @@ pub fn build_merge_grids(
     let units = (range.end - range.begin) as usize;
     let store = store.tables_mut();
     store.grids.resize_with(units.max(store.grids.len()), HashGrid::default);
-    let mut points = Vec::new();
-    for k in 0..units {
-        points.clear();
+    // The grids out of the table while they are built from it.
+    let mut grids = std::mem::take(&mut store.grids);
+    let vertices = &*store;
+    for (k, grid) in grids.iter_mut().enumerate().take(units) {
         let subpaths = k as u32 * light_paths.per_unit..(k as u32 + 1) * light_paths.per_unit;
-        for index in subpaths {
-            // Each subpath last first: the order of the grid's cells that merges have been summed in.
-            points.extend(store.subpath(index).iter().rev().map(LightVertex::merge_vertex));
-        }
-        store.grids[k].build(&points, radii.radius(range.begin + k as u32));
+        // Each subpath last first: the order of the grid's cells that merges have been summed in.
+        let points = || {
+            subpaths
+                .clone()
+                .flat_map(|index| vertices.subpath(index).iter().rev().map(LightVertex::merge_vertex))
+        };
+        grid.build_from(points, radii.radius(range.begin + k as u32));
     }
+    store.grids = grids;
 }
 
 #[cfg(test)]

@@ -39,24 +39,36 @@ pub struct HashGrid<T = (u32, Vec3)> {
 impl<T: GridPoint> HashGrid<T> {
     /// Rebuild over `points` for queries of radius `radius`, keeping the memory.
     pub fn build(&mut self, points: &[T], radius: f32) {
+        self.build_from(|| points.iter().copied(), radius);
+    }
+
+    /// Rebuild over the points `points()` yields (the same ones, in the same order, each call: it is
+    /// walked twice, to count and to fill) for queries of radius `radius`, keeping the memory. No
+    /// copy of the points is made besides the grid's own.
+    pub fn build_from<I: Iterator<Item = T>>(&mut self, points: impl Fn() -> I, radius: f32) {
         self.inv_cell = 1.0 / (2.0 * radius);
-        let buckets = (2 * points.len()).next_power_of_two().max(1);
+        self.buckets.clear();
+        for point in points() {
+            // The bucket needs the mask, which needs the count: cells first, buckets below.
+            let [x, y, z] = self.cell(point.position());
+            self.buckets.push(Self::hash([x, y, z]));
+        }
+        let count = self.buckets.len();
+        let buckets = (2 * count).next_power_of_two().max(1);
         self.mask = buckets as u32 - 1;
         self.starts.clear();
         self.starts.resize(buckets + 1, 0);
-        self.buckets.clear();
-        for point in points {
-            let bucket = self.bucket(self.cell(point.position()));
-            self.buckets.push(bucket);
-            self.starts[bucket as usize + 1] += 1;
+        for bucket in &mut self.buckets {
+            *bucket &= self.mask;
+            self.starts[*bucket as usize + 1] += 1;
         }
         for i in 1..self.starts.len() {
             self.starts[i] += self.starts[i - 1];
         }
         self.items.clear();
-        self.items.resize(points.len(), T::default());
+        self.items.resize(count, T::default());
         let mut next = self.starts.clone();
-        for (&point, &bucket) in points.iter().zip(&self.buckets) {
+        for (point, &bucket) in points().zip(&self.buckets) {
             let slot = &mut next[bucket as usize];
             self.items[*slot as usize] = point;
             *slot += 1;
@@ -109,10 +121,14 @@ impl<T: GridPoint> HashGrid<T> {
 
     #[inline]
     fn bucket(&self, c: [i32; 3]) -> u32 {
-        let h = (c[0] as u32).wrapping_mul(73_856_093)
+        Self::hash(c) & self.mask
+    }
+
+    #[inline]
+    fn hash(c: [i32; 3]) -> u32 {
+        (c[0] as u32).wrapping_mul(73_856_093)
             ^ (c[1] as u32).wrapping_mul(19_349_663)
-            ^ (c[2] as u32).wrapping_mul(83_492_791);
-        h & self.mask
+            ^ (c[2] as u32).wrapping_mul(83_492_791)
     }
 }
 

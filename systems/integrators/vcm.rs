@@ -52,11 +52,11 @@ pub static VCM: Integrator = Integrator {
     plan,
 };
 
-/// bdpt's, and the grids over the kept vertices: for each, what a merge reads of it while the grid
-/// is built and again in the grid, its bucket, and at most four buckets' starts.
+/// bdpt's, and the grids over the kept vertices: for each, what a merge reads of it (in the grid,
+/// built from the table without a copy), its bucket, and at most four buckets' starts.
 fn memory(this: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
     use caustica_core::kernel::bidirectional::MergeVertex;
-    const GRID_BYTES_PER_VERTEX: u64 = (2 * size_of::<MergeVertex>() + 5 * size_of::<u32>()) as u64;
+    const GRID_BYTES_PER_VERTEX: u64 = (size_of::<MergeVertex>() + 5 * size_of::<u32>()) as u64;
     let bdpt = (super::bdpt::BDPT.memory)(this, pixels, run);
     let grids = super::bdpt::kept_vertices_per_pass(pixels) * GRID_BYTES_PER_VERTEX;
     MemoryNeed { bytes: bdpt.bytes + grids, what: format!("{} and their merging grids", bdpt.what) }
