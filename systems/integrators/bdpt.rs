@@ -60,9 +60,11 @@ use std::sync::atomic::Ordering;
 /// vertices' table may hold.
 const SUBPATHS_PER_PASS: u32 = 1 << 18;
 
-/// Units a pass of a `pixels`-pixel image groups.
-fn units_per_pass(pixels: u32) -> u32 {
-    (SUBPATHS_PER_PASS / pixels.max(1)).max(1)
+/// Units a pass of a `pixels`-pixel image groups: no more than the run's samples, so that the pass the memory count assumes is the largest any
+/// pass will be (a host that raises the target later gets more passes, not larger ones; the film's
+/// bits do not depend on how units are grouped).
+fn units_per_pass(pixels: u32, run: &RunFile) -> u32 {
+    (SUBPATHS_PER_PASS / pixels.max(1)).clamp(1, run.render.spp.max(1))
 }
 
 /// Kept vertices a light subpath has on average, for the memory estimate: Russian roulette on
@@ -100,8 +102,8 @@ fn memory(_: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
     // round keeps before it is folded (about four vertices a row).
     let subpaths = rows * light_subpath_row_bytes();
     // Where each subpath's vertices start, and each kept vertex with its subpath's index.
-    let kept = subpaths_per_pass(pixels) * size_of::<u32>() as u64
-        + kept_vertices_per_pass(pixels) * (size_of::<LightVertex>() + size_of::<u32>()) as u64;
+    let kept = subpaths_per_pass(pixels, run) * size_of::<u32>() as u64
+        + kept_vertices_per_pass(pixels, run) * (size_of::<LightVertex>() + size_of::<u32>()) as u64;
     MemoryNeed {
         bytes: paths.bytes + camera + subpaths + kept,
         what: format!("a {pixels}-pixel film, its paths, light subpaths and their kept vertices"),
@@ -126,13 +128,13 @@ fn light_subpath_row_bytes() -> u64 {
 }
 
 /// Light subpaths a pass of a `pixels`-pixel image traces.
-fn subpaths_per_pass(pixels: u64) -> u64 {
-    pixels * units_per_pass(pixels.min(u32::MAX as u64) as u32) as u64
+fn subpaths_per_pass(pixels: u64, run: &RunFile) -> u64 {
+    pixels * units_per_pass(pixels.min(u32::MAX as u64) as u32, run) as u64
 }
 
 /// The light vertices a pass keeps, as the memory count assumes.
-pub(super) fn kept_vertices_per_pass(pixels: u64) -> u64 {
-    subpaths_per_pass(pixels) * KEPT_VERTICES_PER_SUBPATH
+pub(super) fn kept_vertices_per_pass(pixels: u64, run: &RunFile) -> u64 {
+    subpaths_per_pass(pixels, run) * KEPT_VERTICES_PER_SUBPATH
 }
 
 fn plan(_: &Integrator, world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
@@ -167,10 +169,10 @@ pub(super) fn plan_bidirectional(
     world.insert_resource(LightVertexStore::new(LightVertices {
         light_paths: pixels,
         merging,
-        subpaths: pixels * units_per_pass(pixels),
+        subpaths: pixels * units_per_pass(pixels, run),
         ..Default::default()
     }));
-    let units = units_per_pass(pixels);
+    let units = units_per_pass(pixels, run);
     // The camera subpaths' shards take samples from one lane, as pt's do.
     world.insert_resource(crate::resources::Workload::new(pixels, 0, 0, 1));
     world.insert_resource(SubpathHandout::default());

@@ -58,7 +58,7 @@ fn memory(this: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
     use caustica_core::kernel::bidirectional::MergeVertex;
     const GRID_BYTES_PER_VERTEX: u64 = (size_of::<MergeVertex>() + 5 * size_of::<u32>()) as u64;
     let bdpt = (super::bdpt::BDPT.memory)(this, pixels, run);
-    let grids = super::bdpt::kept_vertices_per_pass(pixels) * GRID_BYTES_PER_VERTEX;
+    let grids = super::bdpt::kept_vertices_per_pass(pixels, run) * GRID_BYTES_PER_VERTEX;
     MemoryNeed { bytes: bdpt.bytes + grids, what: format!("{} and their merging grids", bdpt.what) }
 }
 
