@@ -269,10 +269,7 @@ pub fn scatter_camera_subpaths(
         (rays.bypass_change_detection(), states.bypass_change_detection(), shadows.bypass_change_detection());
     let (sums, vertices) = (sums.bypass_change_detection(), vertices.bypass_change_detection());
     let mut aovs = aovs.as_mut().map(|a| a.bypass_change_detection());
-    let queues = &mut *queues;
-    let mut next = std::mem::take(&mut queues.next);
-    let mut active = std::mem::take(&mut queues.active);
-    for &row in &active {
+    queues.advance_active(|row, shadow_queue| {
         let i = row as usize;
         let factors = store.factors(samples[i].sample);
         let mut step = CameraStep { shadow: None, vertex: &mut vertices[i].0 };
@@ -291,16 +288,13 @@ pub fn scatter_camera_subpaths(
         );
         if let Some(sample) = step.shadow {
             shadows[i] = PathShadow { ray: sample.ray, contribution: sample.contribution };
-            queues.shadow.push(row);
+            shadow_queue.push(row);
         }
         if vertices[i].0.is_some() {
             connections.0.push(row);
         }
-        if goes_on { next.push(row) } else { queues.finished.push(row) }
-    }
-    active.clear();
-    queues.active = next;
-    queues.next = active;
+        goes_on
+    });
 }
 
 /// Connect every queued camera vertex to each kept vertex of its pixel's light subpath, adding what

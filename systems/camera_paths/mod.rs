@@ -112,7 +112,7 @@ pub struct PathQueues {
     /// Rows whose radiance waits to be splatted.
     pub finished: Vec<u32>,
     /// Scatter's next `active`, kept to reuse its allocation.
-    pub(crate) next: Vec<u32>,
+    next: Vec<u32>,
     /// Rows in the shard.
     pub rows: u32,
 }
@@ -129,6 +129,21 @@ impl PathQueues {
             next: Vec::with_capacity(capacity),
             rows,
         }
+    }
+
+    /// One scatter of every active row: `step(row, shadow)` shades its vertex (queueing a light
+    /// sample's shadow ray in `shadow` if it makes one) and says whether the path goes on (active
+    /// next step) or ended (finished, for the splat). The scatters that shade a row at a time use
+    /// it; `scatter_paths` defers its Lambertian rows to lanes and keeps its own loop.
+    pub fn advance_active(&mut self, mut step: impl FnMut(u32, &mut Vec<u32>) -> bool) {
+        let mut next = std::mem::take(&mut self.next);
+        let mut active = std::mem::take(&mut self.active);
+        for &row in &active {
+            if step(row, &mut self.shadow) { next.push(row) } else { self.finished.push(row) }
+        }
+        active.clear();
+        self.active = next;
+        self.next = active;
     }
 }
 

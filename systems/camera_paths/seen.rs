@@ -35,14 +35,11 @@ pub fn scatter_to_seen_emission(
     let mut aovs = aovs.as_mut().map(|a| a.bypass_change_detection());
     let arrival =
         Arrival { emission: Some(EmissionWeight::SeenDirectly), last_depth: config.limits.max_depth };
-    let queues = &mut *queues;
-    let mut next = std::mem::take(&mut queues.next);
-    let mut active = std::mem::take(&mut queues.active);
-    for &row in &active {
+    queues.advance_active(|row, _| {
         let i = row as usize;
         // The feature images of the first non-specular surface, as every camera path records them.
         let aov = aovs.as_deref_mut().map(|a| &mut a[i].0);
-        let goes_on = arrival.arrive(
+        arrival.arrive(
             &scene,
             &mut rays[i].0,
             &hits[i].0,
@@ -61,10 +58,6 @@ pub fn scatter_to_seen_emission(
                     None => false,
                 }
             },
-        );
-        if goes_on { next.push(row) } else { queues.finished.push(row) }
-    }
-    active.clear();
-    queues.active = next;
-    queues.next = active;
+        )
+    });
 }

@@ -88,30 +88,16 @@ pub fn emit_bidirectional_subpaths(
         samplers.bypass_change_detection(),
         origins.bypass_change_detection(),
     );
-    let queues = &mut *queues;
-    loop {
-        let indices = handout.take(queues.free.len() as u32);
-        if indices.is_empty() {
-            break;
-        }
-        for index in indices {
-            let row = *queues.free.last().expect("no more indices than free rows");
-            let i = row as usize;
-            let sampler = light_paths.sampler(&work, index, false);
-            let time = photon_time(work.time, work.motion, &sampler);
-            if let Some((first, path, origin)) = emit_light_subpath(&scene, &sampler, time) {
-                rays[i].0 = first;
-                powers[i].0 = path;
-                origins[i].0 = origin;
-                samplers[i] = SubpathSampler { sampler, index };
-                queues.free.pop();
-                queues.active.push(row);
-            }
-        }
-        if queues.free.is_empty() {
-            break;
-        }
-    }
+    queues.fill_free_rows(&handout, |index, i| {
+        let sampler = light_paths.sampler(&work, index, false);
+        let time = photon_time(work.time, work.motion, &sampler);
+        let Some((first, path, origin)) = emit_light_subpath(&scene, &sampler, time) else { return false };
+        rays[i].0 = first;
+        powers[i].0 = path;
+        origins[i].0 = origin;
+        samplers[i] = SubpathSampler { sampler, index };
+        true
+    });
 }
 
 /// What scatter reads and writes.
@@ -152,12 +138,10 @@ pub fn scatter_bidirectional_subpaths(
         sums.bypass_change_detection(),
         connections.bypass_change_detection(),
     );
-    let (queues, kept) = (&mut *queues, &mut *kept);
-    let mut next = std::mem::take(&mut queues.next);
-    let mut active = std::mem::take(&mut queues.active);
+    let kept = &mut *kept;
     let mut roulette_kills = 0;
     let mut vertex = None;
-    for &row in &active {
+    counts.traced += queues.advance_active(|row, queued| {
         let i = row as usize;
         let SubpathSampler { sampler, index } = samplers[i];
         let factors = weights.factors(work.pass + index / light_paths.per_unit);
@@ -183,22 +167,15 @@ pub fn scatter_bidirectional_subpaths(
         }
         if let Some(connection) = step.connection {
             connections[i].0 = connection;
-            queues.connections.push(row);
+            queued.push(row);
         }
         roulette_kills += step.roulette_kill as u64;
-        match step.next {
-            Some(ray) => {
-                rays[i].0 = ray;
-                next.push(row);
-            }
-            None => queues.free.push(row),
+        if let Some(ray) = step.next {
+            rays[i].0 = ray;
         }
-    }
-    counts.traced += active.len() as u64;
+        step.next.is_some()
+    });
     counts.roulette_kills += roulette_kills;
-    active.clear();
-    queues.active = next;
-    queues.next = active;
 }
 
 /// Spawn `rows` light subpaths of bdpt or vcm into a shard's World: `lt`'s chunk and two columns.

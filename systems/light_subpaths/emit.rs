@@ -33,27 +33,13 @@ pub fn emit_subpaths(
     // Each subpath is a whole estimate: its power is not divided among the pass's (which would
     // round differently for passes of different lengths, and a part would not merge exactly).
     let settings = PhotonPassSettings { total: 1, ..work.settings };
-    let queues = &mut *queues;
-    loop {
-        let indices = handout.take(queues.free.len() as u32);
-        if indices.is_empty() {
-            break;
-        }
-        for index in indices {
-            let row = *queues.free.last().expect("no more indices than free rows");
-            let i = row as usize;
-            let sampler = light_paths.sampler(&work, index, false);
-            let time = photon_time(work.time, work.motion, &sampler);
-            if let Some((first, path)) = emit_photon(&scene, &settings, &sampler, time) {
-                rays[i].0 = first;
-                powers[i].0 = path;
-                samplers[i] = SubpathSampler { sampler, index };
-                queues.free.pop();
-                queues.active.push(row);
-            }
-        }
-        if queues.free.is_empty() {
-            break;
-        }
-    }
+    queues.fill_free_rows(&handout, |index, i| {
+        let sampler = light_paths.sampler(&work, index, false);
+        let time = photon_time(work.time, work.motion, &sampler);
+        let Some((first, path)) = emit_photon(&scene, &settings, &sampler, time) else { return false };
+        rays[i].0 = first;
+        powers[i].0 = path;
+        samplers[i] = SubpathSampler { sampler, index };
+        true
+    });
 }

@@ -137,6 +137,42 @@ impl SubpathQueues {
             rows,
         }
     }
+
+    /// Hand the pass's next indices to the free rows (lowest first): `start(index, row)` starts
+    /// subpath `index` in `row` and says whether it did; a subpath whose light sample fails leaves
+    /// its row free for the next index. Emit's loop, whatever a subpath is.
+    pub fn fill_free_rows(&mut self, handout: &SubpathHandout, mut start: impl FnMut(u32, usize) -> bool) {
+        while !self.free.is_empty() {
+            let indices = handout.take(self.free.len() as u32);
+            if indices.is_empty() {
+                return;
+            }
+            for index in indices {
+                let row = *self.free.last().expect("no more indices than free rows");
+                if start(index, row as usize) {
+                    self.free.pop();
+                    self.active.push(row);
+                }
+            }
+        }
+    }
+
+    /// One scatter of every active row: `step(row, connections)` makes its vertex (queueing a
+    /// connection to the camera if it makes one) and says whether the subpath goes on (active next
+    /// step) or ended (its row free). Returns the rows scattered. Scatter's loop, whatever a
+    /// subpath leaves.
+    pub fn advance_active(&mut self, mut step: impl FnMut(u32, &mut Vec<u32>) -> bool) -> u64 {
+        let mut next = std::mem::take(&mut self.next);
+        let mut active = std::mem::take(&mut self.active);
+        for &row in &active {
+            if step(row, &mut self.connections) { next.push(row) } else { self.free.push(row) }
+        }
+        let scattered = active.len() as u64;
+        active.clear();
+        self.active = next;
+        self.next = active;
+        scattered
+    }
 }
 
 /// The pass's subpath indices, handed out to the shards' free rows from one counter (a clone

@@ -91,30 +91,15 @@ pub fn emit_photon_subpaths(
         powers.bypass_change_detection(),
         samplers.bypass_change_detection(),
     );
-    let queues = &mut *queues;
-    loop {
-        let indices = handout.take(queues.free.len() as u32);
-        if indices.is_empty() {
-            break;
-        }
-        for index in indices {
-            let row = *queues.free.last().expect("no more indices than free rows");
-            let i = row as usize;
-            let sampler =
-                photon_sampler(work.sampler, work.seed, work.pass, work.settings.kind as u32, index);
-            let time = photon_time(work.time, work.motion, &sampler);
-            if let Some((first, path)) = emit_photon(&scene, &work.settings, &sampler, time) {
-                rays[i].0 = first;
-                powers[i].0 = path;
-                samplers[i] = SubpathSampler { sampler, index };
-                queues.free.pop();
-                queues.active.push(row);
-            }
-        }
-        if queues.free.is_empty() {
-            break;
-        }
-    }
+    queues.fill_free_rows(&handout, |index, i| {
+        let sampler = photon_sampler(work.sampler, work.seed, work.pass, work.settings.kind as u32, index);
+        let time = photon_time(work.time, work.motion, &sampler);
+        let Some((first, path)) = emit_photon(&scene, &work.settings, &sampler, time) else { return false };
+        rays[i].0 = first;
+        powers[i].0 = path;
+        samplers[i] = SubpathSampler { sampler, index };
+        true
+    });
 }
 
 /// What scatter reads and writes.
@@ -138,11 +123,9 @@ pub fn scatter_photon_subpaths(
     let Some((hits, samplers, mut rays, mut powers)) = tables.next() else { return };
     let (rays, powers) = (rays.bypass_change_detection(), powers.bypass_change_detection());
     let keep_ends = work.settings.total > MAX_WAVEFRONT;
-    let (queues, trail) = (&mut *queues, &mut *trail);
-    let mut next = std::mem::take(&mut queues.next);
-    let mut active = std::mem::take(&mut queues.active);
+    let trail = &mut *trail;
     let mut roulette_kills = 0;
-    for &row in &active {
+    counts.traced += queues.advance_active(|row, _| {
         let i = row as usize;
         let SubpathSampler { sampler, index } = samplers[i];
         let path = &mut powers[i].0;
@@ -153,23 +136,13 @@ pub fn scatter_photon_subpaths(
         }
         roulette_kills += bounce.roulette_kill as u64;
         match bounce.next {
-            Some(ray) => {
-                rays[i].0 = ray;
-                next.push(row);
-            }
-            None => {
-                queues.free.push(row);
-                if keep_ends {
-                    trail.ends.push((index, depth + 1));
-                }
-            }
+            Some(ray) => rays[i].0 = ray,
+            None if keep_ends => trail.ends.push((index, depth + 1)),
+            None => {}
         }
-    }
-    counts.traced += active.len() as u64;
+        bounce.next.is_some()
+    });
     counts.roulette_kills += roulette_kills;
-    active.clear();
-    queues.active = next;
-    queues.next = active;
 }
 
 /// Spawn `rows` photons into a shard's World, all in one table, with their queues and trail.

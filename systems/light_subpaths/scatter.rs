@@ -40,11 +40,8 @@ pub fn scatter_subpaths(
         powers.bypass_change_detection(),
         connections.bypass_change_detection(),
     );
-    let queues = &mut *queues;
-    let mut next = std::mem::take(&mut queues.next);
-    let mut active = std::mem::take(&mut queues.active);
     let mut roulette_kills = 0;
-    for &row in &active {
+    counts.traced += queues.advance_active(|row, queued| {
         let i = row as usize;
         let SubpathSampler { sampler, index } = samplers[i];
         let path = &mut powers[i].0;
@@ -53,20 +50,13 @@ pub fn scatter_subpaths(
             light_vertex(&scene, &camera, &work.settings, path, &rays[i].0, &hits[i].0, &sampler, u_lens);
         if let Some(connection) = bounce.connection {
             connections[i].0 = connection;
-            queues.connections.push(row);
+            queued.push(row);
         }
         roulette_kills += bounce.roulette_kill as u64;
-        match bounce.next {
-            Some(ray) => {
-                rays[i].0 = ray;
-                next.push(row);
-            }
-            None => queues.free.push(row),
+        if let Some(ray) = bounce.next {
+            rays[i].0 = ray;
         }
-    }
-    counts.traced += active.len() as u64;
+        bounce.next.is_some()
+    });
     counts.roulette_kills += roulette_kills;
-    active.clear();
-    queues.active = next;
-    queues.next = active;
 }
