@@ -1402,6 +1402,38 @@ fn skins_and_morph_targets_are_warned_about_once_each_naming_them() {
     assert_eq!(z, vec![0.5, 0.5, 0.0]);
 }
 
+/// A `weights` channel on a file without morph targets drives nothing: it is ignored with a warning
+/// that names it and says why, like every other unusable channel, not silently.
+#[test]
+fn a_weights_channel_with_nothing_to_drive_is_warned_about() {
+    let mut bin = Bin::default();
+    let positions = bin.f32(&UNIT_TRIANGLE);
+    let times = bin.f32(&[0.0, 1.0]);
+    let views = format!(
+        r#"{{"buffer":0,"byteOffset":{positions},"byteLength":36}},{{"buffer":0,"byteOffset":{times},"byteLength":8}}"#
+    );
+    let accessors = format!(
+        r#"{},{{"bufferView":1,"componentType":5126,"count":2,"type":"SCALAR","min":[0],"max":[1]}}"#,
+        unit_triangle_accessor(0, 0)
+    );
+    let text = format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0,1]}}],
+        "nodes":[{{"name":"plain","mesh":0}},{{"name":"empty"}}],
+        "animations":[{{"name":"w","channels":[{{"sampler":0,"target":{{"node":0,"path":"weights"}}}},
+            {{"sampler":0,"target":{{"node":1,"path":"weights"}}}}],"samplers":[{{"input":1,"output":1}}]}}],
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}}}}]}}],
+        {buffers}"bufferViews":[{views}],"accessors":[{accessors}]}}"#,
+        buffers = bin.json()
+    );
+    let path = write(&temp_dir("weights"), "unmorphed.gltf", &text);
+    let (scene, logs) = common::capture_logs(|| load_gltf(&path).expect("loads"));
+    assert!(scene.animation.is_none(), "no channel that moves anything");
+    let warned: Vec<&str> = logs.lines().filter(|l| l.contains("weight channels ignored")).collect();
+    assert_eq!(warned.len(), 1, "one warning for both channels: {logs}");
+    assert!(warned[0].contains("node 'plain' (#0), which has no morph targets"), "{logs}");
+    assert!(warned[0].contains("node 'empty' (#1), which has no morph targets"), "{logs}");
+}
+
 /// Sizes a small file declares are checked before they are allocated: fifty thousand nodes placing
 /// one mesh of a million (all-zero) triangles, 5·10¹⁰ in all, from a file of under a megabyte; and
 /// a sparse accessor without a bufferView declaring 2³⁰ elements (it passed the cap of plain ones).

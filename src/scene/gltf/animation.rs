@@ -38,7 +38,16 @@ impl Loader<'_> {
                     gltf::animation::Property::Scale => Property::Scale,
                     gltf::animation::Property::MorphTargetWeights => {
                         let node = channel.target().node();
-                        weights.push(format!("{clip_label} on {}", label("node", node.name(), node.index())));
+                        let morphed = node.mesh().is_some_and(|mesh| {
+                            mesh.primitives().any(|p| p.morph_targets().next().is_some())
+                        });
+                        // A channel on a node without morph targets drives nothing even once weights
+                        // are played: say so, rather than promise default weights it has not got.
+                        let driven = if morphed { "" } else { ", which has no morph targets" };
+                        weights.push(format!(
+                            "{clip_label} on {}{driven}",
+                            label("node", node.name(), node.index())
+                        ));
                         continue;
                     }
                 };
