@@ -117,6 +117,9 @@ pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>, start: Instant
         }
         None => (Renderer::new(scene, &run).with_context(preparing)?, None),
     };
+    // Loading and building the scene (decoding, the BVH's build) can peak above what the render is
+    // counted to hold: that peak has happened, so it is measured rather than counted.
+    let loaded_peak = caustica::memory::peak_resident_bytes().unwrap_or(0);
     if let Some(reference) = &reference {
         let film = renderer.report();
         if (reference.width, reference.height) != (film.width, film.height) {
@@ -252,7 +255,8 @@ pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>, start: Instant
         outln!("checkpoints {}", checkpoints.summary());
     }
     if let Some(peak) = caustica::memory::peak_resident_bytes() {
-        let counted = checkpoints.as_ref().map_or(renderer.memory_counted(), |c| c.memory_counted);
+        let counted =
+            checkpoints.as_ref().map_or(renderer.memory_counted(), |c| c.memory_counted).max(loaded_peak);
         let mib = |b: u64| b.div_ceil(1 << 20);
         outln!(
             "memory      peak {} MiB resident; counted {} MiB before rendering, budget {} MiB",

@@ -98,6 +98,22 @@ pub enum Error {
         /// Why.
         problem: String,
     },
+    /// Memory the budget let through that the machine, or the process's limit (`ulimit -v`), has not
+    /// got: refused before anything of it is used, never an abort.
+    #[error(
+        "cannot allocate {what}: {} MiB, within the memory budget of {} MiB, but the machine or this \
+         process's limit (ulimit -v) has not got it; lower the resolution or the photon counts, or free memory",
+        bytes.div_ceil(1 << 20),
+        budget.div_ceil(1 << 20)
+    )]
+    OutOfMemory {
+        /// What was to be allocated.
+        what: String,
+        /// Its size, bytes.
+        bytes: u64,
+        /// The budget it was checked against, bytes.
+        budget: u64,
+    },
     /// Parts given to a merge that do not make one whole render.
     #[error("cannot merge: {problem}")]
     Merge {

@@ -1,7 +1,6 @@
 //! The scene as the integrators see it: the BVHs, the lights with their selection, and the
 //! materials and textures, with the one place where a hit's material becomes BSDF parameters.
 
-use crate::geometry::bvh::PrimitiveShape;
 use crate::geometry::{Geometry, SurfaceHit};
 use crate::lights::{LightShape, Lights};
 use crate::materials::{Bsdf, ShadingParams};
@@ -229,14 +228,7 @@ impl RenderScene {
     /// Total surface area of the primitives (for the initial-radius heuristic of progressive photon
     /// mapping); primitives whose area is not finite are left out.
     pub fn surface_area(&self) -> f32 {
-        self.geometry
-            .primitives()
-            .map(|(_, shape, _, _)| match shape {
-                PrimitiveShape::Triangle(t) => 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length(),
-                PrimitiveShape::Sphere(_, radius) => 4.0 * std::f32::consts::PI * radius * radius,
-            })
-            .filter(|a| a.is_finite())
-            .sum()
+        self.geometry.primitives().map(|(_, shape, _, _)| shape.area()).filter(|a| a.is_finite()).sum()
     }
 }
 

@@ -228,12 +228,19 @@ impl Shard {
             }
             self.schedule.run(&mut self.world);
             steps += 1;
-            if start.elapsed() >= budget {
+            let full = self.world.get_resource::<RoundFull>().is_some_and(|full| full.0);
+            if full || start.elapsed() >= budget {
                 return Round { steps, in_flight: in_flight(&self.world) };
             }
         }
     }
 }
+
+/// Set by a shard's systems when what the shard keeps for the main World has reached the size the
+/// memory count gave it: its round ends after that bounce, to be folded, whatever time is left.
+/// (Rounds end by time anyway, and nothing a render computes depends on where they end.)
+#[derive(Resource, Clone, Copy, Debug, Default)]
+pub struct RoundFull(pub bool);
 
 /// Worker threads: one shard each.
 pub fn workers() -> usize {

@@ -120,15 +120,17 @@ pub fn scene_world_dynamic(scene: Scene, run: &RunFile, dynamic: &[bool]) -> Res
 }
 
 /// Add the camera's film, and the feature images' film when `run` asks for them.
-pub fn add_films(world: &mut World, run: &RunFile) {
+pub fn add_films(world: &mut World, run: &RunFile) -> Result<()> {
     let (width, height) = {
         let camera = world.resource::<CameraResource>();
         (camera.width, camera.height)
     };
-    world.insert_resource(FilmResource::new(Film::new(width, height)));
+    let budget = crate::integrators::memory::budget(run);
+    world.insert_resource(FilmResource::new(Film::try_new(width, height, budget)?));
     if run.film.aovs.iter().any(|aov| aov.needs_surface()) {
-        world.insert_resource(AovFilmResource::new(AovFilm::new(width, height)));
+        world.insert_resource(AovFilmResource::new(AovFilm::try_new(width, height, budget)?));
     }
+    Ok(())
 }
 
 /// The memory the machine has, from /proc/meminfo (Linux); 8 GiB where it cannot be read.

@@ -50,6 +50,8 @@ fn peak_and_count(out: &Output) -> (u64, u64) {
     (numbers[0], numbers[1])
 }
 
+/// (At 1200², where the film, the hit points and the light vertices dominate, the count is held to
+/// the allocator's own peak in tests/memory_count.rs, without the resident memory's slack.)
 fn check_every_integrator(size: u32, checkpoints: &[bool]) {
     for integrator in INTEGRATORS {
         for &checkpoint in checkpoints {
@@ -74,12 +76,4 @@ fn check_every_integrator(size: u32, checkpoints: &[bool]) {
 #[cfg(target_os = "linux")]
 fn every_integrator_stays_within_a_tenth_of_its_count_and_a_budget_under_it_is_refused() {
     check_every_integrator(320, &[false, true]);
-}
-
-/// 1.44 M pixels, where the film, the hit points and the light vertices dominate: one sample or pass
-/// each, without checkpoints (what a checkpoint adds is counted at 320²), so that it runs in CI.
-#[test]
-#[cfg(target_os = "linux")]
-fn at_1200_squared_every_integrator_stays_within_a_tenth_of_its_count() {
-    check_every_integrator(1200, &[false]);
 }

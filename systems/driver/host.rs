@@ -67,8 +67,13 @@ impl Renderer {
             let film = self.world.resource::<FilmResource>();
             (film.width, film.height)
         };
+        // The old film goes before its successor is made: the budget counted one film, and the
+        // same size freed just before is there to be had again.
+        let aovs = self.has_aovs();
+        self.world.remove_resource::<FilmResource>();
+        self.world.remove_resource::<crate::resources::AovFilmResource>();
         self.world.insert_resource(FilmResource::new(caustica_core::film::Film::new(width, height)));
-        if self.has_aovs() {
+        if aovs {
             let film = caustica_core::film::aov::AovFilm::new(width, height);
             self.world.insert_resource(crate::resources::AovFilmResource::new(film));
         }

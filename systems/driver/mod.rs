@@ -118,10 +118,17 @@ impl Renderer {
             let camera = world.resource::<crate::resources::CameraResource>();
             camera.width as u64 * camera.height as u64
         };
-        let counted =
-            integrators::memory::check(run, integrators::memory::render_need(integrator, pixels, run))?;
+        let pilot = if integrator.traces_light_paths() {
+            let config = world.resource::<crate::resources::RenderConfig>();
+            let scene = world.resource::<crate::resources::SceneResource>();
+            integrators::memory::PilotPaths::pilot(&scene, config.limits, config.sampler)
+        } else {
+            integrators::memory::PilotPaths::default()
+        };
+        let need = integrators::memory::render_need(integrator, pixels, run, &pilot);
+        let counted = integrators::memory::check(run, need)?;
         world.insert_resource(crate::resources::MemoryCounted(counted));
-        crate::world::add_films(&mut world, run);
+        crate::world::add_films(&mut world, run)?;
         let plan = (integrator.plan)(integrator, &mut world, run, features)?;
         crate::aov::equip_paths(&mut world);
         let target = integrator.units(run);

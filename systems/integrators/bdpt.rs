@@ -30,6 +30,7 @@
 //! state: `--part` and checkpoints work as for `pt`.
 
 use super::descriptor::{Integrator, LightSampling, MemoryNeed, no_checks, one_sample_per_unit};
+use super::memory::PilotPaths;
 use super::{configure_stages, film_image, stage_order};
 use crate::PassSystems;
 use crate::bidirectional::{
@@ -67,10 +68,6 @@ fn units_per_pass(pixels: u32, run: &RunFile) -> u32 {
     (SUBPATHS_PER_PASS / pixels.max(1)).clamp(1, run.render.spp.max(1))
 }
 
-/// Kept vertices a light subpath has on average, for the memory estimate: Russian roulette on
-/// reflectivity ends most subpaths within a few bounces (cornell-box: 2.1; a white room more).
-const KEPT_VERTICES_PER_SUBPATH: u64 = 3;
-
 /// `bdpt`: camera and light subpaths, every strategy weighted.
 pub static BDPT: Integrator = Integrator {
     kind: IntegratorKind::Bdpt,
@@ -90,7 +87,7 @@ pub static BDPT: Integrator = Integrator {
 
 /// The camera paths' chunks with their sums and connection vertex, a wavefront of light subpaths,
 /// and the pass's kept light vertices.
-fn memory(_: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
+fn memory(_: &Integrator, pixels: u64, run: &RunFile, pilot: &PilotPaths) -> MemoryNeed {
     let paths = super::path::chunked_paths(pixels, run);
     let rows = run.render.chunk as u64 * crate::shards::workers() as u64;
     // The two columns of their own (their change ticks too) and the connection queue.
@@ -100,10 +97,11 @@ fn memory(_: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
             + size_of::<u32>() as u64);
     // A chunk of light subpaths a worker: lt's columns, two of their own, the queues, and what a
     // round keeps before it is folded (about four vertices a row).
-    let subpaths = rows * light_subpath_row_bytes();
+    let subpaths =
+        rows * light_subpath_row_bytes() + crate::shards::workers() as u64 * super::memory::SHARD_WORLD_BYTES;
     // Where each subpath's vertices start, and each kept vertex with its subpath's index.
     let kept = subpaths_per_pass(pixels, run) * size_of::<u32>() as u64
-        + kept_vertices_per_pass(pixels, run) * (size_of::<LightVertex>() + size_of::<u32>()) as u64;
+        + kept_vertices_per_pass(pixels, run, pilot) * (size_of::<LightVertex>() + size_of::<u32>()) as u64;
     MemoryNeed {
         bytes: paths.bytes + camera + subpaths + kept,
         what: format!("a {pixels}-pixel film, its paths, light subpaths and their kept vertices"),
@@ -115,7 +113,8 @@ fn memory(_: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
 fn light_subpath_row_bytes() -> u64 {
     use crate::light_subpaths::{SubpathConnection, SubpathHit, SubpathPower, SubpathRay, SubpathSampler};
     const QUEUE_BYTES: usize = 3 * size_of::<u32>();
-    const KEPT_IN_A_ROUND: usize = 4 * (size_of::<LightVertex>() + size_of::<u32>());
+    const KEPT_IN_A_ROUND: usize =
+        subpaths::KEPT_ROWS_IN_A_ROUND * (size_of::<LightVertex>() + size_of::<u32>());
     super::memory::entity_bytes(&[
         size_of::<SubpathRay>(),
         size_of::<SubpathHit>(),
@@ -133,8 +132,9 @@ fn subpaths_per_pass(pixels: u64, run: &RunFile) -> u64 {
 }
 
 /// The light vertices a pass keeps, as the memory count assumes.
-pub(super) fn kept_vertices_per_pass(pixels: u64, run: &RunFile) -> u64 {
-    subpaths_per_pass(pixels, run) * KEPT_VERTICES_PER_SUBPATH
+pub(super) fn kept_vertices_per_pass(pixels: u64, run: &RunFile, pilot: &PilotPaths) -> u64 {
+    // A subpath keeps a vertex at each non-delta surface it meets: what a pilot of them found.
+    (subpaths_per_pass(pixels, run) as f64 * pilot.diffuse_hits).ceil() as u64
 }
 
 fn plan(_: &Integrator, world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {

@@ -86,7 +86,7 @@ pub struct Integrator {
     /// progressive mappers' hit points per pixel).
     pub camera_samples_per_unit: fn(&Integrator, &RunFile) -> u32,
     /// What a run of `pixels` pixels needs in memory.
-    pub memory: fn(&Integrator, u64, &RunFile) -> MemoryNeed,
+    pub memory: fn(&Integrator, u64, &RunFile, &super::memory::PilotPaths) -> MemoryNeed,
     /// Its own checks of the settings against the scene, beyond the shared ones of [`Integrator::check`].
     pub check: fn(&Scene, &RunFile) -> Result<()>,
     /// Build it in `world` (which holds the scene's resources): its entities, resources and phases.
@@ -100,6 +100,12 @@ impl Integrator {
     /// Its name in run files and on the command line.
     pub fn name(&self) -> &'static str {
         self.kind.name()
+    }
+
+    /// Whether its memory count grows with how far light's paths go (stored photons, kept light
+    /// vertices): then a pilot of them is traced before it is counted ([`super::memory::PilotPaths`]).
+    pub fn traces_light_paths(&self) -> bool {
+        matches!(self.kind, IntegratorKind::Pm | IntegratorKind::Bdpt | IntegratorKind::Vcm)
     }
 
     /// Whether it takes `setting`.

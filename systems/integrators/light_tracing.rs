@@ -37,6 +37,7 @@
 //! directly (a point of no size, as in `pt`).
 
 use super::descriptor::{Integrator, LightSampling, MemoryNeed, no_checks, one_sample_per_unit};
+use super::memory::PilotPaths;
 use super::{configure_stages, film_image, stage_order};
 use crate::PassSystems;
 use crate::camera_paths::{self, PathExtras};
@@ -78,7 +79,7 @@ pub static LT: Integrator = Integrator {
 /// A chunk of camera paths and one of light subpaths per worker: their columns and queues. (The
 /// camera chunks are counted even where no camera ray is traced, under delta lights alone: a few
 /// MiB.)
-fn memory(_: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
+fn memory(_: &Integrator, pixels: u64, run: &RunFile, _: &PilotPaths) -> MemoryNeed {
     use super::memory::entity_bytes;
     use crate::camera_paths::{PathSample, PathSampler, PathShadow, PathThroughput};
     use crate::components::{PathAov, PathHit, PathRay};
@@ -104,7 +105,9 @@ fn memory(_: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
         size_of::<SubpathConnection>(),
     ];
     let rows = run.render.chunk as u64 * crate::shards::workers() as u64;
-    let bytes = rows * (entity_bytes(&camera) + entity_bytes(&subpath) + 2 * QUEUE_BYTES);
+    // Two shards a worker: its camera paths' and its light subpaths'.
+    let worlds = 2 * crate::shards::workers() as u64 * super::memory::SHARD_WORLD_BYTES;
+    let bytes = rows * (entity_bytes(&camera) + entity_bytes(&subpath) + 2 * QUEUE_BYTES) + worlds;
     MemoryNeed { bytes, what: format!("a {pixels}-pixel film, its camera paths and light subpaths") }
 }
 

@@ -50,7 +50,7 @@ const PATH_TRACER: Integrator = Integrator {
     takes: &[Setting::NoiseThreshold],
     default_hit_points_per_pixel: 0,
     camera_samples_per_unit: one_sample_per_unit,
-    memory: |_, pixels, run| chunked_paths(pixels, run),
+    memory: |_, pixels, run, _| chunked_paths(pixels, run),
     check: no_checks,
     plan,
 };
@@ -106,7 +106,8 @@ pub(super) fn chunked_paths(pixels: u64, run: &RunFile) -> MemoryNeed {
     const QUEUE_BYTES: u64 = 3 * size_of::<u32>() as u64;
     let scratch = crate::camera_paths::LANE_SCRATCH_BYTES_PER_ROW as u64;
     let rows = run.render.chunk as u64 * crate::shards::workers() as u64;
-    let paths = rows * (super::memory::entity_bytes(&components) + QUEUE_BYTES + scratch);
+    let paths = rows * (super::memory::entity_bytes(&components) + QUEUE_BYTES + scratch)
+        + crate::shards::workers() as u64 * super::memory::SHARD_WORLD_BYTES;
     MemoryNeed {
         bytes: paths + adaptive_bytes(pixels, run),
         what: format!("a {pixels}-pixel film and its paths"),

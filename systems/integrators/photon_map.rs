@@ -23,6 +23,7 @@
 //! | `bounce` (every pass) | `emit_camera_paths` → `trace_paths` → `scatter_photon_mapped` → `trace_shadow_rays` → `splat_paths_to_film` | `hand_out_samples` | |
 
 use super::descriptor::{Integrator, LightSampling, MemoryNeed, Setting};
+use super::memory::PilotPaths;
 use super::{configure_stages, film_image, paths_busy, stage_order};
 use crate::PassSystems;
 use crate::emit::emit_camera_paths_for;
@@ -64,14 +65,17 @@ pub static PM: Integrator = Integrator {
 
 /// The paths of the path tracers, each map's photon shards (a chunk of photons a worker), and the
 /// photon maps (a stored photon is tagged in its pass's trail and copied into the ordered buffer
-/// that becomes its kd-tree; a photon is stored about 1/(1 − albedo) times, counted as 4).
-fn memory(_: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
+/// that becomes its kd-tree), as many photons stored as a pilot of them found.
+fn memory(_: &Integrator, pixels: u64, run: &RunFile, pilot: &PilotPaths) -> MemoryNeed {
     use crate::light_subpaths::photons::{BYTES_PER_DEPOSIT, photon_chunk_bytes};
-    const STORES_PER_PHOTON: u64 = 4;
     let (photons, caustic) = (run.photons.photons, run.photons.caustic_photons);
     let paths = super::path::paths(pixels, run);
     let shards = 2 * photon_chunk_bytes(run.render.chunk) * crate::shards::workers() as u64;
-    let maps = (photons as u64 + caustic as u64) * STORES_PER_PHOTON * BYTES_PER_DEPOSIT as u64;
+    // The global map (final gathering) keeps every non-delta hit, the indirect one those after a
+    // diffuse bounce.
+    let per_photon = if run.photons.final_gather > 0 { pilot.diffuse_hits } else { pilot.indirect_hits };
+    let stored = photons as f64 * per_photon + caustic as f64 * pilot.caustic_hits;
+    let maps = stored.ceil() as u64 * BYTES_PER_DEPOSIT as u64;
     // A pass of more photons than 2^18 keeps when each photon ended, to order its deposits.
     let largest = photons.max(caustic);
     let replay = if largest > MAX_WAVEFRONT { largest as u64 * REPLAY_BYTES_PER_PHOTON } else { 0 };

@@ -17,6 +17,7 @@
 //! | `memory_budget_mib` | u64 | half the RAM | hit points + photons may not exceed it |
 
 use super::descriptor::{Integrator, LightSampling, MemoryNeed, PlanFn, Setting};
+use super::memory::PilotPaths;
 use super::{configure_stages, paths_busy, stage_order};
 use crate::PassSystems;
 use crate::components::{
@@ -100,7 +101,7 @@ fn check(scene: &Scene, run: &RunFile) -> Result<()> {
 
 /// Hit points for every pixel (entities: their statistics, the camera path that re-traces them, and
 /// the adaptive or χ² statistics of the variants that keep them) plus one pass of photons.
-fn memory(this: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
+fn memory(this: &Integrator, pixels: u64, run: &RunFile, _: &PilotPaths) -> MemoryNeed {
     let settings = run.progressive;
     let hit_points = pixels * this.hit_points_per_pixel(run) as u64;
     let per_hit_point = bytes_per_hit_point(!run.film.aovs.is_empty());

@@ -21,6 +21,7 @@
 //! (`build_merge_grids`) and the merges made in the connection stage.
 
 use super::descriptor::{Integrator, LightSampling, MemoryNeed, no_checks, one_sample_per_unit};
+use super::memory::PilotPaths;
 use crate::bidirectional::RadiusSequence;
 use crate::plan::{Plan, Unit};
 use crate::resources::{CameraResource, SceneFeatures, SceneResource};
@@ -54,11 +55,11 @@ pub static VCM: Integrator = Integrator {
 
 /// bdpt's, and the grids over the kept vertices: for each, what a merge reads of it (in the grid,
 /// built from the table without a copy), its bucket, and at most four buckets' starts.
-fn memory(this: &Integrator, pixels: u64, run: &RunFile) -> MemoryNeed {
+fn memory(this: &Integrator, pixels: u64, run: &RunFile, pilot: &PilotPaths) -> MemoryNeed {
     use caustica_core::kernel::bidirectional::MergeVertex;
     const GRID_BYTES_PER_VERTEX: u64 = (size_of::<MergeVertex>() + 5 * size_of::<u32>()) as u64;
-    let bdpt = (super::bdpt::BDPT.memory)(this, pixels, run);
-    let grids = super::bdpt::kept_vertices_per_pass(pixels, run) * GRID_BYTES_PER_VERTEX;
+    let bdpt = (super::bdpt::BDPT.memory)(this, pixels, run, pilot);
+    let grids = super::bdpt::kept_vertices_per_pass(pixels, run, pilot) * GRID_BYTES_PER_VERTEX;
     MemoryNeed { bytes: bdpt.bytes + grids, what: format!("{} and their merging grids", bdpt.what) }
 }
 

@@ -27,7 +27,7 @@ use super::{
 use crate::bidirectional::{LightVertexStore, SubpathWeights};
 use crate::light_paths::LightPaths;
 use crate::resources::{CameraResource, PhotonWork, SceneResource};
-use crate::shards::ShardLink;
+use crate::shards::{RoundFull, ShardLink};
 use bevy_ecs::prelude::*;
 use caustica_core::kernel::bidirectional::{
     KeptBsdf, LightOrigin, LightVertex, SubpathMis, emit_light_subpath, light_subpath_vertex,
@@ -50,6 +50,9 @@ const _: () = assert!(size_of::<SubpathOrigin>() == 40 && size_of::<SubpathSums>
 /// those that are not Lambertian (by their index here until folded).
 #[derive(Resource, Debug, Default)]
 pub struct ShardLightVertices {
+    /// Vertices after which the round ends ([`RoundFull`]), to be folded: what the memory count
+    /// gives a shard.
+    pub limit: usize,
     /// The vertices, in the order kept.
     pub vertices: Vec<LightVertex>,
     /// Their BSDFs that are not Lambertian.
@@ -120,6 +123,7 @@ pub fn scatter_bidirectional_subpaths(
     camera: Res<CameraResource>,
     (work, weights, light_paths): (Res<PhotonWork>, Res<SubpathWeights>, Res<LightPaths>),
     mut kept: ResMut<ShardLightVertices>,
+    mut full: ResMut<RoundFull>,
     mut counts: ResMut<SubpathCounts>,
     mut queues: ResMut<SubpathQueues>,
     mut subpaths: Query<ScatterColumns>,
@@ -165,6 +169,7 @@ pub fn scatter_bidirectional_subpaths(
             kept.owners.push(index);
             kept.vertices.push(new.keep(&mut kept.bsdfs));
         }
+        full.0 |= kept.vertices.len() >= kept.limit;
         if let Some(connection) = step.connection {
             connections[i].0 = connection;
             queued.push(row);
@@ -185,8 +190,19 @@ pub fn spawn_bidirectional_chunk(world: &mut World, rows: u32) {
     for entity in entities {
         world.entity_mut(entity).insert((SubpathOrigin::default(), SubpathSums::default()));
     }
-    world.insert_resource(ShardLightVertices::default());
+    // A bounce keeps at most a vertex a row: the round ends within one of the limit, and the
+    // tables never grow past what is reserved here.
+    let limit = (KEPT_ROWS_IN_A_ROUND - 1) * rows as usize;
+    let room = limit + rows as usize;
+    let mut kept = ShardLightVertices { limit, ..Default::default() };
+    kept.vertices.reserve_exact(room);
+    kept.owners.reserve_exact(room);
+    world.insert_resource(kept);
+    world.insert_resource(RoundFull(false));
 }
+
+/// A shard's kept vertices in a round, in rows' worth: what bdpt's memory count gives it.
+pub const KEPT_ROWS_IN_A_ROUND: usize = 4;
 
 /// `lt`'s links, the weights' factors, and the fold of each round's kept vertices into the pass's
 /// table (its BSDF indices moved past the table's).
@@ -196,6 +212,7 @@ pub fn bidirectional_links() -> Vec<ShardLink> {
         |main, shard| shard.insert_resource(main.resource::<LightVertexStore>().weights()),
         |shard, main| {
             shard.remove_resource::<SubpathWeights>();
+            shard.insert_resource(RoundFull(false));
             let mut own = shard.resource_mut::<ShardLightVertices>();
             if own.vertices.is_empty() {
                 return;
@@ -204,6 +221,9 @@ pub fn bidirectional_links() -> Vec<ShardLink> {
             let store = store.tables_mut();
             let moved = store.bsdfs.len() as u32;
             store.kept += own.vertices.len() as u64;
+            super::grow_by_eighths(&mut store.vertices, own.vertices.len());
+            super::grow_by_eighths(&mut store.bsdfs, own.bsdfs.len());
+            super::grow_by_eighths(&mut store.owners, own.owners.len());
             store.vertices.extend(own.vertices.drain(..).map(|mut vertex| {
                 if let KeptBsdf::InTable(at) = &mut vertex.bsdf {
                     *at += moved;

@@ -55,8 +55,8 @@ pub struct PhotonTrail {
 /// ordered buffer (which becomes the kd-tree).
 pub const BYTES_PER_DEPOSIT: usize = size_of::<(u64, Photon)>() + size_of::<Photon>();
 
-/// Bytes a shard's chunk of `rows` photons costs: their columns and their queues (a row is in at
-/// most two, and scatter's spare).
+/// Bytes a shard of `rows` photons costs: their columns and their queues (a row is in at most two,
+/// and scatter's spare), the deposits its trail keeps between rounds, and its World.
 pub fn photon_chunk_bytes(rows: u32) -> u64 {
     const QUEUE_BYTES: u64 = 3 * size_of::<u32>() as u64;
     let columns = [
@@ -65,7 +65,9 @@ pub fn photon_chunk_bytes(rows: u32) -> u64 {
         size_of::<SubpathPower>(),
         size_of::<SubpathSampler>(),
     ];
-    rows as u64 * (crate::integrators::memory::entity_bytes(&columns) + QUEUE_BYTES)
+    const TRAIL_BYTES: u64 = 4 * size_of::<(u64, Photon)>() as u64;
+    rows as u64 * (crate::integrators::memory::entity_bytes(&columns) + QUEUE_BYTES + TRAIL_BYTES)
+        + crate::integrators::memory::SHARD_WORLD_BYTES
 }
 
 /// What emit writes.
@@ -113,12 +115,14 @@ pub fn scatter_photon_subpaths(
     work: Res<PhotonWork>,
     mut counts: ResMut<SubpathCounts>,
     mut trail: ResMut<PhotonTrail>,
+    mut full: ResMut<crate::shards::RoundFull>,
     mut queues: ResMut<SubpathQueues>,
     mut photons: Query<ScatterColumns>,
 ) {
     if queues.active.is_empty() {
         return;
     }
+    let queues_rows = queues.rows as usize;
     let Ok(mut tables) = photons.contiguous_iter_mut() else { return };
     let Some((hits, samplers, mut rays, mut powers)) = tables.next() else { return };
     let (rays, powers) = (rays.bypass_change_detection(), powers.bypass_change_detection());
@@ -134,6 +138,7 @@ pub fn scatter_photon_subpaths(
         if let Some(photon) = bounce.deposit {
             trail.deposits.push(((index as u64) << 32 | depth as u64, photon));
         }
+        full.0 |= trail.deposits.len() >= DEPOSIT_ROWS_IN_A_ROUND * queues_rows;
         roulette_kills += bounce.roulette_kill as u64;
         match bounce.next {
             Some(ray) => rays[i].0 = ray,
@@ -152,7 +157,12 @@ pub fn spawn_photon_chunk(world: &mut World, rows: u32) {
     }));
     world.insert_resource(SubpathQueues::new(rows));
     world.insert_resource(PhotonTrail::default());
+    world.insert_resource(crate::shards::RoundFull(false));
 }
+
+/// A shard's deposits in a round, in rows' worth, after which the round ends to be folded (a
+/// bounce deposits at most one a row): within the `4 * rows` its trail keeps between rounds.
+const DEPOSIT_ROWS_IN_A_ROUND: usize = 3;
 
 /// What a shard of photons reads from the main World for a round (the scene, the pass's settings
 /// and hand-out) and folds into it: its counters into [`PhotonStats`], its deposits into the main
@@ -183,8 +193,11 @@ pub fn photon_links() -> Vec<ShardLink> {
                     stats.stored += own.deposits.len() as u64;
                 }
                 let mut trail = main.resource_mut::<PhotonTrail>();
+                super::grow_by_eighths(&mut trail.deposits, own.deposits.len());
+                super::grow_by_eighths(&mut trail.ends, own.ends.len());
                 trail.deposits.append(&mut own.deposits);
                 trail.ends.append(&mut own.ends);
+                shard.insert_resource(crate::shards::RoundFull(false));
                 // What a round left behind is not kept between passes.
                 let rows = shard.resource::<SubpathQueues>().rows as usize;
                 let mut own = shard.resource_mut::<PhotonTrail>();

@@ -81,7 +81,9 @@ pub fn merge_parts(paths: &[impl AsRef<Path>]) -> Result<(Film, PartInfo)> {
     }
     // Then the pixels, one part at a time: memory for the whole film and one part.
     let (width, height) = size;
-    let whole = Film::new(width, height);
+    // The parts' size is the files' word: what a render of it would have been let through (half
+    // the machine) bounds it, and an allocator that has not got it is an error, not an abort.
+    let whole = Film::try_new(width, height, crate::memory::physical_bytes() / 2)?;
     for (path, _, _) in &headers {
         let (film, info) = read_part(path)?;
         let want = info.samples.len() as u32 * info.per_unit;

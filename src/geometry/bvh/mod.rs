@@ -40,6 +40,16 @@ pub enum PrimitiveShape {
     Sphere(Vec3, f32),
 }
 
+impl PrimitiveShape {
+    /// Its surface area (not finite for a degenerate or absurd one).
+    pub fn area(&self) -> f32 {
+        match self {
+            Self::Triangle(t) => 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length(),
+            Self::Sphere(_, radius) => 4.0 * std::f32::consts::PI * radius * radius,
+        }
+    }
+}
+
 /// What kind of object a primitive belongs to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PrimitiveKind {

@@ -42,8 +42,14 @@ pub fn load_gltf(path: &Path) -> Result<Scene> {
 
 /// Loads a .gltf or .glb file; `camera` picks the camera whose camera or node name matches.
 pub fn load_gltf_with_camera(path: &Path, camera: Option<&str>) -> Result<Scene> {
+    load_gltf_within(path, camera, crate::memory::physical_bytes() / 2)
+}
+
+/// As [`load_gltf_with_camera`], refusing a file whose meshes need more than `budget` bytes decoded.
+pub fn load_gltf_within(path: &Path, camera: Option<&str>, budget: u64) -> Result<Scene> {
     let (document, buffers, images) = import(path)?;
     let mut loader = Loader {
+        budget,
         path,
         document: &document,
         buffers: &buffers,
@@ -133,6 +139,8 @@ fn resolution(scene: &gltf::Scene, path: &Path) -> Result<Option<(u32, u32)>> {
 
 /// The state of one load: the file's data, the scene being filled, and what is shared across it.
 struct Loader<'a> {
+    /// The memory budget the decoded meshes are checked against, bytes.
+    budget: u64,
     path: &'a Path,
     /// The file's document, for what the gltf crate does not resolve (extensions it does not parse).
     document: &'a gltf::Document,

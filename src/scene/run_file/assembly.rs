@@ -22,7 +22,11 @@ impl RunFile {
                     );
                     return Err(Error::Io { path: resolved, source: std::io::Error::new(e.kind(), context) });
                 }
-                crate::scene::gltf::load_gltf_with_camera(&resolved, self.camera.name.as_deref())?
+                crate::scene::gltf::load_gltf_within(
+                    &resolved,
+                    self.camera.name.as_deref(),
+                    self.memory_budget_bytes(crate::memory::physical_bytes() / 2),
+                )?
             }
             None => {
                 if let Some(name) = &self.camera.name {
