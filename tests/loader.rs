@@ -715,7 +715,7 @@ fn negative_emission_is_rejected_naming_the_material() {
 // Loader cases, each on the smallest hand-built file that has it
 
 /// Standard padded base64 (RFC 4648), for data URIs.
-fn base64(bytes: &[u8]) -> String {
+pub(crate) fn base64(bytes: &[u8]) -> String {
     const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
     let mut out = String::with_capacity(bytes.len().div_ceil(3) * 4);
     for chunk in bytes.chunks(3) {

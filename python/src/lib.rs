@@ -29,6 +29,15 @@ fn refused(e: impl std::fmt::Display) -> PyErr {
     CausticaError::new_err(e.to_string())
 }
 
+/// The renderer's error as Python's: memory the machine has not got is a `MemoryError` (the process
+/// goes on: nothing of it was allocated), the rest a `CausticaError`.
+fn render_error(e: caustica::error::Error) -> PyErr {
+    match e {
+        caustica::error::Error::OutOfMemory { .. } => pyo3::exceptions::PyMemoryError::new_err(e.to_string()),
+        e => refused(e),
+    }
+}
+
 /// Run `renderer` to its target (or `time_limit`) with the GIL released. Ctrl-C (or any pending
 /// Python signal) stops it at its next step; the signal's exception is raised once it has stopped,
 /// so the image so far stays valid and the renderer can go on later.

@@ -84,7 +84,7 @@ impl Scene {
         let scene = self.scene.clone();
         let made =
             py.detach(|| if movable { Renderer::movable(scene, run) } else { Renderer::new(scene, run) });
-        let mut renderer = made.map_err(refused)?;
+        let mut renderer = made.map_err(crate::render_error)?;
         // Stop (Ctrl-C, a time limit) only at whole samples per pixel or passes, so that `done` is
         // exact and a session that goes on renders what an uninterrupted one would.
         renderer.set_whole_passes(true);
@@ -202,8 +202,9 @@ impl Scene {
                 input.display()
             )));
         }
-        let (mut renderer, info) =
-            py.detach(|| Renderer::for_share(self.scene.clone(), &run, part, parts)).map_err(refused)?;
+        let (mut renderer, info) = py
+            .detach(|| Renderer::for_share(self.scene.clone(), &run, part, parts))
+            .map_err(crate::render_error)?;
         let report = run_detached(py, &mut renderer, None)?;
         py.detach(|| accumulator::write_part(renderer.film(), &info, &path)).map_err(refused)?;
         Ok(stats(py, &report)?.unbind())

@@ -121,7 +121,7 @@ impl Renderer {
         let pilot = if integrator.traces_light_paths() {
             let config = world.resource::<crate::resources::RenderConfig>();
             let scene = world.resource::<crate::resources::SceneResource>();
-            integrators::memory::PilotPaths::pilot(&scene, config.limits, config.sampler)
+            integrators::memory::PilotPaths::pilot(scene, config.limits, config.sampler)
         } else {
             integrators::memory::PilotPaths::default()
         };

@@ -181,5 +181,5 @@ impl PilotPaths {
     }
 }
 
-const PILOT_SEED: u64 = 0x5EED_0F_9170;
+const PILOT_SEED: u64 = 0x5EED_0F91_7000;
 const PILOT_MAP: u32 = 1 << 12;

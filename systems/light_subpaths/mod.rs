@@ -312,6 +312,16 @@ pub fn add_bounce_systems(schedule: &mut Schedule, order: [caustica_core::scene:
     schedule.add_systems(splat_connections.in_set(PassSystems::Shadow));
 }
 
+/// Room for `additional` more in a pass's `table` (its kept light vertices, its photon deposits),
+/// grown an eighth at a time rather than doubled: the table is the pass's largest, and doubling would hold up to twice what it keeps (and both
+/// blocks while it moves), where the memory count has the kept vertices alone. A large block grows
+/// in place (`mremap`), so the extra reallocations cost no copies.
+pub(crate) fn grow_by_eighths<T>(table: &mut Vec<T>, additional: usize) {
+    if table.capacity() - table.len() < additional {
+        table.reserve_exact(additional.max(table.len() / 8));
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::SubpathHandout;
@@ -332,15 +342,5 @@ mod tests {
         assert!(!handout.has_more() && shared.take(1).is_empty());
         handout.begin(2);
         assert_eq!(shared.take(5), 0..2, "a new pass starts at 0");
-    }
-}
-
-/// Room for `additional` more in a pass's `table` (its kept light vertices, its photon deposits),
-/// grown an eighth at a time rather than doubled: the table is the pass's largest, and doubling would hold up to twice what it keeps (and both
-/// blocks while it moves), where the memory count has the kept vertices alone. A large block grows
-/// in place (`mremap`), so the extra reallocations cost no copies.
-pub(crate) fn grow_by_eighths<T>(table: &mut Vec<T>, additional: usize) {
-    if table.capacity() - table.len() < additional {
-        table.reserve_exact(additional.max(table.len() / 8));
     }
 }
