@@ -2,6 +2,7 @@
 //! next step and writes what it has; a second signal, or a minute without stopping, exits at once.
 
 use caustica::Renderer;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Exit status of a render that a signal stopped: the image so far was written, but the render is not
 /// what was asked for (128 + SIGINT, as shells report it).
@@ -11,12 +12,23 @@ pub const INTERRUPTED_EXIT: i32 = 130;
 /// step and the largest write take.
 const STOP_GRACE: std::time::Duration = std::time::Duration::from_secs(60);
 
+/// Whether a signal came: the process's own record, apart from the renderer's flag, which a frame's
+/// restart lowers (`--frames` lost a signal that came between two frames' renders, and a second one
+/// then did not exit either: the frames went on for the minute of grace).
+static SIGNALLED: AtomicBool = AtomicBool::new(false);
+
+/// Whether SIGINT or SIGTERM has come since [`watch_for_signals`].
+pub(crate) fn signalled() -> bool {
+    SIGNALLED.load(Ordering::Relaxed)
+}
+
 /// SIGINT and SIGTERM raise the renderer's interrupt flag: the render stops at its next step and the
 /// image so far is written. A second signal exits at once.
 pub(crate) fn watch_for_signals(renderer: &Renderer) {
     let flag = renderer.interrupt_flag();
     let result = ctrlc::set_handler(move || {
-        if flag.swap(true, std::sync::atomic::Ordering::Relaxed) {
+        flag.store(true, Ordering::Relaxed);
+        if SIGNALLED.swap(true, Ordering::Relaxed) {
             say("\nstopped at once: nothing more is written");
             // A write cut short leaves no partial file beside its output (the previous file stays).
             caustica::film::partial::remove_all();
