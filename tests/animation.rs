@@ -476,3 +476,29 @@ fn a_signal_during_frames_leaves_whole_frames_and_no_partial_file() {
         }
     }
 }
+
+/// A move that takes geometry beyond the ±1e6 m the loader allows (where the BVH's boxes stop
+/// nesting: `lt` panicked on a light moved to 1e37 m) is refused naming the node, and leaves the
+/// scene, its moves and which meshes are dynamic as they were.
+#[test]
+fn a_move_beyond_reach_is_refused_and_changes_nothing() {
+    let (scene, _) = setup(&common::data("cornell-box.gltf"));
+    let mut frames = FrameScene::new(scene);
+    let lifted = glam::Mat4::from_translation(glam::Vec3::new(0.0, 0.1, 0.0));
+    frames.move_node("tall_block", lifted).unwrap();
+    let (before, dynamic) = (frames.scene().meshes.clone(), frames.dynamic.clone());
+    for (node, m) in [
+        ("short_block", glam::Mat4::from_translation(glam::Vec3::new(1e30, 0.0, 0.0))),
+        ("tall_block", glam::Mat4::from_scale(glam::Vec3::new(3e-25, 1e38, 3e-25))),
+        ("light", glam::Mat4::from_scale(glam::Vec3::splat(1e7))),
+    ] {
+        let e = frames.move_node(node, m).unwrap_err().to_string();
+        assert!(e.contains(node) && e.contains("beyond"), "{node}: {e}");
+        assert_eq!(frames.dynamic, dynamic, "{node}: a refused move made a mesh dynamic");
+        let same = frames.scene().meshes.iter().zip(&before).all(|(a, b)| a.positions == b.positions);
+        assert!(same, "{node}: a refused move moved the scene");
+    }
+    // The earlier move still holds, and the identity still puts it back.
+    frames.move_node("tall_block", glam::Mat4::IDENTITY).unwrap();
+    assert!(frames.scene().meshes.iter().zip(&before).any(|(a, b)| a.positions != b.positions));
+}

@@ -715,6 +715,12 @@ ANIMATED = ROOT / "scenes" / "cornell-animated.gltf"
 QUICK = dict(width=SIDE, height=SIDE, spp=1, seed=45)
 NAN, INF = float("nan"), float("inf")
 
+def _translation(x, y, z):
+    m = np.eye(4)
+    m[:3, 3] = (x, y, z)
+    return m
+
+
 # Each refused for a reason of its own: a value that is not finite, too large for f32, degenerate,
 # out of range, of the wrong type, a node that is not there.
 REFUSED_CALLS = [
@@ -747,6 +753,11 @@ REFUSED_CALLS = [
     ("set_transform(3x3)", lambda s: s.set_transform("floor", np.eye(3))),
     ("set_transform(matrix='x')", lambda s: s.set_transform("floor", "x")),
     ("set_transform(node=None)", lambda s: s.set_transform(None, IDENTITY)),
+    # Finite and invertible, but beyond the ±1e6 m the loader allows: the BVH's boxes no longer
+    # nest, and lt panicked on a light moved to 1e37 m.
+    ("set_transform(light squashed far up)", lambda s: s.set_transform("light", np.diag([3e-25, 1e38, 3e-25, 1.0]))),
+    ("set_transform(light 1e30 m away)", lambda s: s.set_transform("light", _translation(1e30, 0, 0))),
+    ("set_transform(floor scaled 1e30)", lambda s: s.set_transform("floor", np.diag([1e30, 1e30, 1e30, 1.0]))),
     ("step(0)", lambda s: s.step(0)),
     ("step(-1)", lambda s: s.step(-1)),
     ("step(2**32)", lambda s: s.step(2**32)),
@@ -785,6 +796,21 @@ def test_a_refused_call_leaves_the_session_as_if_it_had_never_come(scene_path):
         session.step(1)
         assert session.done == 2, case
         assert np.array_equal(session.image(), expected), f"{case}: the image differs from a session that never saw it"
+
+
+@pytest.mark.parametrize("integrator", ["pt", "lt", "bdpt", "vcm", "sppm"])
+def test_geometry_moved_beyond_reach_is_refused_by_every_integrator(integrator):
+    """A move that takes a light 1e37 m up is refused by name (lt panicked in the BVH), and the
+    session renders on as if it had not come."""
+    scene = caustica.load(SPHERES, **{**TINY, "seed": 45, "integrator": integrator})
+    clean = scene.session(aovs=())
+    clean.step(2)
+    session = scene.session(aovs=())
+    session.step(1)
+    with pytest.raises(ValueError, match="light.*beyond"):
+        session.set_transform("light", np.diag([3e-25, 1e38, 3e-25, 1.0]))
+    session.step(1)
+    assert np.array_equal(session.image(), clean.image())
 
 
 def test_a_frame_loop_with_refused_times_renders_the_frames_of_the_clean_loop():
