@@ -498,6 +498,15 @@ fn a_move_beyond_reach_is_refused_and_changes_nothing() {
         let same = frames.scene().meshes.iter().zip(&before).all(|(a, b)| a.positions == b.positions);
         assert!(same, "{node}: a refused move moved the scene");
     }
+    // A projective last row is not dropped in silence.
+    let projective = glam::Mat4::from_cols_array_2d(&[
+        [1.0, 0.0, 0.0, 0.5],
+        [0.0, 1.0, 0.0, 0.0],
+        [0.0, 0.0, 1.0, 0.0],
+        [0.0, 0.0, 0.0, 1.0],
+    ]);
+    let e = frames.move_node("short_block", projective).unwrap_err().to_string();
+    assert!(e.contains("affine"), "{e}");
     // The earlier move still holds, and the identity still puts it back.
     frames.move_node("tall_block", glam::Mat4::IDENTITY).unwrap();
     assert!(frames.scene().meshes.iter().zip(&before).any(|(a, b)| a.positions != b.positions));

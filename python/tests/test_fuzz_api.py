@@ -751,6 +751,9 @@ REFUSED_CALLS = [
     ("set_transform(1e39 matrix)", lambda s: s.set_transform("floor", np.eye(4) * 1e39)),
     ("set_transform(singular)", lambda s: s.set_transform("floor", np.zeros((4, 4)))),
     ("set_transform(3x3)", lambda s: s.set_transform("floor", np.eye(3))),
+    # A projective last row, which moving points as affine would drop without a word.
+    ("set_transform(projective)", lambda s: s.set_transform("floor", [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0],
+                                                                      [0.5, 0, 0, 1]])),
     ("set_transform(matrix='x')", lambda s: s.set_transform("floor", "x")),
     ("set_transform(node=None)", lambda s: s.set_transform(None, IDENTITY)),
     # Finite and invertible, but beyond the ±1e6 m the loader allows: the BVH's boxes no longer

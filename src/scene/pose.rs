@@ -164,6 +164,15 @@ impl FrameScene {
                 problem: "the matrix must be finite and invertible".into(),
             });
         }
+        // Points are moved as affine (glam's transform_point3 ignores the last row): a projective
+        // row would be dropped without a word. Within 1e-6, for a host's inverted or multiplied
+        // matrices, whose last row rounding leaves a little off.
+        if !m.row(3).abs_diff_eq(glam::Vec4::W, 1e-6) {
+            return Err(Error::Setting {
+                name: format!("the transform of node {node:?}"),
+                problem: format!("the last row is {}, not 0 0 0 1: the matrix must be affine", m.row(3)),
+            });
+        }
         let meshes: Vec<usize> = self.meshes_of(node).collect();
         if meshes.is_empty() {
             return Err(Error::InvalidScene {
