@@ -39,6 +39,7 @@ pub struct Resumed {
     film: Film,
     hit_points: Option<accumulator::HitPointState>,
     done: u32,
+    per_unit: u32,
     path: PathBuf,
 }
 
@@ -54,10 +55,18 @@ fn identity(scene: &Scene, run: &RunFile) -> (String, String) {
 /// or settings, an incomplete one, or a part of a split render is refused, naming the file.
 pub fn read_resume(path: &Path, scene: &Scene, run: &RunFile) -> Result<Resumed> {
     let (film, info, hit_points) = accumulator::read_checkpoint(path)?;
-    let (fingerprint, _) = identity(scene, run);
+    let (fingerprint, integrator) = identity(scene, run);
     if info.fingerprint != fingerprint {
         anyhow::bail!(
             "{}: a checkpoint of another scene or settings ({} render): refusing to resume it",
+            path.display(),
+            info.integrator
+        );
+    }
+    // The fingerprint covers the integrator: a file whose entry names another contradicts itself.
+    if info.integrator != integrator {
+        anyhow::bail!(
+            "{}: its integrator entry says {:?} where its fingerprint is of a {integrator} render: the file is damaged",
             path.display(),
             info.integrator
         );
@@ -70,7 +79,23 @@ pub fn read_resume(path: &Path, scene: &Scene, run: &RunFile) -> Result<Resumed>
             info.parts
         );
     }
-    Ok(Resumed { film, hit_points, done: info.samples.end, path: path.to_path_buf() })
+    // A checkpoint is written at or before its target: one past it says the spp entry lies.
+    if info.samples.end > info.spp {
+        anyhow::bail!(
+            "{}: it holds units {}..{} of a render of spp {}: the file is damaged",
+            path.display(),
+            info.samples.start,
+            info.samples.end,
+            info.spp
+        );
+    }
+    Ok(Resumed {
+        film,
+        hit_points,
+        done: info.samples.end,
+        per_unit: info.per_unit,
+        path: path.to_path_buf(),
+    })
 }
 
 impl Resumed {
@@ -82,6 +107,23 @@ impl Resumed {
                 "{}: the checkpoint already holds {} of the {target} asked for: ask for more (--spp or --passes)",
                 self.path.display(),
                 self.done
+            );
+        }
+        let per_unit = renderer.camera_samples_per_unit();
+        if self.per_unit != per_unit {
+            anyhow::bail!(
+                "{}: {} camera samples per unit where this render takes {per_unit}: the file is damaged",
+                self.path.display(),
+                self.per_unit
+            );
+        }
+        // Hit points beside a film that is the whole state would be ignored: they say the file is
+        // of another render.
+        if renderer.film_is_the_state() && self.hit_points.is_some() {
+            anyhow::bail!(
+                "{}: it holds hit points, which a {} render does not make: the file is damaged",
+                self.path.display(),
+                renderer.integrator().name()
             );
         }
         let want = renderer.film_samples_after(self.done);

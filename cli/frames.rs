@@ -126,6 +126,11 @@ pub fn render_frames(
             times.lights = update.scene.lights_seconds;
             kept_photons += update.photons_kept as u32;
         }
+        // Posing a frame lowers the renderer's interrupt flag: a signal that came since the last
+        // frame was written ends the animation here, before a frame it would cut short.
+        if crate::signals::signalled() && last_report.is_some() {
+            break;
+        }
         let render_start = Instant::now();
         let show = |r: &Renderer| {
             let p = r.progress();
@@ -171,7 +176,11 @@ pub fn render_frames(
         }
     }
     bar.finish_and_clear();
-    let report = last_report.expect("at least one frame");
+    let mut report = last_report.expect("at least one frame");
+    // A signal between two frames stopped no render: the summary says why the frames end anyway.
+    if rendered as usize != range.len() && crate::signals::signalled() {
+        report.stopped_by = Some(StopReason::Interrupted);
+    }
     // The time line sums the frames' renders (each frame's line shows its own): the last frame's
     // alone, as the summary's other lines are, read as the whole animation's rendering time.
     let timing = Timing {

@@ -2,6 +2,7 @@
 //! next step and writes what it has; a second signal, or a minute without stopping, exits at once.
 
 use caustica::Renderer;
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
 /// Exit status of a render that a signal stopped: the image so far was written, but the render is not
 /// what was asked for (128 + SIGINT, as shells report it).
@@ -11,17 +12,35 @@ pub const INTERRUPTED_EXIT: i32 = 130;
 /// step and the largest write take.
 const STOP_GRACE: std::time::Duration = std::time::Duration::from_secs(60);
 
+/// Whether a signal came: the process's own record, apart from the renderer's flag, which a frame's
+/// restart lowers (`--frames` lost a signal that came between two frames' renders, and a second one
+/// then did not exit either: the frames went on for the minute of grace). Raised, as the renderer's
+/// flag is, once the signal has been acknowledged on stderr.
+static STOPPING: AtomicBool = AtomicBool::new(false);
+
+/// Signals received: the second exits at once.
+static RECEIVED: AtomicU32 = AtomicU32::new(0);
+
+/// Whether SIGINT or SIGTERM has come since [`watch_for_signals`].
+pub(crate) fn signalled() -> bool {
+    STOPPING.load(Ordering::SeqCst)
+}
+
 /// SIGINT and SIGTERM raise the renderer's interrupt flag: the render stops at its next step and the
 /// image so far is written. A second signal exits at once.
 pub(crate) fn watch_for_signals(renderer: &Renderer) {
     let flag = renderer.interrupt_flag();
     let result = ctrlc::set_handler(move || {
-        if flag.swap(true, std::sync::atomic::Ordering::Relaxed) {
+        if RECEIVED.fetch_add(1, Ordering::SeqCst) > 0 {
             say("\nstopped at once: nothing more is written");
             // A write cut short leaves no partial file beside its output (the previous file stays).
-            caustica::film::partial::remove_all();
-            std::process::exit(INTERRUPTED_EXIT);
+            caustica::film::partial::remove_all_and_exit(INTERRUPTED_EXIT);
         }
+        // Said before the render is told: told first, a small render wrote its image and exited
+        // before the line was written, and the stop went unexplained.
+        say("\nstopping: finishing the paths in flight and writing the image so far (again to quit now)");
+        STOPPING.store(true, Ordering::SeqCst);
+        flag.store(true, Ordering::SeqCst);
         // A render that cannot reach its next step (a path that never ends) would ignore the signal
         // for ever: a supervisor's SIGTERM (a test runner's time limit, a batch system) must still
         // end the process.
@@ -31,10 +50,8 @@ pub(crate) fn watch_for_signals(renderer: &Renderer) {
                 "did not stop within {} s of the signal: exiting, nothing more is written",
                 STOP_GRACE.as_secs()
             ));
-            caustica::film::partial::remove_all();
-            std::process::exit(INTERRUPTED_EXIT);
+            caustica::film::partial::remove_all_and_exit(INTERRUPTED_EXIT);
         });
-        say("\nstopping: finishing the paths in flight and writing the image so far (again to quit now)");
     });
     if let Err(e) = result {
         tracing::warn!("cannot watch for Ctrl-C: {e}; an interrupted render will not write its image");

@@ -404,3 +404,110 @@ fn the_frames_summary_sums_every_frames_rendering() {
     assert!((mean - rendering / 3.0).abs() <= 0.001, "mean {mean} of {rendering} s:\n{stdout}");
     assert!(stdout.contains("frame 2's alone"), "says whose the other lines are:\n{stdout}");
 }
+
+/// SIGINT or SIGTERM (once, or twice: stop at once) while `--frames` renders: the frames written
+/// are whole images, numbered from the first without a gap, nothing temporary is left beside them,
+/// and the command says it stopped and exits 130.
+#[test]
+fn a_signal_during_frames_leaves_whole_frames_and_no_partial_file() {
+    let animated = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-animated.gltf");
+    for (integrator, sig, times) in [("pt", "TERM", 1), ("vcm", "INT", 1), ("pt", "INT", 2)] {
+        let what = format!("{integrator}, SIG{sig} x{times}");
+        let dir = tempfile::tempdir().unwrap();
+        let pattern = dir.path().join("f-######.exr");
+        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_caustica"))
+            .args(["render", animated.to_str().unwrap(), "--frames", "0:100000", "--fps", "24", "-q"])
+            .args([
+                "--integrator",
+                integrator,
+                "--spp",
+                "2",
+                "--seed",
+                "45",
+                "--width",
+                "16",
+                "--height",
+                "16",
+            ])
+            .arg("-o")
+            .arg(&pattern)
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let first = dir.path().join("f-000000.exr");
+        while !first.exists() {
+            assert!(child.try_wait().unwrap().is_none(), "{what}: ended before its first frame");
+            std::thread::sleep(std::time::Duration::from_millis(10));
+        }
+        for _ in 0..times {
+            let kill = std::process::Command::new("kill")
+                .arg(format!("-{sig}"))
+                .arg(child.id().to_string())
+                .status();
+            assert!(kill.unwrap().success());
+        }
+        let out = child.wait_with_output().unwrap();
+        let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+        assert_eq!(out.status.code(), Some(130), "{what}: {stdout}{stderr}");
+        assert!(!stderr.contains("panicked"), "{what}: {stderr}");
+        let mut names: Vec<String> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().into_string().unwrap())
+            .collect();
+        names.sort();
+        let written = names.len();
+        assert!(0 < written && written < 100000, "{what}: {names:?}");
+        for (frame, name) in names.iter().enumerate() {
+            assert_eq!(*name, format!("f-{frame:06}.exr"), "{what}: a gap or a leftover in {names:?}");
+            let image = caustica::film::output::read_exr(&dir.path().join(name))
+                .unwrap_or_else(|e| panic!("{what}: {name}: {e}"));
+            assert_eq!((image.width, image.height), (16, 16), "{what}: {name}");
+            assert!(image.pixels.iter().all(|p| p.is_finite()), "{what}: {name}");
+        }
+        if times == 1 {
+            assert!(stdout.contains("stopped     by a signal"), "{what}: {stdout}");
+            assert!(stdout.contains(&format!("frames      {written} of 100000")), "{what}: {stdout}");
+        } else {
+            assert!(
+                stderr.contains("stopped at once") || stdout.contains("stopped     by a signal"),
+                "{what}: {stderr}"
+            );
+        }
+    }
+}
+
+/// A move that takes geometry beyond the ±1e6 m the loader allows (where the BVH's boxes stop
+/// nesting: `lt` panicked on a light moved to 1e37 m) is refused naming the node, and leaves the
+/// scene, its moves and which meshes are dynamic as they were.
+#[test]
+fn a_move_beyond_reach_is_refused_and_changes_nothing() {
+    let (scene, _) = setup(&common::data("cornell-box.gltf"));
+    let mut frames = FrameScene::new(scene);
+    let lifted = glam::Mat4::from_translation(glam::Vec3::new(0.0, 0.1, 0.0));
+    frames.move_node("tall_block", lifted).unwrap();
+    let (before, dynamic) = (frames.scene().meshes.clone(), frames.dynamic.clone());
+    for (node, m) in [
+        ("short_block", glam::Mat4::from_translation(glam::Vec3::new(1e30, 0.0, 0.0))),
+        ("tall_block", glam::Mat4::from_scale(glam::Vec3::new(3e-25, 1e38, 3e-25))),
+        ("light", glam::Mat4::from_scale(glam::Vec3::splat(1e7))),
+    ] {
+        let e = frames.move_node(node, m).unwrap_err().to_string();
+        assert!(e.contains(node) && e.contains("beyond"), "{node}: {e}");
+        assert_eq!(frames.dynamic, dynamic, "{node}: a refused move made a mesh dynamic");
+        let same = frames.scene().meshes.iter().zip(&before).all(|(a, b)| a.positions == b.positions);
+        assert!(same, "{node}: a refused move moved the scene");
+    }
+    // A projective last row is not dropped in silence.
+    let projective = glam::Mat4::from_cols_array_2d(&[
+        [1.0, 0.0, 0.0, 0.5],
+        [0.0, 1.0, 0.0, 0.0],
+        [0.0, 0.0, 1.0, 0.0],
+        [0.0, 0.0, 0.0, 1.0],
+    ]);
+    let e = frames.move_node("short_block", projective).unwrap_err().to_string();
+    assert!(e.contains("affine"), "{e}");
+    // The earlier move still holds, and the identity still puts it back.
+    frames.move_node("tall_block", glam::Mat4::IDENTITY).unwrap();
+    assert!(frames.scene().meshes.iter().zip(&before).any(|(a, b)| a.positions != b.positions));
+}

@@ -435,3 +435,52 @@ fn the_live_preview_speaks_tevs_protocol_and_ends_with_the_final_image() {
     let expected: Vec<f32> = written.pixels.iter().flat_map(|p| p.to_array()).collect();
     assert!(shown == expected, "the last updates are the final image");
 }
+
+/// The bidirectional integrators and `lt` under SIGINT and SIGTERM: the render stops at its next
+/// pass, writes a complete image of the passes so far (no temporary left beside it), says so and
+/// exits 130. Signalled once its first periodic image is on disk, so that the handler is installed
+/// and a pass is under way.
+#[test]
+fn a_signal_stops_lt_bdpt_and_vcm_and_writes_the_image_so_far() {
+    for (integrator, sig) in
+        [("lt", "INT"), ("lt", "TERM"), ("bdpt", "INT"), ("bdpt", "TERM"), ("vcm", "INT"), ("vcm", "TERM")]
+    {
+        let what = format!("{integrator} SIG{sig}");
+        let dir = scratch(&format!("signal-{integrator}-{sig}"));
+        let target = dir.join("out.exr");
+        let mut child = spawn(&[
+            "render",
+            &box_scene(),
+            "-q",
+            "--integrator",
+            integrator,
+            "--spp",
+            "1000000",
+            "--seed",
+            "45",
+            "--width",
+            "32",
+            "--height",
+            "32",
+            "--write-every",
+            "1",
+            "-o",
+            target.to_str().unwrap(),
+        ]);
+        while !target.exists() {
+            assert!(child.try_wait().unwrap().is_none(), "{what}: ended before its first image");
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        signal(&child, sig);
+        let out = child.wait_with_output().unwrap();
+        let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+        assert_eq!(out.status.code(), Some(130), "{what}: {stdout}{stderr}");
+        assert!(stdout.contains("stopped     by a signal"), "{what}: {stdout}");
+        assert!(stderr.contains("stopping") && !stderr.contains("panicked"), "{what}: {stderr}");
+        let image = read_exr(&target).unwrap_or_else(|e| panic!("{what}: {e}"));
+        assert_eq!((image.width, image.height), (32, 32), "{what}");
+        assert!(image.pixels.iter().all(|p| p.is_finite()) && image.mean().max_element() > 0.0, "{what}");
+        assert!(leftovers(&dir).is_empty(), "{what}: {:?}", leftovers(&dir));
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}

@@ -30,6 +30,11 @@ fn wait_for(path: &Path, child: &mut Child) {
 /// Render `flags` to the end in one go, and again stopped by SIGINT after its first checkpoint and
 /// resumed from it: the two EXRs are the same bytes.
 fn interrupted_and_resumed_equals_uninterrupted(flags: &[&str]) {
+    stopped_by_and_resumed_equals_uninterrupted("INT", flags);
+}
+
+/// As [`interrupted_and_resumed_equals_uninterrupted`], stopped by `signal` (`INT` or `TERM`).
+fn stopped_by_and_resumed_equals_uninterrupted(signal: &str, flags: &[&str]) {
     let dir = tempfile::tempdir().unwrap();
     let whole = dir.path().join("whole.exr");
     assert!(caustica(flags, &[]).arg("-o").arg(&whole).status().unwrap().success());
@@ -47,7 +52,8 @@ fn interrupted_and_resumed_equals_uninterrupted(flags: &[&str]) {
     .spawn()
     .unwrap();
     wait_for(&checkpoint, &mut child);
-    let status = Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
+    let status =
+        Command::new("kill").args([&format!("-{signal}"), &child.id().to_string()]).status().unwrap();
     assert!(status.success());
     let code = child.wait().unwrap().code();
     // 130: stopped by the signal, the checkpoint and the image so far written; 0 if the render
@@ -117,6 +123,15 @@ fn bdpt_stopped_by_a_signal_and_resumed_is_the_uninterrupted_render() {
 #[test]
 fn vcm_stopped_by_a_signal_and_resumed_is_the_uninterrupted_render() {
     interrupted_and_resumed_equals_uninterrupted(&["--integrator", "vcm", "--spp", "64"]);
+}
+
+/// SIGTERM (a supervisor's, a batch system's) is handled as Ctrl-C is: the checkpoint written, and
+/// the render resumed from it is the uninterrupted one.
+#[test]
+fn lt_bdpt_and_vcm_stopped_by_sigterm_and_resumed_are_the_uninterrupted_render() {
+    stopped_by_and_resumed_equals_uninterrupted("TERM", &["--integrator", "lt", "--spp", "256"]);
+    stopped_by_and_resumed_equals_uninterrupted("TERM", &["--integrator", "bdpt", "--spp", "64"]);
+    stopped_by_and_resumed_equals_uninterrupted("TERM", &["--integrator", "vcm", "--spp", "64"]);
 }
 
 fn progressive(kind: &'static str) -> [&'static str; 6] {
@@ -272,4 +287,139 @@ fn damaged_checkpoints_are_refused_not_resumed() {
     damage(&ck, 8, f32::NAN.to_bits());
     let e = refusal(&[&sppm[..], &["--passes", "4"]].concat(), &ck);
     assert!(e.contains("radius") && e.contains("damaged"), "{e}");
+}
+
+/// A checkpoint of `integrator` at 2 spp, rewritten by the library with one field made to lie and
+/// its checksum made to match (what a tool that edits checkpoints, or a bug in the writer, makes):
+/// each is refused with exit 1, naming the file and the field, and neither the checkpoint nor the
+/// output is touched. The view channels `R`, `G`, `B` (the mean, for image viewers) are not what a
+/// resume reads: NaN, infinite and negative there resume into the uninterrupted render, bit for bit.
+fn well_formed_lies_are_refused(integrator: &str) {
+    use caustica::film::Film;
+    use caustica::film::accumulator::{HitPointState, PartInfo, read_checkpoint, write_checkpoint};
+    let dir = tempfile::tempdir().unwrap();
+    let flags = ["--integrator", integrator, "--seed", "45", "--width", "16", "--height", "12"];
+    let render = |more: &[&str], paths: &[&Path]| {
+        let mut command = Command::new(env!("CARGO_BIN_EXE_caustica"));
+        command.arg("render").arg(common::data("cornell-spheres.gltf")).arg("--quiet").args(flags).args(more);
+        command.args(paths).output().unwrap()
+    };
+    let (ck, out, whole) =
+        (dir.path().join("ck.exr"), dir.path().join("out.exr"), dir.path().join("whole.exr"));
+    assert!(render(&["--spp", "2", "--checkpoint"], &[&ck, Path::new("-o"), &out]).status.success());
+    assert!(render(&["--spp", "3", "-o"], &[&whole]).status.success());
+    let output_before = std::fs::read(&out).unwrap();
+    let (film, info, state) = read_checkpoint(&ck).unwrap();
+    assert!(state.is_none(), "{integrator}: the film is the whole state");
+    assert_eq!(info.samples, 0..2);
+    let (width, height) = (film.width, film.height);
+    let counted = film.samples(0);
+
+    // The film, pixel by pixel through `edit`, at `width` × `rows`.
+    type Pixel = ([i128; 3], u32);
+    let rebuilt = |rows: u32, edit: &dyn Fn(u32, Pixel) -> Pixel| {
+        let copy = Film::new(width, rows);
+        for pixel in 0..width * rows {
+            let (sums, count) = if pixel < width * height { film.sums(pixel) } else { ([0; 3], counted) };
+            let (sums, count) = edit(pixel, (sums, count));
+            copy.add_sums(pixel, sums, count);
+        }
+        copy
+    };
+    let same = |_: u32, pixel| pixel;
+    let refused = |name: &str, film: &Film, info: &PartInfo, state: Option<HitPointState>, needle: &str| {
+        let path = dir.path().join(format!("{name}.exr"));
+        write_checkpoint(film, info, state, &path).unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        let output = render(&["--spp", "3", "--resume"], &[&path, Path::new("-o"), &out]);
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(1), "{integrator} {name}: {stderr}");
+        assert!(
+            stderr.contains(&format!("{name}.exr")) && stderr.contains(needle),
+            "{integrator} {name}: {stderr}"
+        );
+        assert!(!stderr.contains("panicked"), "{integrator} {name}: {stderr}");
+        assert_eq!(std::fs::read(&path).unwrap(), bytes, "{integrator} {name}: the checkpoint was changed");
+        assert_eq!(
+            std::fs::read(&out).unwrap(),
+            output_before,
+            "{integrator} {name}: the output was overwritten"
+        );
+    };
+    let with = |change: &dyn Fn(&mut PartInfo)| {
+        let mut info = info.clone();
+        change(&mut info);
+        info
+    };
+
+    refused(
+        "fingerprint",
+        &film,
+        &with(&|i| i.fingerprint = "0".repeat(16)),
+        None,
+        "another scene or settings",
+    );
+    refused("integrator", &film, &with(&|i| i.integrator = "pt".into()), None, "integrator");
+    refused("parts", &film, &with(&|i| (i.part, i.parts) = (1, 2)), None, "split render");
+    refused("start", &film, &with(&|i| i.samples = 1..2), None, "split render");
+    refused("fewer", &film, &with(&|i| i.samples = 0..1), None, "samples where the checkpoint says");
+    refused(
+        "more",
+        &film,
+        &with(&|i| (i.samples, i.spp) = (0..3, 3)),
+        None,
+        "samples where the checkpoint says",
+    );
+    refused("spp", &film, &with(&|i| i.spp = 0), None, "spp");
+    refused("per_unit", &film, &with(&|i| i.per_unit = 7), None, "per unit");
+    refused("rows", &rebuilt(height + 1, &same), &info, None, &format!("{width}x{}", height + 1));
+    refused(
+        "count",
+        &rebuilt(height, &|p, (s, c)| (s, if p == 5 { c + 1 } else { c })),
+        &info,
+        None,
+        "pixel 5",
+    );
+    let stray =
+        HitPointState { points_per_pixel: 1, r0: 0.01, channels: vec![vec![0; (width * height) as usize]] };
+    refused("hit_points", &film, &info, Some(stray), "hit points");
+
+    // The view channels, rewritten with the EXR library: not read by a resume.
+    use exr::prelude::*;
+    let mut image = read_all_flat_layers_from_file(&ck).unwrap();
+    for channel in image.layer_data[0].channel_data.list.iter_mut() {
+        let value = match channel.name.to_string().as_str() {
+            "R" => f32::NAN,
+            "G" => f32::INFINITY,
+            "B" => -1.0,
+            _ => continue,
+        };
+        let FlatSamples::F32(values) = &mut channel.sample_data else { panic!("R, G and B are f32") };
+        values.iter_mut().for_each(|v| *v = value);
+    }
+    let viewed = dir.path().join("viewed.exr");
+    image.write().to_file(&viewed).unwrap();
+    let resumed = dir.path().join("resumed.exr");
+    let output = render(&["--spp", "3", "--resume"], &[&viewed, Path::new("-o"), &resumed]);
+    assert!(output.status.success(), "{integrator}: {}", String::from_utf8_lossy(&output.stderr));
+    assert_eq!(
+        std::fs::read(&resumed).unwrap(),
+        std::fs::read(&whole).unwrap(),
+        "{integrator}: resumed != whole"
+    );
+}
+
+#[test]
+fn lt_checkpoints_whose_fields_lie_are_refused() {
+    well_formed_lies_are_refused("lt");
+}
+
+#[test]
+fn bdpt_checkpoints_whose_fields_lie_are_refused() {
+    well_formed_lies_are_refused("bdpt");
+}
+
+#[test]
+fn vcm_checkpoints_whose_fields_lie_are_refused() {
+    well_formed_lies_are_refused("vcm");
 }

@@ -12,8 +12,9 @@ progressive render between the steps of your own simulation.
     session.step(8)
     frame = session.image()
 
-Rendering releases the GIL, so other Python threads keep running; Ctrl-C stops a render at its
-next step and raises KeyboardInterrupt. Refused input raises ``CausticaError`` with the message the
+Rendering releases the GIL, so other Python threads keep running; a session takes one call at a
+time (another thread's call waits for it). Ctrl-C stops a render at its next step and raises
+KeyboardInterrupt. Refused input raises ``CausticaError`` with the message the
 command line prints (the file, the object, the problem).
 """
 

@@ -32,7 +32,8 @@ class RenderResult:
         shadow_rays, nan_samples, stopped_by (None, "interrupted" or "timelimit")."""
 
 class Session:
-    """A render a host advances a few units at a time."""
+    """A render a host advances a few units at a time. One call at a time: a call from a second
+    thread waits (the GIL released) until the first has returned."""
 
     def step(self, units: Optional[int] = None) -> dict[str, Any]:
         """Add ``units`` samples per pixel (or passes, for the progressive photon mappers), with

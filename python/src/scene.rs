@@ -221,8 +221,7 @@ impl Scene {
     ) -> PyResult<Session> {
         let run = self.settings(&override_sets(py, overrides)?, &aovs)?;
         let renderer = self.renderer(py, &run, None, true)?;
-        let final_target = renderer.target();
-        Ok(Session { renderer, final_target, aovs: run.film.aovs.clone() })
+        Ok(Session::new(renderer, run.film.aovs.clone()))
     }
 }
 

@@ -8,16 +8,47 @@ use caustica::report::Unit;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use std::sync::{Mutex, MutexGuard, TryLockError};
 
 /// A progressive render a host steps: `step(n)` adds n samples per pixel (or passes), `image()`
 /// is the image so far.
-#[pyclass(module = "caustica")]
+///
+/// One call at a time: a call from a second Python thread waits (the GIL released) until the
+/// first ends, rather than fail or see a renderer half-way through a step. Without the lock,
+/// pyo3's borrow check refused the second thread's call with "Already borrowed", a message that
+/// names neither the session nor the cause.
+#[pyclass(module = "caustica", frozen)]
 pub(crate) struct Session {
-    pub(crate) renderer: Renderer,
+    renderer: Mutex<Renderer>,
     /// The settings' target, what `step()` with no argument runs to.
-    pub(crate) final_target: u32,
+    final_target: u32,
     /// The feature images it makes.
-    pub(crate) aovs: Vec<Aov>,
+    aovs: Vec<Aov>,
+}
+
+impl Session {
+    pub(crate) fn new(renderer: Renderer, aovs: Vec<Aov>) -> Self {
+        let final_target = renderer.target();
+        Self { renderer: Mutex::new(renderer), final_target, aovs }
+    }
+
+    /// The renderer, once no other thread's call holds it. The wait releases the GIL (the call
+    /// holding the lock may need it to check for Ctrl-C) and looks at this thread's signals, so
+    /// Ctrl-C ends a wait as it ends a step.
+    fn lock(&self, py: Python<'_>) -> PyResult<MutexGuard<'_, Renderer>> {
+        loop {
+            match self.renderer.try_lock() {
+                Ok(renderer) => return Ok(renderer),
+                // A panic in a call was raised as PanicException; the renderer is whole between
+                // calls, as every change to it is made by one call.
+                Err(TryLockError::Poisoned(e)) => return Ok(e.into_inner()),
+                Err(TryLockError::WouldBlock) => {
+                    py.detach(|| std::thread::sleep(std::time::Duration::from_millis(2)));
+                    py.check_signals()?;
+                }
+            }
+        }
+    }
 }
 
 #[pymethods]
@@ -25,15 +56,16 @@ impl Session {
     /// Add `units` samples per pixel (or passes, for the progressive photon mappers), with the GIL
     /// released; without an argument, run to the settings' target.
     #[pyo3(signature = (units=None))]
-    fn step(&mut self, py: Python<'_>, units: Option<u32>) -> PyResult<Py<PyDict>> {
-        let done = self.renderer.units_done();
+    fn step(&self, py: Python<'_>, units: Option<u32>) -> PyResult<Py<PyDict>> {
+        let mut renderer = self.lock(py)?;
+        let done = renderer.units_done();
         let target = match units {
             Some(0) => return Err(PyValueError::new_err("step(units): units must be at least 1")),
             Some(n) => done.saturating_add(n),
             None => self.final_target.max(done),
         };
-        self.renderer.set_target(target);
-        let report = run_detached(py, &mut self.renderer, None)?;
+        renderer.set_target(target);
+        let report = run_detached(py, &mut renderer, None)?;
         Ok(stats(py, &report)?.unbind())
     }
 
@@ -43,21 +75,25 @@ impl Session {
     /// over: `done` is 0 again, and the next `step` renders the moved scene. Returns where the time
     /// went (`pose`, `bvh`, `lights` seconds).
     fn set_transform<'py>(
-        &mut self,
+        &self,
         py: Python<'py>,
         node: String,
         matrix: [[f32; 4]; 4],
     ) -> PyResult<Bound<'py, PyDict>> {
         let m = glam::Mat4::from_cols_array_2d(&matrix).transpose();
-        let update = py.detach(|| self.renderer.move_node(&node, m)).map_err(setting_or_refused)?;
+        let mut guard = self.lock(py)?;
+        let renderer = &mut *guard;
+        let update = py.detach(|| renderer.move_node(&node, m)).map_err(setting_or_refused)?;
         frame_dict(py, &update)
     }
 
     /// Pose the file's animations at `time` seconds (meshes, its camera, its lights) and start the
     /// image over, the moved meshes' BVH rebuilt alone; `pm` keeps its photon maps when only the
     /// camera moved. Returns where the time went (`pose`, `bvh`, `lights` seconds, `photons_kept`).
-    fn advance<'py>(&mut self, py: Python<'py>, time: f32) -> PyResult<Bound<'py, PyDict>> {
-        let update = py.detach(|| self.renderer.set_time(time)).map_err(setting_or_refused)?;
+    fn advance<'py>(&self, py: Python<'py>, time: f32) -> PyResult<Bound<'py, PyDict>> {
+        let mut guard = self.lock(py)?;
+        let renderer = &mut *guard;
+        let update = py.detach(|| renderer.set_time(time)).map_err(setting_or_refused)?;
         frame_dict(py, &update)
     }
 
@@ -65,7 +101,8 @@ impl Session {
     /// `yfov_degrees` (None keeps the current one), and start the image over.
     #[pyo3(signature = (eye, target, up=[0.0, 1.0, 0.0], yfov_degrees=None))]
     fn set_camera(
-        &mut self,
+        &self,
+        py: Python<'_>,
         eye: [f32; 3],
         target: [f32; 3],
         up: [f32; 3],
@@ -78,40 +115,45 @@ impl Session {
                 "set_camera: yfov_degrees must be in (0, 180), got {y}"
             )));
         }
-        self.renderer
+        self.lock(py)?
             .set_camera(eye.into(), target.into(), up.into(), yfov_degrees.map(f32::to_radians))
             .map_err(setting_or_refused)
     }
 
     /// The length of the file's animation in seconds (its last keyframe; 0 without one).
     #[getter]
-    fn duration(&self) -> f32 {
-        self.renderer.animation_duration()
+    fn duration(&self, py: Python<'_>) -> PyResult<f32> {
+        Ok(self.lock(py)?.animation_duration())
     }
 
     /// The image so far: float32, height × width × 3, linear.
     fn image<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let image = py.detach(|| self.renderer.image());
+        let guard = self.lock(py)?;
+        let renderer = &*guard;
+        let image = py.detach(|| renderer.image());
         color_array(py, &image)
     }
 
     /// The feature images so far, by name (empty when the session makes none).
     fn aovs<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let features = py.detach(|| self.renderer.aov_images());
-        let film = self.renderer.film();
+        let guard = self.lock(py)?;
+        let renderer = &*guard;
+        let features = py.detach(|| renderer.aov_images());
+        let film = renderer.film();
         aov_dict(py, features.as_ref(), &self.aovs, [film.height as usize, film.width as usize])
     }
 
     /// Units done: samples per pixel, or passes.
     #[getter]
-    fn done(&self) -> u32 {
-        self.renderer.units_done()
+    fn done(&self, py: Python<'_>) -> PyResult<u32> {
+        Ok(self.lock(py)?.units_done())
     }
 
     /// What the session counts: "spp" or "passes".
     #[getter]
-    fn unit(&self) -> &'static str {
-        if self.renderer.progress().unit == Unit::Samples { "spp" } else { "passes" }
+    fn unit(&self, py: Python<'_>) -> PyResult<&'static str> {
+        let samples = self.lock(py)?.progress().unit == Unit::Samples;
+        Ok(if samples { "spp" } else { "passes" })
     }
 }
 

@@ -707,3 +707,236 @@ def test_a_refused_output_name_leaves_no_folder_behind(world):
     with pytest.raises(caustica.CausticaError, match="unknown image format"):
         caustica.write_image("new/folder/out.jpg", np.zeros((2, 2, 3), np.float32))
     assert not (world.out / "new").exists()
+
+
+# --- a session after refused calls, in a frame loop, and from two threads (issue 45) ---------------
+
+ANIMATED = ROOT / "scenes" / "cornell-animated.gltf"
+QUICK = dict(width=SIDE, height=SIDE, spp=1, seed=45)
+NAN, INF = float("nan"), float("inf")
+
+def _translation(x, y, z):
+    m = np.eye(4)
+    m[:3, 3] = (x, y, z)
+    return m
+
+
+# Each refused for a reason of its own: a value that is not finite, too large for f32, degenerate,
+# out of range, of the wrong type, a node that is not there.
+REFUSED_CALLS = [
+    ("set_camera(eye=nan)", lambda s: s.set_camera([NAN, 0.3, 0.9], [0, 0.27, 0])),
+    ("set_camera(target=inf)", lambda s: s.set_camera([0, 0.3, 0.9], [0, INF, 0])),
+    ("set_camera(eye=1e308)", lambda s: s.set_camera([1e308] * 3, [0, 0.27, 0])),
+    ("set_camera(eye=target)", lambda s: s.set_camera([0, 0.3, 0.9], [0, 0.3, 0.9])),
+    ("set_camera(up along the view)", lambda s: s.set_camera([0, 0.3, 0.9], [0, 0.3, 0], up=[0, 0, -2])),
+    ("set_camera(up=0)", lambda s: s.set_camera([0, 0.3, 0.9], [0, 0.27, 0], up=[0, 0, 0])),
+    ("set_camera(yfov=0)", lambda s: s.set_camera([0, 0.3, 0.9], [0, 0.27, 0], yfov_degrees=0)),
+    ("set_camera(yfov=180)", lambda s: s.set_camera([0, 0.3, 0.9], [0, 0.27, 0], yfov_degrees=180)),
+    ("set_camera(yfov=-40)", lambda s: s.set_camera([0, 0.3, 0.9], [0, 0.27, 0], yfov_degrees=-40)),
+    ("set_camera(yfov=nan)", lambda s: s.set_camera([0, 0.3, 0.9], [0, 0.27, 0], yfov_degrees=NAN)),
+    ("set_camera(yfov='wide')", lambda s: s.set_camera([0, 0.3, 0.9], [0, 0.27, 0], yfov_degrees="wide")),
+    ("set_camera(eye='abc')", lambda s: s.set_camera("abc", [0, 0.27, 0])),
+    ("set_camera(eye=[1, 2])", lambda s: s.set_camera([1, 2], [0, 0.27, 0])),
+    ("set_camera(eye=None)", lambda s: s.set_camera(None, [0, 0.27, 0])),
+    ("advance(nan)", lambda s: s.advance(NAN)),
+    ("advance(inf)", lambda s: s.advance(INF)),
+    ("advance(-inf)", lambda s: s.advance(-INF)),
+    ("advance(1e308)", lambda s: s.advance(1e308)),
+    ("advance('1')", lambda s: s.advance("1")),
+    ("advance(None)", lambda s: s.advance(None)),
+    ("set_transform(unknown node)", lambda s: s.set_transform("no_such_node", IDENTITY)),
+    ("set_transform(node index 99)", lambda s: s.set_transform("99", IDENTITY)),
+    ("set_transform(nan matrix)", lambda s: s.set_transform("floor", np.full((4, 4), NAN))),
+    ("set_transform(inf matrix)", lambda s: s.set_transform("floor", np.eye(4) * INF)),
+    ("set_transform(1e39 matrix)", lambda s: s.set_transform("floor", np.eye(4) * 1e39)),
+    ("set_transform(singular)", lambda s: s.set_transform("floor", np.zeros((4, 4)))),
+    ("set_transform(3x3)", lambda s: s.set_transform("floor", np.eye(3))),
+    # A projective last row, which moving points as affine would drop without a word.
+    ("set_transform(projective)", lambda s: s.set_transform("floor", [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0],
+                                                                      [0.5, 0, 0, 1]])),
+    ("set_transform(matrix='x')", lambda s: s.set_transform("floor", "x")),
+    ("set_transform(node=None)", lambda s: s.set_transform(None, IDENTITY)),
+    # Finite and invertible, but beyond the ±1e6 m the loader allows: the BVH's boxes no longer
+    # nest, and lt panicked on a light moved to 1e37 m.
+    ("set_transform(light squashed far up)", lambda s: s.set_transform("light", np.diag([3e-25, 1e38, 3e-25, 1.0]))),
+    ("set_transform(light 1e30 m away)", lambda s: s.set_transform("light", _translation(1e30, 0, 0))),
+    ("set_transform(floor scaled 1e30)", lambda s: s.set_transform("floor", np.diag([1e30, 1e30, 1e30, 1.0]))),
+    ("step(0)", lambda s: s.step(0)),
+    ("step(-1)", lambda s: s.step(-1)),
+    ("step(2**32)", lambda s: s.step(2**32)),
+    ("step(nan)", lambda s: s.step(NAN)),
+    ("step('1')", lambda s: s.step("1")),
+]
+
+
+def _refused(case, call, session):
+    """``call(session)`` must raise an ordinary exception with a message, and leave ``done`` alone."""
+    done = session.done
+    faulthandler.dump_traceback_later(HUNG_AFTER, exit=True)
+    try:
+        call(session)
+    except Exception as e:
+        assert str(e).strip(), f"{case}: {type(e).__name__} without a message"
+    else:
+        pytest.fail(f"{case} was taken")
+    finally:
+        faulthandler.cancel_dump_traceback_later()
+    assert session.done == done, f"{case}: a refused call changed the image"
+
+
+@pytest.mark.parametrize("scene_path", [SPHERES, ANIMATED], ids=["spheres", "animated"])
+def test_a_refused_call_leaves_the_session_as_if_it_had_never_come(scene_path):
+    """Between two samples, each refused call; the image is then that of a session that never saw
+    it, bit for bit (a refusal that half-applied a move, a camera or a time would show here)."""
+    scene = caustica.load(scene_path, **QUICK)
+    clean = scene.session(aovs=())
+    clean.step(2)
+    expected = clean.image()
+    for case, call in REFUSED_CALLS:
+        session = scene.session(aovs=())
+        session.step(1)
+        _refused(case, call, session)
+        session.step(1)
+        assert session.done == 2, case
+        assert np.array_equal(session.image(), expected), f"{case}: the image differs from a session that never saw it"
+
+
+@pytest.mark.parametrize("integrator", ["pt", "lt", "bdpt", "vcm", "sppm"])
+def test_geometry_moved_beyond_reach_is_refused_by_every_integrator(integrator):
+    """A move that takes a light 1e37 m up is refused by name (lt panicked in the BVH), and the
+    session renders on as if it had not come."""
+    scene = caustica.load(SPHERES, **{**TINY, "seed": 45, "integrator": integrator})
+    clean = scene.session(aovs=())
+    clean.step(2)
+    session = scene.session(aovs=())
+    session.step(1)
+    with pytest.raises(ValueError, match="light.*beyond"):
+        session.set_transform("light", np.diag([3e-25, 1e38, 3e-25, 1.0]))
+    session.step(1)
+    assert np.array_equal(session.image(), clean.image())
+
+
+def test_a_frame_loop_with_refused_times_renders_the_frames_of_the_clean_loop():
+    scene = caustica.load(ANIMATED, **QUICK)
+    assert scene.session(aovs=()).duration > 0, "the scene is animated"
+
+    def frames(times):
+        session, images = scene.session(aovs=()), []
+        for t in times:
+            try:
+                session.advance(t)
+            except (ValueError, TypeError, caustica.CausticaError):
+                continue
+            session.step(1)
+            images.append(session.image())
+        return images
+
+    clean = frames([0.0, 0.25, 0.5, 0.75])
+    hostile = frames([0.0, NAN, 0.25, INF, "x", 0.5, -INF, None, 1e308, 0.75])
+    assert len(hostile) == len(clean)
+    for i, (a, b) in enumerate(zip(clean, hostile)):
+        assert np.array_equal(a, b), f"frame {i}: a refused time changed the next frame"
+    assert not np.array_equal(clean[0], clean[-1]), "the frames move"
+
+
+def test_a_session_is_usable_in_any_order_of_calls():
+    """What a host may call first: an image, feature images or a move before any sample."""
+    session = caustica.load(SPHERES, **QUICK).session()
+    assert session.done == 0
+    assert np.array_equal(session.image(), np.zeros((SIDE, SIDE, 3), np.float32)), "nothing rendered is black"
+    assert set(session.aovs()) <= {"albedo", "normal", "depth", "spp"}
+    session.advance(0.0)
+    session.set_transform("floor", IDENTITY)
+    session.set_camera([0, 0.3, 0.9], [0, 0.27, 0])
+    session.step(1)
+    assert session.done == 1 and np.isfinite(session.image()).all() and session.image().max() > 0
+
+
+def _in_threads(count, work):
+    """Run ``work(i)`` on ``count`` threads at once; what each returned or raised. A thread still
+    running after HUNG_AFTER seconds is a deadlock."""
+    import threading
+
+    outcomes = [None] * count
+    start = threading.Barrier(count)
+
+    def run(i):
+        start.wait()
+        try:
+            outcomes[i] = work(i)
+        except BaseException as e:  # noqa: BLE001 - a PanicException must be seen, not lost
+            outcomes[i] = e
+
+    threads = [threading.Thread(target=run, args=(i,)) for i in range(count)]
+    faulthandler.dump_traceback_later(HUNG_AFTER, exit=True)
+    try:
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+    finally:
+        faulthandler.cancel_dump_traceback_later()
+    return outcomes
+
+
+def test_one_session_stepped_from_two_threads_is_serialised():
+    """Two threads stepping one session: the steps are taken one at a time (the second waits, the
+    GIL released), and the image is that of one session stepped as often."""
+    scene = caustica.load(SPHERES, **{**QUICK, "spp": 1})
+    session = scene.session(aovs=())
+
+    def work(i):
+        for _ in range(3):
+            session.step(1)
+            assert session.image().shape == (SIDE, SIDE, 3)
+        return session.done
+
+    outcomes = _in_threads(2, work)
+    for outcome in outcomes:
+        assert isinstance(outcome, int), f"{type(outcome).__name__}: {outcome}"
+    assert session.done == 6
+    alone = scene.session(aovs=())
+    alone.step(6)
+    assert np.array_equal(session.image(), alone.image())
+
+
+def test_a_session_moved_while_another_thread_steps_it_stays_consistent():
+    """One thread steps, the other moves the camera back and forth: every call is taken whole, in
+    some order; afterwards the session renders what a fresh one does."""
+    scene = caustica.load(SPHERES, **QUICK)
+    session = scene.session(aovs=())
+    eye, target = [0, 0.3, 0.9], [0, 0.27, 0]
+
+    def work(i):
+        for k in range(4):
+            if i == 0:
+                session.step(1)
+            elif k % 2:
+                session.set_camera(eye, target)
+            else:
+                session.advance(0.0)
+        return True
+
+    assert _in_threads(2, work) == [True, True]
+    session.set_camera(eye, target)
+    session.step(2)
+    fresh = scene.session(aovs=())
+    fresh.set_camera(eye, target)
+    fresh.step(2)
+    assert np.array_equal(session.image(), fresh.image())
+
+
+def test_two_sessions_on_two_threads_render_what_they_render_alone():
+    scene = caustica.load(SPHERES, **QUICK)
+    sessions = [scene.session(aovs=()), scene.session(aovs=(), integrator="lt")]
+
+    def work(i):
+        sessions[i].step(2)
+        return sessions[i].image()
+
+    images = _in_threads(2, work)
+    for i, integrator in enumerate(["pt", "lt"]):
+        alone = scene.session(aovs=(), integrator=integrator)
+        alone.step(2)
+        assert isinstance(images[i], np.ndarray), f"{integrator}: {images[i]!r}"
+        assert np.array_equal(images[i], alone.image()), integrator

@@ -25,10 +25,15 @@ impl PartialFile {
         // An ordinary file, readable as the umask allows, not the 0600 of a temporary one.
         #[cfg(unix)]
         builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
+        // Made and listed under the list's lock: a process exiting at once holds it from removing
+        // the listed files to its end, so no file is made after it that it would leave behind.
+        let mut list = lock();
         let file = builder
             .tempfile_in(dir)
             .map_err(|e| format!("cannot create a file in {}: {e}", dir.display()))?;
-        let listed = pending(file.path());
+        list.push(file.path().to_path_buf());
+        drop(list);
+        let listed = Pending(file.path().to_path_buf());
         Ok(Self { file, _listed: listed })
     }
 
@@ -39,8 +44,15 @@ impl PartialFile {
 
     /// On disk, then renamed over `path`.
     pub fn finish(self, path: &Path) -> Result<(), String> {
-        self.file.as_file().sync_all().map_err(|e| e.to_string())?;
-        self.file.persist(path).map(drop).map_err(|e| e.error.to_string())
+        let Self { file, _listed } = self;
+        file.as_file().sync_all().map_err(|e| e.to_string())?;
+        // Renamed under the list's lock, as it was made: once a process exiting at once has removed
+        // the partial files, no rename of one (into place, or failing because it is gone, an error
+        // that raced the exit's status) happens.
+        let list = lock();
+        let renamed = file.persist(path).map(drop).map_err(|e| e.error.to_string());
+        drop(list);
+        renamed
     }
 }
 
@@ -68,6 +80,15 @@ impl Drop for Pending {
 /// finishing its writes.
 pub fn remove_all() {
     remove_listed(&mut lock());
+}
+
+/// Remove every temporary file still being written and exit with `code`, holding the list's lock to
+/// the end: a write cannot begin or complete meanwhile (a frame loop or a checkpoint writer running
+/// on other threads), so none is left behind or renamed into place after the removal.
+pub fn remove_all_and_exit(code: i32) -> ! {
+    let mut list = lock();
+    remove_listed(&mut list);
+    std::process::exit(code)
 }
 
 /// Remove the files of `list`, emptying it.

@@ -2,6 +2,7 @@
 //! and winding (the glTF loader places each node's meshes with it), and a scene from frame to
 //! frame: posed by its animations, its nodes moved by a host (a simulation's next frame).
 
+use super::validate::MAX_COORDINATE;
 use super::{Mesh, Scene};
 use crate::error::{Error, Result};
 use glam::{Mat3, Mat4};
@@ -117,9 +118,28 @@ impl FrameScene {
         Ok(changed)
     }
 
-    /// What an animation's pose gives that the loader would have refused in a file: a camera or a
-    /// spot or sun light under a node scaled to nothing (no direction to look or shine along).
+    /// What an animation's pose or a host's move gives that the loader would have refused in a file:
+    /// a camera or a spot or sun light under a node scaled to nothing (no direction to look or shine
+    /// along), or a vertex beyond [`MAX_COORDINATE`] (the BVH's boxes stop nesting there: a light
+    /// moved to 10³⁷ m panicked `lt` indexing a pack that was not there).
     fn pose_problem(&self) -> Option<(String, String)> {
+        let placed = self.dynamic.iter().zip(&self.scene.meshes).filter(|(dynamic, _)| **dynamic);
+        for (_, mesh) in placed {
+            let drift = mesh.motion.unwrap_or_default().abs().max_element();
+            let far = mesh
+                .positions
+                .iter()
+                .position(|p| !p.is_finite() || p.abs().max_element() + drift > MAX_COORDINATE);
+            if let Some(i) = far {
+                return Some((
+                    mesh.name.clone(),
+                    format!(
+                        "vertex {i} is placed at {}, beyond the ±{MAX_COORDINATE} m f32 geometry supports",
+                        mesh.positions[i]
+                    ),
+                ));
+            }
+        }
         if let Some(camera) = &self.scene.camera
             && !camera.camera_to_world.is_finite()
         {
@@ -144,6 +164,15 @@ impl FrameScene {
                 problem: "the matrix must be finite and invertible".into(),
             });
         }
+        // Points are moved as affine (glam's transform_point3 ignores the last row): a projective
+        // row would be dropped without a word. Within 1e-6, for a host's inverted or multiplied
+        // matrices, whose last row rounding leaves a little off.
+        if !m.row(3).abs_diff_eq(glam::Vec4::W, 1e-6) {
+            return Err(Error::Setting {
+                name: format!("the transform of node {node:?}"),
+                problem: format!("the last row is {}, not 0 0 0 1: the matrix must be affine", m.row(3)),
+            });
+        }
         let meshes: Vec<usize> = self.meshes_of(node).collect();
         if meshes.is_empty() {
             return Err(Error::InvalidScene {
@@ -152,10 +181,12 @@ impl FrameScene {
                 problem: "no mesh of a node named or numbered so".into(),
             });
         }
+        let (previous_moves, mut newly_dynamic) = (self.moves.clone(), Vec::new());
         for &i in &meshes {
             if !self.dynamic[i] {
                 self.dynamic[i] = true;
                 self.loaded.insert(i, self.scene.meshes[i].clone());
+                newly_dynamic.push(i);
             }
         }
         // A node named once by its name and once by its index is one node: its new move replaces
@@ -165,7 +196,22 @@ impl FrameScene {
         let mut same = same_node.into_iter();
         self.moves.retain(|_| !same.next().expect("one per move"));
         self.moves.push((node.to_owned(), m));
-        Ok(self.refresh())
+        let changed = self.refresh();
+        if let Some((object, problem)) = self.pose_problem() {
+            // Refused: the scene as it was, the meshes as static as they were (the geometry's
+            // dynamic set, and so the next frame's BVH, is what it would have been without it).
+            self.moves = previous_moves;
+            self.refresh();
+            for i in newly_dynamic {
+                self.dynamic[i] = false;
+                self.loaded.remove(&i);
+            }
+            return Err(Error::Setting {
+                name: format!("the transform of node {node:?}"),
+                problem: format!("{object}: {problem}"),
+            });
+        }
+        Ok(changed)
     }
 
     fn meshes_of<'a>(&'a self, node: &'a str) -> impl Iterator<Item = usize> + 'a {
