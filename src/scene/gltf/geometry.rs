@@ -65,7 +65,9 @@ impl Loader<'_> {
                 ),
             ));
         }
-        Ok(())
+        // Within the budget, but past what the process may have (`ulimit -v`): said now, by name,
+        // not as an abort in the BVH's build.
+        crate::memory::reserve(&format!("the meshes of {}", self.path.display()), bytes, self.budget)
     }
 
     /// Place `mesh`'s primitives by `world`; when an animation `moves` the node, keep each in the

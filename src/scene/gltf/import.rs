@@ -5,17 +5,22 @@ use super::label;
 use crate::error::{Error, Result};
 use std::path::Path;
 
-/// Reads the file, its buffers and its images, naming the buffer or image that fails.
+/// Reads the file, its buffers and its images, naming the buffer or image that fails; the file and
+/// its external buffers are read only within `budget` bytes, and fallibly.
 pub(super) fn import(
     path: &Path,
+    budget: u64,
 ) -> Result<(gltf::Document, Vec<gltf::buffer::Data>, Vec<gltf::image::Data>)> {
     let gltf_error = |message: String| Error::Gltf { path: path.to_path_buf(), message };
     // A device (a run file's gltf = "/dev/zero") never ends, and the file is read whole.
     // (A missing file is left to the read, whose error says so.)
     if path.exists() {
-        check_regular_file(path, crate::memory::physical_bytes() / 2).map_err(gltf_error)?;
+        check_regular_file(path, budget).map_err(gltf_error)?;
     }
-    let bytes = std::fs::read(path).map_err(|source| Error::Io { path: path.to_path_buf(), source })?;
+    let bytes = read_fallibly(path, u64::MAX, budget).map_err(|e| match e {
+        Unread::Io(source) => Error::Io { path: path.to_path_buf(), source },
+        Unread::Memory(problem) => gltf_error(problem),
+    })?;
     let gltf::Gltf { document, mut blob } =
         gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| gltf_error(describe(&e)))?;
     // gltf-json 1.4's validation indexes `accessors` with each POSITION index before checking it
@@ -65,7 +70,7 @@ pub(super) fn import(
         let object = label("buffer", buffer.name(), buffer.index());
         if let gltf::buffer::Source::Uri(uri) = buffer.source() {
             check_uri(uri).map_err(|problem| gltf_error(format!("{object}: {problem}")))?;
-            if let Some(file) = read_external(uri, base, buffer.length())
+            if let Some(file) = read_external(uri, base, buffer.length(), budget)
                 .map_err(|problem| gltf_error(format!("{object} ({}): {problem}", describe_uri(uri, base))))?
             {
                 buffers.push(file);
@@ -187,8 +192,12 @@ const MAX_IMAGE_FILE_BYTES: u64 = 1 << 31;
 /// An external buffer (a relative or `file:` URI), read to its declared `length` and no further: the
 /// gltf crate would read the whole file, and a URI naming a device (`/dev/zero`) never ends. None for
 /// a `data:` URI, which the gltf crate decodes from the JSON itself.
-fn read_external(uri: &str, base: &Path, length: usize) -> Result<Option<gltf::buffer::Data>, String> {
-    use std::io::Read;
+fn read_external(
+    uri: &str,
+    base: &Path,
+    length: usize,
+    budget: u64,
+) -> Result<Option<gltf::buffer::Data>, String> {
     if uri.starts_with("data:") {
         return Ok(None);
     }
@@ -200,18 +209,47 @@ fn read_external(uri: &str, base: &Path, length: usize) -> Result<Option<gltf::b
     if size < length as u64 {
         return Err(format!("holds {size} bytes but byteLength says {length}"));
     }
-    // A sparse file can be as long as it likes; what is read must fit in memory.
-    let memory = crate::memory::physical_bytes();
-    if length as u64 > memory / 2 {
-        return Err(format!("byteLength {length} is over half this machine's memory ({memory} bytes)"));
+    // A sparse file can be as long as it likes; what is read must fit in the budget.
+    if length as u64 > budget {
+        return Err(format!(
+            "byteLength {length} is over the memory budget of {} MiB (--memory-budget-mib)",
+            budget.div_ceil(1 << 20)
+        ));
     }
-    let mut bytes = Vec::with_capacity(length);
-    std::fs::File::open(&path)
-        .and_then(|file| file.take(length as u64).read_to_end(&mut bytes))
-        .map_err(|e| format!("cannot read it: {e}"))?;
+    let mut bytes = read_fallibly(&path, length as u64, budget).map_err(|e| match e {
+        Unread::Io(e) => format!("cannot read it: {e}"),
+        Unread::Memory(problem) => problem,
+    })?;
     // The gltf crate keeps buffers padded to 4 bytes.
     bytes.resize(length.next_multiple_of(4), 0);
     Ok(Some(gltf::buffer::Data(bytes)))
+}
+
+/// Why a file was not read.
+enum Unread {
+    Io(std::io::Error),
+    /// Its bytes are more than the allocator has (`ulimit -v`, a budget raised past the machine).
+    Memory(String),
+}
+
+/// The first `most` bytes of `path`, in one allocation asked for fallibly: a file the budget let
+/// through that the process cannot hold is an error, not an abort.
+fn read_fallibly(path: &Path, most: u64, budget: u64) -> std::result::Result<Vec<u8>, Unread> {
+    use std::io::Read;
+    let file = std::fs::File::open(path).map_err(Unread::Io)?;
+    let length = file.metadata().map_err(Unread::Io)?.len().min(most);
+    let mut bytes = Vec::new();
+    // Room for the padding to 4 bytes the gltf crate keeps buffers in, so that it costs no copy.
+    bytes.try_reserve_exact((length as usize).next_multiple_of(4)).map_err(|_| {
+        Unread::Memory(format!(
+            "cannot allocate its {} MiB within the memory budget of {} MiB: the machine or this process's \
+             limit (ulimit -v) has not got it",
+            length.div_ceil(1 << 20),
+            budget.div_ceil(1 << 20)
+        ))
+    })?;
+    file.take(length).read_to_end(&mut bytes).map_err(Unread::Io)?;
+    Ok(bytes)
 }
 
 /// That `path` is a regular file (not a device, a pipe or a folder) of at most `max` bytes; its size.

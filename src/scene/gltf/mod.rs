@@ -47,7 +47,7 @@ pub fn load_gltf_with_camera(path: &Path, camera: Option<&str>) -> Result<Scene>
 
 /// As [`load_gltf_with_camera`], refusing a file whose meshes need more than `budget` bytes decoded.
 pub fn load_gltf_within(path: &Path, camera: Option<&str>, budget: u64) -> Result<Scene> {
-    let (document, buffers, images) = import(path)?;
+    let (document, buffers, images) = import(path, budget)?;
     let mut loader = Loader {
         budget,
         path,
