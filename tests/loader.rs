@@ -5,7 +5,7 @@ use crate::common;
 use caustica::Error;
 use caustica::geometry::{Ray, SurfaceHit};
 use caustica::materials::ShadingParams;
-use caustica::scene::gltf::{load_gltf, load_gltf_with_camera, srgb_to_linear};
+use caustica::scene::gltf::{load_gltf, load_gltf_with_camera, load_gltf_within, srgb_to_linear};
 use caustica::scene::{self, LightSelection, RunFile, Scene, Wrap, validate};
 use glam::{Vec2, Vec3};
 use std::path::{Path, PathBuf};
@@ -1402,6 +1402,19 @@ fn skins_and_morph_targets_are_warned_about_once_each_naming_them() {
     assert_eq!(z, vec![0.5, 0.5, 0.0]);
 }
 
+/// Textures are counted against the budget as linear texels (16 bytes each) before they are made:
+/// BoxTextured's 256² image is 1 MiB of them, refused under a 512 KiB budget naming the texture
+/// and the budget, loaded under 2 MiB.
+#[test]
+fn textures_are_counted_against_the_budget_before_they_are_decoded() {
+    let error = load_gltf_within(&sample("BoxTextured.gltf"), None, 512 << 10).expect_err("over the budget");
+    let message = error.to_string();
+    assert!(message.contains("texture #0") && message.contains("its 256x256 texels need 1 MiB"), "{message}");
+    assert!(message.contains("over the memory budget of 1 MiB"), "{message}");
+    let scene = load_gltf_within(&sample("BoxTextured.gltf"), None, 2 << 20).expect("within the budget");
+    assert_eq!(scene.textures[0].texels.len(), 256 * 256);
+}
+
 /// A `weights` channel on a file without morph targets drives nothing: it is ignored with a warning
 /// that names it and says why, like every other unusable channel, not silently.
 #[test]
@@ -1493,7 +1506,7 @@ fn declared_geometry_beyond_memory_is_refused_before_it_is_read() {
     std::fs::write(&path, external.to_string()).unwrap();
     let message = caustica::scene::load(&path).unwrap_err().to_string();
     assert!(
-        message.contains("external.gltf") && message.contains("over half this machine's memory"),
+        message.contains("external.gltf") && message.contains("over the memory budget of"),
         "{message}"
     );
 }

@@ -175,11 +175,34 @@ impl Loader<'_> {
             })
             .unwrap_or_else(|| format!("texture #{}", texture.index()));
         let sampler = texture.sampler();
+        // Linear texels are 16 bytes, four times an 8-bit image's: counted against the budget
+        // before they are made, and made fallibly.
+        let object = || label("texture", texture.name(), texture.index());
+        let bytes = u64::from(data.width) * u64::from(data.height) * size_of::<Vec4>() as u64;
+        self.texture_bytes += bytes;
+        if self.texture_bytes > self.budget {
+            return Err(self.invalid(
+                object(),
+                format!(
+                    "its {}x{} texels need {} MiB as linear colour, {} MiB with the textures before it, over \
+                     the memory budget of {} MiB (--memory-budget-mib)",
+                    data.width,
+                    data.height,
+                    bytes.div_ceil(1 << 20),
+                    self.texture_bytes.div_ceil(1 << 20),
+                    self.budget.div_ceil(1 << 20)
+                ),
+            ));
+        }
+        let texels = decode(data, srgb).map_err(|_| {
+            let what = format!("the {}x{} texels of {}", data.width, data.height, object());
+            crate::error::Error::OutOfMemory { what, bytes, budget: self.budget }
+        })?;
         self.scene.textures.push(Texture {
             name,
             width: data.width,
             height: data.height,
-            texels: decode(data, srgb),
+            texels,
             wrap_s: wrap(sampler.wrap_s()),
             wrap_t: wrap(sampler.wrap_t()),
         });
@@ -204,8 +227,12 @@ fn wrap(mode: gltf::texture::WrappingMode) -> Wrap {
     }
 }
 
-/// Linear RGBA texels; grey images replicate to RGB, missing alpha is 1.
-fn decode(image: &gltf::image::Data, srgb: bool) -> Vec<Vec4> {
+/// Linear RGBA texels; grey images replicate to RGB, missing alpha is 1. An error where the
+/// allocator has not got them.
+fn decode(
+    image: &gltf::image::Data,
+    srgb: bool,
+) -> std::result::Result<Vec<Vec4>, std::collections::TryReserveError> {
     use gltf::image::Format;
     let (channels, bytes) = match image.format {
         Format::R8 => (1, 1),
@@ -221,28 +248,27 @@ fn decode(image: &gltf::image::Data, srgb: bool) -> Vec<Vec4> {
     };
     // Float images are linear already; only integer encodings carry the sRGB curve.
     let srgb = srgb && bytes < 4;
-    image
-        .pixels
-        .chunks_exact(channels * bytes)
-        .map(|px| {
-            let c = |i: usize| {
-                let b = &px[i * bytes..];
-                match bytes {
-                    1 => f32::from(b[0]) / 255.0,
-                    2 => f32::from(u16::from_ne_bytes([b[0], b[1]])) / 65535.0,
-                    _ => f32::from_ne_bytes([b[0], b[1], b[2], b[3]]),
-                }
-            };
-            let (rgb, alpha) = match channels {
-                1 => (Vec3::splat(c(0)), 1.0),
-                2 => (Vec3::splat(c(0)), c(1)),
-                3 => (Vec3::new(c(0), c(1), c(2)), 1.0),
-                _ => (Vec3::new(c(0), c(1), c(2)), c(3)),
-            };
-            let rgb = if srgb { rgb.map(srgb_to_linear) } else { rgb };
-            rgb.extend(alpha)
-        })
-        .collect()
+    let mut texels = Vec::new();
+    texels.try_reserve_exact(image.pixels.len() / (channels * bytes))?;
+    texels.extend(image.pixels.chunks_exact(channels * bytes).map(|px| {
+        let c = |i: usize| {
+            let b = &px[i * bytes..];
+            match bytes {
+                1 => f32::from(b[0]) / 255.0,
+                2 => f32::from(u16::from_ne_bytes([b[0], b[1]])) / 65535.0,
+                _ => f32::from_ne_bytes([b[0], b[1], b[2], b[3]]),
+            }
+        };
+        let (rgb, alpha) = match channels {
+            1 => (Vec3::splat(c(0)), 1.0),
+            2 => (Vec3::splat(c(0)), c(1)),
+            3 => (Vec3::new(c(0), c(1), c(2)), 1.0),
+            _ => (Vec3::new(c(0), c(1), c(2)), c(3)),
+        };
+        let rgb = if srgb { rgb.map(srgb_to_linear) } else { rgb };
+        rgb.extend(alpha)
+    }));
+    Ok(texels)
 }
 
 /// The sRGB electro-optical transfer function (IEC 61966-2-1).
@@ -267,10 +293,10 @@ mod tests {
     fn decode_handles_grey_alpha_and_sixteen_bit_images() {
         use gltf::image::{Data, Format};
         let grey_alpha = Data { pixels: vec![255, 51], format: Format::R8G8, width: 1, height: 1 };
-        assert_eq!(decode(&grey_alpha, true), vec![Vec4::new(1.0, 1.0, 1.0, 0.2)]);
+        assert_eq!(decode(&grey_alpha, true).unwrap(), vec![Vec4::new(1.0, 1.0, 1.0, 0.2)]);
         let rgb16: Vec<u8> = [65535u16, 0, 32768].iter().flat_map(|v| v.to_ne_bytes()).collect();
         let rgb16 = Data { pixels: rgb16, format: Format::R16G16B16, width: 1, height: 1 };
-        let texel = decode(&rgb16, false)[0];
+        let texel = decode(&rgb16, false).unwrap()[0];
         assert_eq!((texel.x, texel.y, texel.w), (1.0, 0.0, 1.0));
         assert!((texel.z - 0.5).abs() < 1e-4);
     }

@@ -59,6 +59,7 @@ pub fn load_gltf_within(path: &Path, camera: Option<&str>, budget: u64) -> Resul
         default_material: None,
         cameras: Vec::new(),
         morphed_primitives: 0,
+        texture_bytes: 0,
         animation: None,
     };
     loader.warn_unsupported(&document);
@@ -139,8 +140,10 @@ fn resolution(scene: &gltf::Scene, path: &Path) -> Result<Option<(u32, u32)>> {
 
 /// The state of one load: the file's data, the scene being filled, and what is shared across it.
 struct Loader<'a> {
-    /// The memory budget the decoded meshes are checked against, bytes.
+    /// The memory budget the decoded meshes and textures are checked against, bytes.
     budget: u64,
+    /// What the textures decoded so far hold, bytes.
+    texture_bytes: u64,
     path: &'a Path,
     /// The file's document, for what the gltf crate does not resolve (extensions it does not parse).
     document: &'a gltf::Document,
