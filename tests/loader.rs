@@ -1505,10 +1505,7 @@ fn declared_geometry_beyond_memory_is_refused_before_it_is_read() {
     let path = dir.path().join("external.gltf");
     std::fs::write(&path, external.to_string()).unwrap();
     let message = caustica::scene::load(&path).unwrap_err().to_string();
-    assert!(
-        message.contains("external.gltf") && message.contains("over the memory budget of"),
-        "{message}"
-    );
+    assert!(message.contains("external.gltf") && message.contains("over the memory budget of"), "{message}");
 }
 
 /// A run file's glTF that is a device never ends: refused naming it, not read forever.
