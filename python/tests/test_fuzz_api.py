@@ -703,6 +703,28 @@ def test_a_host_that_once_held_much_memory_can_still_render():
     subprocess.run([sys.executable, "-c", script], check=True, capture_output=True)
 
 
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="RLIMIT_AS is Linux's")
+def test_memory_the_machine_has_not_got_is_a_memory_error_and_the_process_goes_on():
+    """A budget raised by hand past what the process may have (RLIMIT_AS, as ``ulimit -v``): the
+    render is refused with a MemoryError naming the film, before anything of it is allocated, and
+    the same process renders the next scene (issue 45: this aborted the interpreter)."""
+    script = (
+        "import resource, caustica\n"
+        "resource.setrlimit(resource.RLIMIT_AS, (3 << 30, 3 << 30))\n"
+        f"scene = caustica.load({str(SPHERES)!r}, width=32768, height=32768, spp=1, memory_budget_mib=2**40)\n"
+        "try:\n"
+        "    scene.render()\n"
+        "    raise SystemExit('rendered')\n"
+        "except MemoryError as e:\n"
+        "    assert 'cannot allocate' in str(e) and '-pixel film' in str(e), e\n"
+        f"image = caustica.load({str(SPHERES)!r}, width=8, height=8, spp=1).render().color\n"
+        "assert image.shape == (8, 8, 3) and image.max() > 0\n"
+        "print('survived')\n"
+    )
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
+    assert done.returncode == 0 and "survived" in done.stdout, done.stdout + done.stderr
+
+
 def test_a_refused_output_name_leaves_no_folder_behind(world):
     with pytest.raises(caustica.CausticaError, match="unknown image format"):
         caustica.write_image("new/folder/out.jpg", np.zeros((2, 2, 3), np.float32))
