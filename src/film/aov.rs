@@ -98,17 +98,11 @@ impl AovFilm {
         Self { width, height, pixels: (0..n).map(|_| PixelSums::default()).collect() }
     }
 
-    /// As [`Self::new`], or an error naming the feature images' film, its size and `budget` where the allocator
-    /// has not got its memory (a film is the one allocation that grows with the resolution alone).
+    /// As [`Self::new`], or an error naming the feature images' film, its size and `budget` where
+    /// the allocator has not got its memory ([`fixed::try_pixels`]).
     pub fn try_new(width: u32, height: u32, budget: u64) -> crate::error::Result<Self> {
         let n = width as usize * height as usize;
-        let mut pixels = Vec::new();
-        pixels.try_reserve_exact(n).map_err(|_| crate::error::Error::OutOfMemory {
-            what: format!("the {width}x{height} feature images' film"),
-            bytes: n as u64 * Self::BYTES_PER_PIXEL,
-            budget,
-        })?;
-        pixels.extend((0..n).map(|_| PixelSums::default()));
+        let pixels = fixed::try_pixels(n, || format!("the {width}x{height} feature images' film"), budget)?;
         Ok(Self { width, height, pixels })
     }
 

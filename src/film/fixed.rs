@@ -46,6 +46,24 @@ pub struct PixelSums<const N: usize = 3> {
     count: AtomicU32,
 }
 
+/// `n` empty pixels, in one allocation asked for fallibly: an error naming `what` (the film), its
+/// size and `budget` where the allocator has not got them (a film is the one allocation that grows
+/// with the resolution alone).
+pub fn try_pixels<const N: usize>(
+    n: usize,
+    what: impl FnOnce() -> String,
+    budget: u64,
+) -> crate::error::Result<Vec<PixelSums<N>>> {
+    let mut pixels = Vec::new();
+    pixels.try_reserve_exact(n).map_err(|_| crate::error::Error::OutOfMemory {
+        what: what(),
+        bytes: n as u64 * size_of::<PixelSums<N>>() as u64,
+        budget,
+    })?;
+    pixels.extend((0..n).map(|_| PixelSums::default()));
+    Ok(pixels)
+}
+
 impl<const N: usize> Default for PixelSums<N> {
     fn default() -> Self {
         Self {
