@@ -31,9 +31,7 @@ fn one_two_and_three_threads_give_bit_identical_images() {
     let dir = std::env::temp_dir().join(format!("caustica-determinism-{}", std::process::id()));
     // pm: photon passes, kd-tree builds and lookups must be thread-independent too; the progressive
     // ones: photon deposits into hit points, the radius updates, the χ² cells and the Laplacians.
-    let every_integrator =
-        ["pt", "pt-naive", "pm", "ppm", "sppm", "appm", "cppm", "pppm", "lt", "bdpt", "vcm"]
-            .map(|i| ("cornell-spheres.gltf", i, 3));
+    let every_integrator = caustica::integrators::ALL.map(|i| ("cornell-spheres.gltf", i.name(), 3));
     for (scene, integrator, max_threads) in every_integrator.into_iter().chain([
         ("cornell-box.gltf", "pt", 2),
         ("cornell-spheres.gltf", "pt-tree", 2),

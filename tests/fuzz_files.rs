@@ -31,11 +31,12 @@ fn binary() -> Command {
 
 /// A render of the test scene at 12×12: `integrator` with its unit flag set to `units`, and `more`.
 fn render(dir: &Path, integrator: &str, units: u32, more: &[&str]) -> Output {
-    let unit = if matches!(integrator, "pt" | "pt-naive" | "pm" | "lt" | "bdpt" | "vcm") {
-        "--spp"
-    } else {
-        "--passes"
-    };
+    let unit = caustica::integrators::ALL
+        .iter()
+        .find(|i| i.name() == integrator)
+        .expect("an integrator")
+        .units_key();
+    let unit = format!("--{unit}");
     binary()
         .args([
             "render",
@@ -46,7 +47,7 @@ fn render(dir: &Path, integrator: &str, units: u32, more: &[&str]) -> Output {
             "12",
             "-q",
         ])
-        .args(["--integrator", integrator, unit, &units.to_string()])
+        .args(["--integrator", integrator, &unit, &units.to_string()])
         .args(["--photons", "3000", "--caustic-photons", "500", "--photons-per-pass", "2000"])
         .args(["--hit-points-per-pixel", "2"])
         .args(more)
@@ -230,9 +231,14 @@ fn fuzz_checkpoints(integrator: &str) -> (usize, usize) {
     (run, unwritable)
 }
 
+/// Every integrator from the registry but the light-path ones, which have a test each below.
 fn integrators() -> Vec<&'static str> {
     if std::env::var("CAUSTICA_FUZZ_FILES").is_ok_and(|v| v == "all") {
-        vec!["pt", "pt-naive", "pm", "ppm", "sppm", "appm", "cppm", "pppm"]
+        caustica::integrators::ALL
+            .iter()
+            .map(|i| i.name())
+            .filter(|name| !matches!(*name, "lt" | "bdpt" | "vcm"))
+            .collect()
     } else {
         vec!["pt", "sppm", "ppm"]
     }

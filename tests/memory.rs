@@ -5,9 +5,6 @@
 
 use std::process::{Command, Output};
 
-const INTEGRATORS: [&str; 11] =
-    ["pt", "pt-naive", "pm", "ppm", "sppm", "appm", "cppm", "pppm", "lt", "bdpt", "vcm"];
-
 fn render(integrator: &str, size: u32, checkpoint: bool, budget_mib: Option<u64>) -> Output {
     let dir = std::env::temp_dir()
         .join(format!("caustica-memory-{}-{integrator}-{checkpoint}", std::process::id()));
@@ -15,11 +12,16 @@ fn render(integrator: &str, size: u32, checkpoint: bool, budget_mib: Option<u64>
     // Memory does not grow with samples or passes after the first: at 1200² one of each is enough.
     let (spp, passes) = if size > 320 { ("1", "1") } else { ("2", "2") };
     let size = size.to_string();
+    let unit = caustica::integrators::ALL
+        .iter()
+        .find(|i| i.name() == integrator)
+        .expect("an integrator")
+        .units_key();
     let units: Vec<&str> = match integrator {
-        "pt" | "pt-naive" | "lt" | "bdpt" | "vcm" => vec!["--spp", spp],
         "pm" => vec!["--spp", "1"],
         // ppm's default keeps many hit points a pixel; two keep this test light.
         "ppm" => vec!["--passes", passes, "--hit-points-per-pixel", "2"],
+        _ if unit == "spp" => vec!["--spp", spp],
         _ => vec!["--passes", passes],
     };
     let mut command = Command::new(env!("CARGO_BIN_EXE_caustica"));
@@ -53,7 +55,7 @@ fn peak_and_count(out: &Output) -> (u64, u64) {
 /// (At 1200², where the film, the hit points and the light vertices dominate, the count is held to
 /// the allocator's own peak in tests/memory_count.rs, without the resident memory's slack.)
 fn check_every_integrator(size: u32, checkpoints: &[bool]) {
-    for integrator in INTEGRATORS {
+    for integrator in caustica::integrators::ALL.map(|i| i.name()) {
         for &checkpoint in checkpoints {
             let (peak, counted) = peak_and_count(&render(integrator, size, checkpoint, None));
             assert!(
