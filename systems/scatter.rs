@@ -60,7 +60,7 @@ pub fn scatter_photon_mapped(
     mut paths: Query<(&PathHit, &mut PathRay, &mut PathState, &mut ShadowRay, Option<&mut PathAov>)>,
 ) {
     paths.par_iter_mut().batching_strategy(wavefront_batching()).for_each_init(
-        || Neighbors::with_capacity(maps.k),
+        || Neighbors::with_capacity(maps.neighbors_room()),
         |neighbors, (hit, mut ray, mut state, mut shadow, mut aov)| {
             let aov = aov.as_deref_mut().map(|a| &mut a.0);
             advance(&mut state, |state| {

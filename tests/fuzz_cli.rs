@@ -41,7 +41,10 @@ const TRIPLE: &[&str] = &["0,0,0", "0,1,3", "NaN,0,0", "1e39,0,0", "inf,1,1", "0
 
 /// Each fuzzed flag with the values a case picks from.
 const FLAGS: &[(&str, &[&str])] = &[
-    ("--integrator", &["pt", "pt-naive", "pm", "ppm", "sppm", "appm", "cppm", "lt", "bdpt", "", "PT"]),
+    (
+        "--integrator",
+        &["pt", "pt-naive", "pm", "ppm", "sppm", "appm", "cppm", "pppm", "lt", "bdpt", "vcm", "", "PT"],
+    ),
     ("--spp", COUNT),
     ("--passes", COUNT),
     ("--width", &["0", "1", "3", "8", "-1", "NaN", "32769", "65536", "4294967295"]),

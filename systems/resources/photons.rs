@@ -92,6 +92,19 @@ pub struct PhotonMaps {
     pub built: Vec<PhotonMapSummary>,
 }
 
+impl PhotonMaps {
+    /// Room a k-nearest query's result needs: `k`, or the largest map's photons where that is fewer
+    /// (a query finds no more than a map holds; `k` is the user's word, up to 2^32).
+    pub fn neighbors_room(&self) -> usize {
+        let largest = [&self.global, &self.indirect, &self.caustic]
+            .iter()
+            .filter_map(|m| m.as_ref())
+            .map(|m| m.len())
+            .max();
+        self.k.min(largest.unwrap_or(0))
+    }
+}
+
 /// The photons of the running progressive pass, as a kd-tree for the hit points' radius queries.
 #[derive(Resource, Debug)]
 pub struct PassPhotons {
