@@ -132,8 +132,3 @@ pub fn add_films(world: &mut World, run: &RunFile) -> Result<()> {
     }
     Ok(())
 }
-
-/// The memory the machine has, from /proc/meminfo (Linux); 8 GiB where it cannot be read.
-pub fn physical_memory_bytes() -> u64 {
-    caustica_core::memory::physical_bytes()
-}

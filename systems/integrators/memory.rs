@@ -88,7 +88,7 @@ pub fn check(run: &RunFile, need: MemoryNeed) -> Result<u64> {
 
 /// The run's budget, else half the machine's memory.
 pub fn budget(run: &RunFile) -> u64 {
-    run.memory_budget_bytes(crate::world::physical_memory_bytes() / 2)
+    run.memory_budget_bytes(caustica_core::memory::physical_bytes() / 2)
 }
 
 /// What a checkpoint's snapshot of a `pixels`-pixel film and `hit_point_bytes` of hit points holds

@@ -169,7 +169,6 @@ pub fn scatter_bidirectional_subpaths(
             kept.owners.push(index);
             kept.vertices.push(new.keep(&mut kept.bsdfs));
         }
-        full.0 |= kept.vertices.len() >= kept.limit;
         if let Some(connection) = step.connection {
             connections[i].0 = connection;
             queued.push(row);
@@ -181,6 +180,8 @@ pub fn scatter_bidirectional_subpaths(
         step.next.is_some()
     });
     counts.roulette_kills += roulette_kills;
+    // A bounce keeps at most a vertex a row, so the round ends within a row of the limit.
+    full.0 = kept.vertices.len() >= kept.limit;
 }
 
 /// Spawn `rows` light subpaths of bdpt or vcm into a shard's World: `lt`'s chunk and two columns.

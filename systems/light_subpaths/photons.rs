@@ -122,7 +122,6 @@ pub fn scatter_photon_subpaths(
     if queues.active.is_empty() {
         return;
     }
-    let queues_rows = queues.rows as usize;
     let Ok(mut tables) = photons.contiguous_iter_mut() else { return };
     let Some((hits, samplers, mut rays, mut powers)) = tables.next() else { return };
     let (rays, powers) = (rays.bypass_change_detection(), powers.bypass_change_detection());
@@ -138,7 +137,6 @@ pub fn scatter_photon_subpaths(
         if let Some(photon) = bounce.deposit {
             trail.deposits.push(((index as u64) << 32 | depth as u64, photon));
         }
-        full.0 |= trail.deposits.len() >= DEPOSIT_ROWS_IN_A_ROUND * queues_rows;
         roulette_kills += bounce.roulette_kill as u64;
         match bounce.next {
             Some(ray) => rays[i].0 = ray,
@@ -148,6 +146,7 @@ pub fn scatter_photon_subpaths(
         bounce.next.is_some()
     });
     counts.roulette_kills += roulette_kills;
+    full.0 = trail.deposits.len() >= DEPOSIT_ROWS_IN_A_ROUND * queues.rows as usize;
 }
 
 /// Spawn `rows` photons into a shard's World, all in one table, with their queues and trail.
