@@ -377,7 +377,7 @@ fn spp_as_passes(args: &RenderArgs, run: &mut RunFile) -> Result<()> {
         return Ok(());
     };
     let name = integrator.name();
-    if run.render.integrator == caustica::scene::IntegratorKind::Ppm {
+    if integrator.hit_points_traced_once {
         // ppm's camera samples are its hit points, traced once: N samples a pixel are N hit points.
         match args.hit_points_per_pixel {
             Some(hit_points) if hit_points != spp => tracing::warn!(

@@ -35,7 +35,7 @@ fn every_scene_with_every_integrator_drops_nothing() {
     let files = run_files();
     assert!(files.len() >= 12, "the scenes shrank: {files:?}");
     for path in files {
-        for kind in IntegratorKind::ALL {
+        for kind in caustica::integrators::kinds() {
             let (scene, mut run) = load(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
             run.render.integrator = kind;
             run.render.spp = 2;

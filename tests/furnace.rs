@@ -109,7 +109,7 @@ fn mean_and_standard_error(image: &Image, pixels: &[usize]) -> (f64, f64) {
 #[test]
 fn constant_environment_lights_a_lambertian_ball_to_albedo_times_radiance_for_every_integrator() {
     let le = 0.7f32;
-    for kind in IntegratorKind::ALL {
+    for kind in caustica::integrators::kinds() {
         for albedo in [1.0f32, 0.5] {
             let mut run = RunFile::default();
             run.render.integrator = kind;

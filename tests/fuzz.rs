@@ -65,7 +65,7 @@ const KEYS: &[(&str, &[(&str, Kind)])] = &[
     (
         "render",
         &[
-            ("integrator", Kind::Word(&["pt", "pt-naive", "pm", "ppm", "sppm", "appm", "cppm", "bdpt"])),
+            ("integrator", Kind::Integrator),
             ("spp", Kind::Number),
             ("seed", Kind::Number),
             ("max_depth", Kind::Number),
@@ -163,6 +163,8 @@ const KEYS: &[(&str, &[(&str, Kind)])] = &[
 enum Kind {
     Number,
     Word(&'static [&'static str]),
+    /// A registered integrator's name, or now and then one that is not.
+    Integrator,
     Vec2,
     Vec3,
     Material,
@@ -219,6 +221,10 @@ fn value(kind: Kind, c: &[u16; 4]) -> String {
         (0, _) => ["\"text\"", "true", "[]", "{ a = 1 }"][c[0] as usize % 4].to_owned(),
         (_, Kind::Number) => n(0),
         (_, Kind::Word(words)) => format!("\"{}\"", words[c[0] as usize % words.len()]),
+        (_, Kind::Integrator) => {
+            let words: Vec<&str> = caustica::integrators::names().chain(["PT", "bdpt2"]).collect();
+            format!("\"{}\"", words[c[0] as usize % words.len()])
+        }
         (_, Kind::Vec2) => format!("[{}, {}]", n(0), n(1)),
         (_, Kind::Vec3) => format!("[{}, {}, {}]", n(0), n(1), n(2)),
         (_, Kind::Material) => {
@@ -609,14 +615,15 @@ fn temp_gltf(bytes: &[u8]) -> PathBuf {
     path
 }
 
-const INTEGRATORS: [IntegratorKind; 11] = IntegratorKind::ALL;
+/// The registry: every integrator the fuzzer picks from.
+const INTEGRATORS: &[&caustica::integrators::Integrator] = &caustica::integrators::ALL;
 
 fn gltf_case(seed: usize, edits: &[(u8, u32, u16)], integrator: usize) -> Result<(), TestCaseError> {
     let original = std::fs::read(common::data(SEEDS[seed % SEEDS.len()])).expect("seed file");
     let path = temp_gltf(&mutate_gltf(original, edits));
     let start = Instant::now();
     let outcome = load(&path).map_err(|e| e.to_string()).and_then(|(scene, mut run)| {
-        run.render.integrator = INTEGRATORS[integrator % INTEGRATORS.len()];
+        run.render.integrator = INTEGRATORS[integrator % INTEGRATORS.len()].kind;
         bound_settings(&mut run);
         common::try_render(scene, &run)
     });

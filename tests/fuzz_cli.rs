@@ -12,6 +12,7 @@ use caustica::film::output::read_exr;
 use proptest::prelude::*;
 use std::path::Path;
 use std::process::{Command, Stdio};
+use std::sync::LazyLock;
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::{Duration, Instant};
 
@@ -39,12 +40,16 @@ const COUNT: &[&str] = &["0", "1", "2", "4294967295", "4294967296", "-1", "NaN",
 const REAL: &[&str] = &["0", "-1", "NaN", "inf", "-inf", "1e-30", "0.05", "1e39", "0.5", "2", "x"];
 const TRIPLE: &[&str] = &["0,0,0", "0,1,3", "NaN,0,0", "1e39,0,0", "inf,1,1", "0,1", "-1,-1,-1", "a,b,c"];
 
-/// Each fuzzed flag with the values a case picks from.
-const FLAGS: &[(&str, &[&str])] = &[
-    (
-        "--integrator",
-        &["pt", "pt-naive", "pm", "ppm", "sppm", "appm", "cppm", "pppm", "lt", "bdpt", "vcm", "", "PT"],
-    ),
+/// Each fuzzed flag with the values a case picks from: `--integrator` first, with every registered
+/// integrator's name and two that are none, then [`OTHER_FLAGS`].
+static FLAGS: LazyLock<Vec<(&str, &[&str])>> = LazyLock::new(|| {
+    let integrators = caustica::integrators::names().chain(["", "PT"]).collect();
+    let mut flags = vec![("--integrator", &*Vec::leak(integrators))];
+    flags.extend_from_slice(OTHER_FLAGS);
+    flags
+});
+
+const OTHER_FLAGS: &[(&str, &[&str])] = &[
     ("--spp", COUNT),
     ("--passes", COUNT),
     ("--width", &["0", "1", "3", "8", "-1", "NaN", "32769", "65536", "4294967295"]),
@@ -217,7 +222,7 @@ fn every_adversarial_value_alone_renders_or_fails_with_an_error() {
 fn the_fuzzed_flags_exist() {
     let help = Command::new(env!("CARGO_BIN_EXE_caustica")).args(["render", "--help"]).output().unwrap();
     let help = String::from_utf8_lossy(&help.stdout);
-    for (flag, _) in FLAGS {
+    for (flag, _) in FLAGS.iter() {
         assert!(
             help.contains(&format!("{flag} ")) || help.contains(&format!("{flag}=")),
             "{flag} not in --help"

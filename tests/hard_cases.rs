@@ -154,7 +154,6 @@ use glam::Mat4;
 use std::path::Path;
 use std::time::Instant;
 
-const EVERY_INTEGRATOR: [IntegratorKind; 11] = IntegratorKind::ALL;
 
 /// Photons emitted by one render of [`tiny_run`]: per pass × passes for the progressive mappers, the
 /// global map for `pm`.
@@ -307,7 +306,7 @@ fn assert_unit_furnace(kind: IntegratorKind, image: &Image, what: &str) -> f64 {
 /// ties, so for them only the analytic bound applies.
 #[test]
 fn a_furnace_has_the_same_radiance_from_a_millimetre_to_a_hundred_kilometres() {
-    for kind in EVERY_INTEGRATOR {
+    for kind in caustica::integrators::kinds() {
         let run = tiny_run(kind, 16);
         let at_one =
             assert_unit_furnace(kind, &common::render(scaled_furnace(1.0), &run), &format!("{kind:?}, 1 m"));
@@ -360,7 +359,7 @@ fn coplanar_splits_and_zero_area_triangles_keep_the_furnace_at_unit_radiance() {
     let summary = validate(&mut scene, Path::new("coplanar-furnace")).expect("valid");
     assert_eq!(summary.degenerate_triangles, zero_area, "validation dropped the wrong triangles");
     assert_eq!(summary.degenerate_emitter_triangles, zero_area);
-    for kind in EVERY_INTEGRATOR {
+    for kind in caustica::integrators::kinds() {
         let image = common::render(scene.clone(), &tiny_run(kind, 16));
         assert_unit_furnace(kind, &image, &format!("{kind:?}, coplanar + degenerate"));
     }
@@ -380,7 +379,7 @@ fn unvalidated_zero_area_triangles_render_without_nan() {
         material: 1,
         ..Mesh::default()
     });
-    for kind in EVERY_INTEGRATOR {
+    for kind in caustica::integrators::kinds() {
         let image = common::render(scene.clone(), &tiny_run(kind, 16));
         assert_unit_furnace(kind, &image, &format!("{kind:?}, unvalidated zero-area triangles"));
     }
@@ -402,7 +401,7 @@ fn grazing_views_of_a_large_plane_see_exactly_its_emission() {
     };
     assert!(scene.meshes[0].positions[1].cross(scene.meshes[0].positions[2]).y >= 0.0);
     let size = 32;
-    for kind in EVERY_INTEGRATOR {
+    for kind in caustica::integrators::kinds() {
         let image = common::render(scene.clone(), &tiny_run(kind, size));
         let what = format!("{kind:?}, grazing plane");
         assert_finite(&image, &what);
@@ -443,7 +442,7 @@ fn no_light_leaks_through_a_thin_wall() {
             camera: Some(camera_looking(Vec3::new(0.0, 0.0, 1.0), Vec3::ZERO, 40.0)),
             ..Scene::default()
         };
-        for kind in EVERY_INTEGRATOR {
+        for kind in caustica::integrators::kinds() {
             let image = common::render(scene.clone(), &tiny_run(kind, 16));
             let what = format!("{kind:?}, wall {thickness} m thick");
             assert_finite(&image, &what);
@@ -480,7 +479,7 @@ fn a_sheet_lit_on_its_back_is_as_bright_for_every_integrator() {
     let (reference, _) = mean_and_standard_error(&common::render(scene.clone(), &reference_run));
     assert!(reference > 0.01, "pt sees the sheet lit: mean {reference}");
     let mut wrong = Vec::new();
-    for kind in EVERY_INTEGRATOR {
+    for kind in caustica::integrators::kinds() {
         let image = common::render(scene.clone(), &tiny_run(kind, 16));
         assert_finite(&image, &format!("{kind:?}, sheet lit on its back"));
         let (mean, _) = mean_and_standard_error(&image);
@@ -507,7 +506,7 @@ fn hard_scene(name: &str, kind: IntegratorKind) -> (Scene, RunFile) {
 /// emitter, so they add nothing. So no sample, and no pixel, exceeds 4; the light must get out.
 #[test]
 fn a_light_inside_glass_gets_out_and_never_exceeds_its_emission() {
-    for kind in EVERY_INTEGRATOR {
+    for kind in caustica::integrators::kinds() {
         let (scene, run) = hard_scene("light-in-glass.toml", kind);
         let image = common::render(scene, &run);
         let what = format!("{kind:?}, light in glass");
@@ -533,7 +532,7 @@ fn a_light_just_above_a_surface_lights_it_without_blowing_up() {
     let reference = common::render(scene, &run);
     let f = grey(&reference).iter().filter(|&&x| x >= 1.0 - 1e-6).count() as f64 / 256.0;
     let expected_max = f + 0.5 * (1.0 - f);
-    for kind in EVERY_INTEGRATOR {
+    for kind in caustica::integrators::kinds() {
         let (scene, run) = hard_scene("light-above-surface.toml", kind);
         let image = common::render(scene, &run);
         let what = format!("{kind:?}, light 1e-4 above a surface");
@@ -551,7 +550,7 @@ fn a_light_just_above_a_surface_lights_it_without_blowing_up() {
 /// rounding (1e-4 of the image's largest value per pixel).
 #[test]
 fn images_scale_linearly_from_tiny_to_huge_radiance() {
-    for kind in EVERY_INTEGRATOR {
+    for kind in caustica::integrators::kinds() {
         let (scene, _) = load(&common::data("cornell-box.gltf")).expect("test scene loads");
         let run = tiny_run(kind, 16);
         let reference = common::render(scene.clone(), &run);
@@ -604,7 +603,7 @@ fn big_mesh_scene(n: u32) -> Scene {
 fn big_mesh_renders_for_every_integrator(n: u32) {
     let scene = big_mesh_scene(n);
     let triangles = scene.meshes[0].indices.len();
-    for kind in EVERY_INTEGRATOR {
+    for kind in caustica::integrators::kinds() {
         let start = Instant::now();
         let mut run = tiny_run(kind, 16);
         run.render.spp = 1;

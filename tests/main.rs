@@ -17,6 +17,7 @@ mod corpus;
 mod denoise;
 mod density;
 mod determinism;
+mod docs;
 mod environment;
 mod faults;
 mod finite;

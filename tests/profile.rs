@@ -112,7 +112,7 @@ fn trace_counters_count_every_ray_the_report_counts_and_the_tree_work_it_took() 
 fn every_integrators_profile_names_every_system() {
     let dir = tempfile::tempdir().unwrap();
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/cornell-box.gltf");
-    for kind in caustica::scene::IntegratorKind::ALL {
+    for kind in caustica::integrators::kinds() {
         let integrator = caustica::integrators::of(kind).name();
         let out = Command::new(env!("CARGO_BIN_EXE_caustica"))
             .args(["render", scene, "--integrator", integrator, "--width", "16", "--height", "16"])

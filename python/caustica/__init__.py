@@ -27,14 +27,15 @@ import re
 from typing import Any, Union
 
 from ._caustica import (
-    CausticaError, RenderResult, Scene, Session, compare, merge, read_exr, read_exr_channels, write_image,
+    INTEGRATORS, CausticaError, RenderResult, Scene, Session, compare, merge, read_exr, read_exr_channels,
+    write_image,
 )
 from ._caustica import has_denoiser as _native_denoiser
 from ._caustica import load as _load
 from ._caustica import short_keys as _short_keys
 
 __all__ = [
-    "CausticaError", "RenderResult", "Scene", "Session", "compare", "from_dict", "has_denoiser", "load", "merge",
+    "INTEGRATORS", "CausticaError", "RenderResult", "Scene", "Session", "compare", "from_dict", "has_denoiser", "load", "merge",
     "read_exr", "read_exr_channels", "write_image",
 ]
 

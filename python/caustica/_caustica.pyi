@@ -115,6 +115,9 @@ def write_image(path: Union[str, os.PathLike[str]], color: npt.NDArray[np.float3
 def compare(image: npt.NDArray[np.float32], reference: npt.NDArray[np.float32]) -> dict[str, float]:
     """rmse, relmse, mae (linear RGB) and flip (mean LDR-FLIP after the PNG tone map), as
     ``caustica compare`` prints them."""
+INTEGRATORS: list[str]
+"""Every integrator's name, as ``integrator=`` and ``--integrator`` take it (the registry's order)."""
+
 def short_keys() -> list[tuple[str, str]]:
     """The run-file keys an override may give without its table, with their tables."""
 def has_denoiser() -> bool:

@@ -83,6 +83,8 @@ fn _caustica(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(images::write_image, m)?)?;
     m.add_function(wrap_pyfunction!(images::compare, m)?)?;
     m.add_function(wrap_pyfunction!(short_keys, m)?)?;
+    // The registry's names, so that Python code and tests go over the integrators as the command does.
+    m.add("INTEGRATORS", caustica::integrators::names().collect::<Vec<_>>())?;
     Ok(())
 }
 

@@ -63,6 +63,14 @@ def test_the_same_pixels_as_the_command_line(tmp_path, integrator, flag):
     assert np.array_equal(python, caustica.read_exr(out)), "the Python render differs from the CLI's"
 
 
+def test_every_registered_integrator_is_taken_by_name_and_no_other_is():
+    assert len(set(caustica.INTEGRATORS)) == len(caustica.INTEGRATORS) and "pt" in caustica.INTEGRATORS
+    for name in caustica.INTEGRATORS:
+        assert caustica.load(BOX, integrator=name).integrator == name
+    with pytest.raises(caustica.CausticaError, match="integrator"):
+        caustica.load(BOX, integrator="not-" + caustica.INTEGRATORS[0])
+
+
 def test_session_steps_add_up_to_one_render():
     scene = caustica.load(BOX, spp=6, seed=11, **SMALL)
     session = scene.session()

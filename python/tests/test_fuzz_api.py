@@ -49,7 +49,7 @@ HUNG_AFTER = 120.0
 
 NODES = ["floor", "ceiling", "back_wall", "red_wall_left", "green_wall_right", "light", "mirror_sphere",
          "glass_sphere", "camera"]
-INTEGRATORS = ["pt", "pt-naive", "pm", "sppm", "pppm", "lt", "bdpt", "vcm"]
+INTEGRATORS = caustica.INTEGRATORS
 
 
 class Stopped(Exception):

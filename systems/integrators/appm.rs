@@ -17,7 +17,7 @@ use super::descriptor::Integrator;
 use super::progressive::{self, Variant};
 use crate::PassSystems;
 use crate::gather::{build_pass_photon_map, gather_photons_with_laplacian};
-use crate::plan::{Plan, When};
+use crate::plan::Plan;
 use crate::resources::SceneFeatures;
 use crate::update::update_radii_adaptive;
 use bevy_ecs::prelude::*;
@@ -32,7 +32,6 @@ pub static APPM: Integrator = progressive::descriptor(IntegratorKind::Appm, plan
 fn plan(this: &Integrator, world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
     let variant = Variant {
         rule: RadiusRule::Adaptive,
-        camera: When::EveryPass,
         statistics: |schedule| {
             schedule.add_systems(
                 (build_pass_photon_map, gather_photons_with_laplacian).chain().in_set(PassSystems::Gather),

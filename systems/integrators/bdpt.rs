@@ -79,6 +79,8 @@ pub static BDPT: Integrator = Integrator {
     ),
     takes: &[],
     default_hit_points_per_pixel: 0,
+    hit_points_traced_once: false,
+    counts_light_paths: true,
     camera_samples_per_unit: one_sample_per_unit,
     memory,
     check: no_checks,

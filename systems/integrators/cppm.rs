@@ -16,7 +16,7 @@ use super::descriptor::Integrator;
 use super::progressive::{self, Variant};
 use crate::PassSystems;
 use crate::gather::{build_pass_photon_map, gather_photons_into_chi2_cells};
-use crate::plan::{Plan, When};
+use crate::plan::Plan;
 use crate::resources::SceneFeatures;
 use crate::update::update_radii_by_chi2;
 use bevy_ecs::prelude::*;
@@ -31,7 +31,6 @@ pub static CPPM: Integrator = progressive::descriptor(IntegratorKind::Cppm, plan
 fn plan(this: &Integrator, world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
     let variant = Variant {
         rule: RadiusRule::ChiSquare,
-        camera: When::EveryPass,
         statistics: |schedule| {
             schedule.add_systems(
                 (build_pass_photon_map, gather_photons_into_chi2_cells).chain().in_set(PassSystems::Gather),

@@ -82,6 +82,12 @@ pub struct Integrator {
     pub takes: &'static [Setting],
     /// Hit points per pixel when `progressive.hit_points_per_pixel` is not given (0: it has none).
     pub default_hit_points_per_pixel: u32,
+    /// Whether its camera pass runs once, in the first pass (`ppm`): then `--spp N` asks for N hit
+    /// points a pixel, not N passes.
+    pub hit_points_traced_once: bool,
+    /// Whether its memory grows with how far light's paths go (stored photons, kept light vertices):
+    /// then a pilot of them is traced before it is counted ([`super::memory::PilotPaths`]).
+    pub counts_light_paths: bool,
     /// Camera samples a pixel gets per unit of progress, beyond one (`pm`'s final-gather rays, the
     /// progressive mappers' hit points per pixel).
     pub camera_samples_per_unit: fn(&Integrator, &RunFile) -> u32,
@@ -102,10 +108,9 @@ impl Integrator {
         self.kind.name()
     }
 
-    /// Whether its memory count grows with how far light's paths go (stored photons, kept light
-    /// vertices): then a pilot of them is traced before it is counted ([`super::memory::PilotPaths`]).
+    /// Whether a pilot of light paths is traced before its memory is counted.
     pub fn traces_light_paths(&self) -> bool {
-        matches!(self.kind, IntegratorKind::Pm | IntegratorKind::Bdpt | IntegratorKind::Vcm)
+        self.counts_light_paths
     }
 
     /// Whether it takes `setting`.
@@ -258,7 +263,8 @@ mod tests {
 
     #[test]
     fn every_kind_has_its_own_descriptor() {
-        for (kind, descriptor) in IntegratorKind::ALL.into_iter().zip(ALL) {
+        use caustica_core::choice::Choice;
+        for (kind, descriptor) in IntegratorKind::all().zip(ALL) {
             assert_eq!(of(kind).kind, kind);
             assert_eq!(descriptor.kind, kind);
         }
@@ -283,7 +289,10 @@ mod tests {
             r.schedule.passes = Some(vec![Pass::Camera, Pass::Photons, Pass::Statistics]);
         };
         let message = of(Pt).check_settings(&run(Pt, passes)).unwrap_err().to_string();
-        assert!(message.contains("ppm, sppm, appm, cppm and pppm, not pt"), "{message}");
+        // Every taker named, in the registry's order, then the one refused.
+        let takers = names(|i| i.takes(Setting::PassOrder));
+        assert!(takers.contains("sppm") && takers.contains("cppm"), "{takers}");
+        assert!(message.contains(&format!("{takers}, not pt")), "{message}");
         assert!(of(Cppm).check_settings(&run(Cppm, passes)).is_ok());
         let adaptive = |r: &mut RunFile| r.render.noise_threshold = 0.1;
         let message = of(Sppm).check_settings(&run(Sppm, adaptive)).unwrap_err().to_string();

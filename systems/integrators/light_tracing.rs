@@ -70,6 +70,8 @@ pub static LT: Integrator = Integrator {
     light_sampling: LightSampling::Never,
     takes: &[],
     default_hit_points_per_pixel: 0,
+    hit_points_traced_once: false,
+    counts_light_paths: false,
     camera_samples_per_unit: one_sample_per_unit,
     memory,
     check: no_checks,

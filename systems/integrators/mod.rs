@@ -1,7 +1,7 @@
 //! Integrators as descriptors and plans: each file holds its integrator's [`Integrator`] — what it
 //! counts, splits and takes, the checks on its settings, and the plan that puts its entities and
 //! resources into the World with the phases of its passes (schedules of the `PassSystems` stages).
-//! [`of`] is the one lookup by kind; the driver runs any plan.
+//! [`ALL`] is the registry and [`of`] the one lookup by kind; the driver runs any plan.
 
 pub mod appm;
 pub mod bdpt;
@@ -22,27 +22,13 @@ use crate::resources::SceneFeatures;
 use bevy_ecs::prelude::*;
 use bevy_ecs::schedule::IntoScheduleConfigs;
 use caustica_core::scene::schedule::{CYCLE, Stage};
+use caustica_core::choice::Choice;
 use caustica_core::scene::{IntegratorKind, RunFile};
 pub use descriptor::{Integrator, LightSampling, MemoryNeed, Setting};
 
-/// The descriptor of `kind`: the one place that says which integrator is which.
-pub fn of(kind: IntegratorKind) -> &'static Integrator {
-    match kind {
-        IntegratorKind::Pt => &path::PT,
-        IntegratorKind::PtNaive => &path::PT_NAIVE,
-        IntegratorKind::Pm => &photon_map::PM,
-        IntegratorKind::Ppm => &ppm::PPM,
-        IntegratorKind::Sppm => &sppm::SPPM,
-        IntegratorKind::Appm => &appm::APPM,
-        IntegratorKind::Cppm => &cppm::CPPM,
-        IntegratorKind::Pppm => &pppm::PPPM,
-        IntegratorKind::Lt => &light_tracing::LT,
-        IntegratorKind::Bdpt => &bdpt::BDPT,
-        IntegratorKind::Vcm => &vcm::VCM,
-    }
-}
-
-/// Every integrator's descriptor, in `IntegratorKind::ALL`'s order.
+/// The registry: every integrator's descriptor, in the name table's order (`IntegratorKind::CHOICES`).
+/// Adding an integrator is its file, its name in the name table, and one line here; every test,
+/// fuzzer, help text and doc table that goes over the integrators reads this.
 pub static ALL: [&Integrator; 11] = [
     &path::PT,
     &path::PT_NAIVE,
@@ -56,6 +42,33 @@ pub static ALL: [&Integrator; 11] = [
     &bdpt::BDPT,
     &vcm::VCM,
 ];
+
+// The registry holds each named integrator once, at its place in the name table: checked when the
+// crate compiles, so [`of`] is an index that cannot miss and a kind left out does not build.
+const _: () = {
+    assert!(ALL.len() == IntegratorKind::CHOICES.len(), "an integrator is named but not registered");
+    let mut i = 0;
+    while i < ALL.len() {
+        assert!(ALL[i].kind as usize == i, "the registry's order is the name table's");
+        assert!(IntegratorKind::CHOICES[i].0 as usize == i, "the name table's order is the enum's");
+        i += 1;
+    }
+};
+
+/// The descriptor of `kind`, from the registry.
+pub fn of(kind: IntegratorKind) -> &'static Integrator {
+    ALL[kind as usize]
+}
+
+/// Every integrator's kind, in the registry's order.
+pub fn kinds() -> impl Iterator<Item = IntegratorKind> {
+    ALL.iter().map(|integrator| integrator.kind)
+}
+
+/// The names of every integrator, in the registry's order.
+pub fn names() -> impl Iterator<Item = &'static str> {
+    ALL.iter().map(|integrator| integrator.name())
+}
 
 /// The descriptor of the integrator `run` asks for.
 pub fn of_run(run: &RunFile) -> &'static Integrator {

@@ -49,6 +49,8 @@ const PATH_TRACER: Integrator = Integrator {
     light_sampling: LightSampling::On,
     takes: &[Setting::NoiseThreshold],
     default_hit_points_per_pixel: 0,
+    hit_points_traced_once: false,
+    counts_light_paths: false,
     camera_samples_per_unit: one_sample_per_unit,
     memory: |_, pixels, run, _| chunked_paths(pixels, run),
     check: no_checks,

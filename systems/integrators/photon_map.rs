@@ -56,6 +56,8 @@ pub static PM: Integrator = Integrator {
     light_sampling: LightSampling::Always("its direct light always comes from light sampling"),
     takes: &[Setting::CausticMap],
     default_hit_points_per_pixel: 0,
+    hit_points_traced_once: false,
+    counts_light_paths: true,
     // Each final-gather ray has a camera sample of its own.
     camera_samples_per_unit: |_, run| run.photons.final_gather.max(1),
     memory,

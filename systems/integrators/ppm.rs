@@ -11,7 +11,7 @@ use super::descriptor::{Integrator, LightSampling};
 use super::progressive::{self, Variant};
 use crate::PassSystems;
 use crate::gather::{build_pass_photon_map, gather_photons_into_hit_points};
-use crate::plan::{Plan, When};
+use crate::plan::Plan;
 use crate::resources::SceneFeatures;
 use crate::update::update_hit_point_radii;
 use bevy_ecs::prelude::*;
@@ -23,6 +23,7 @@ use caustica_core::scene::{IntegratorKind, RunFile};
 pub static PPM: Integrator = Integrator {
     light_sampling: LightSampling::Never,
     default_hit_points_per_pixel: 32,
+    hit_points_traced_once: true,
     ..progressive::descriptor(IntegratorKind::Ppm, plan)
 };
 
@@ -31,7 +32,6 @@ pub static PPM: Integrator = Integrator {
 fn plan(this: &Integrator, world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
     let variant = Variant {
         rule: RadiusRule::Shrinking,
-        camera: When::RenderStart,
         statistics: |schedule| {
             schedule.add_systems(
                 (build_pass_photon_map, gather_photons_into_hit_points).chain().in_set(PassSystems::Gather),

@@ -17,7 +17,7 @@ use super::progressive::{self, Variant};
 use crate::PassSystems;
 use crate::components::{HitPoint, PathState};
 use crate::gather::{build_pass_photon_map, gather_photons_into_hit_points};
-use crate::plan::{Plan, When};
+use crate::plan::Plan;
 use crate::resources::{
     CameraResource, FilmResource, ProgressiveConfig, SceneFeatures, SceneResource, wavefront_batching,
 };
@@ -39,7 +39,6 @@ pub static PPPM: Integrator =
 fn plan(this: &Integrator, world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
     let variant = Variant {
         rule: RadiusRule::Global,
-        camera: When::EveryPass,
         statistics: |schedule| {
             schedule.add_systems(
                 (set_global_radius, build_pass_photon_map, gather_photons_into_hit_points)

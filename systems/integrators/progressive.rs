@@ -66,6 +66,8 @@ pub const fn descriptor(kind: IntegratorKind, plan: PlanFn) -> Integrator {
         light_sampling: LightSampling::On,
         takes: &[Setting::PassOrder],
         default_hit_points_per_pixel: 1,
+        hit_points_traced_once: false,
+        counts_light_paths: false,
         camera_samples_per_unit: |this, run| this.hit_points_per_pixel(run),
         memory,
         check,
@@ -77,8 +79,6 @@ pub const fn descriptor(kind: IntegratorKind, plan: PlanFn) -> Integrator {
 pub struct Variant {
     /// How statistics become radiance and a radius.
     pub rule: RadiusRule,
-    /// When the camera pass runs (`ppm`: the first pass; the others re-trace every pass).
-    pub camera: When,
     /// Adds the gather and the update to the statistics schedule.
     pub statistics: fn(&mut Schedule),
 }
@@ -154,6 +154,7 @@ pub fn plan(
         super::without_visibility_learning(world, features, "progressive passes use the light tree");
     let order = stage_order(run);
     let per_pixel = this.hit_points_per_pixel(run);
+    let camera_when = if this.hit_points_traced_once { When::RenderStart } else { When::EveryPass };
     let (area, diagonal) = {
         let scene = world.resource::<SceneResource>();
         let (min, max) = scene.geometry.bounds();
@@ -187,7 +188,7 @@ pub fn plan(
     for group in run.schedule.pass_order().unwrap_or([Pass::Camera, Pass::Photons, Pass::Statistics]) {
         match group {
             Pass::Camera => {
-                let mut camera = Phase::new("camera", variant.camera, Repeat::WhileBusy(paths_busy))
+                let mut camera = Phase::new("camera", camera_when, Repeat::WhileBusy(paths_busy))
                     .with_begin(begin_camera_pass)
                     .with_end(cap_initial_radius);
                 add_camera_systems(&mut camera.schedule, features, order, nee);

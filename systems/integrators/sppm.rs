@@ -10,7 +10,7 @@ use super::descriptor::Integrator;
 use super::progressive::{self, Variant};
 use crate::PassSystems;
 use crate::gather::{build_pass_photon_map, gather_photons_into_hit_points};
-use crate::plan::{Plan, When};
+use crate::plan::Plan;
 use crate::resources::SceneFeatures;
 use crate::update::update_hit_point_radii;
 use bevy_ecs::prelude::*;
@@ -26,7 +26,6 @@ pub static SPPM: Integrator = progressive::descriptor(IntegratorKind::Sppm, plan
 fn plan(this: &Integrator, world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {
     let variant = Variant {
         rule: RadiusRule::Shrinking,
-        camera: When::EveryPass,
         statistics: |schedule| {
             schedule.add_systems(
                 (build_pass_photon_map, gather_photons_into_hit_points).chain().in_set(PassSystems::Gather),

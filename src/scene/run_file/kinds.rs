@@ -3,7 +3,10 @@
 use crate::choice::Choice;
 use serde::Deserialize;
 
-/// Which integrator renders the image (the name used in run files and on the command line).
+/// Which integrator renders the image. This enum and its [`Choice::CHOICES`] below are the name
+/// table (what run files, the command line and their help call each); everything else an
+/// integrator is (its descriptor and plan) is registered once, in the `caustica` crate's
+/// `integrators::ALL`, which every "for each integrator" reads.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum IntegratorKind {
@@ -37,23 +40,6 @@ pub enum IntegratorKind {
     /// Vertex connection and merging: bdpt's strategies and the light vertices merged at every
     /// camera vertex, all under one MIS (Georgiev et al. 2012).
     Vcm,
-}
-
-impl IntegratorKind {
-    /// Every integrator.
-    pub const ALL: [IntegratorKind; 11] = [
-        Self::Pt,
-        Self::PtNaive,
-        Self::Pm,
-        Self::Ppm,
-        Self::Sppm,
-        Self::Appm,
-        Self::Cppm,
-        Self::Pppm,
-        Self::Lt,
-        Self::Bdpt,
-        Self::Vcm,
-    ];
 }
 
 /// How next-event estimation picks a light.
