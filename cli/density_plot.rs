@@ -14,8 +14,6 @@ const SIZE: (u32, u32) = (800, 500);
 /// Points at which the estimate is drawn.
 const CURVE_POINTS: usize = 600;
 
-pub(crate) static FONT: &[u8] = include_bytes!("fonts/DejaVuSansMono.ttf");
-
 /// What `caustica density` did.
 #[derive(Clone, Debug)]
 pub struct DensitySummary {
@@ -96,7 +94,7 @@ fn draw(
     let plot_error =
         |e: String| Error::Output { path: path.into(), message: format!("plotting failed: {e}") };
     // Registering twice (a second plot in one process) is harmless.
-    let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
+    let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, crate::plot_text::FONT);
     let n = data.len() as f64;
     let y_max = ys.iter().copied().filter(|y| y.is_finite()).fold(0.0f64, f64::max).max(1e-12) * 1.1;
     let mut buffer = vec![255u8; (SIZE.0 * SIZE.1 * 3) as usize];

@@ -56,6 +56,9 @@ pub fn lay_out(font: &FontRef<'_>, px: f32, text: &str) -> Line {
     line
 }
 
+/// The font every plot's text is set in, bundled so that a plot looks the same on any machine.
+pub(crate) static FONT: &[u8] = include_bytes!("fonts/DejaVuSansMono.ttf");
+
 /// A backend whose text is laid out by [`lay_out`] in the bundled font (the plots register no
 /// other, so the style's family is not looked at).
 pub struct GlyphText<B> {
@@ -66,7 +69,7 @@ pub struct GlyphText<B> {
 impl<B> GlyphText<B> {
     /// `inner`, its text drawn in the bundled font.
     pub fn new(inner: B) -> Self {
-        let font = FontRef::try_from_slice(crate::density_plot::FONT).expect("the bundled font parses");
+        let font = FontRef::try_from_slice(FONT).expect("the bundled font parses");
         Self { inner, font }
     }
 }
@@ -209,7 +212,7 @@ mod tests {
     /// cell, and on their baseline (plotters' drawing put it against the 0, a pixel above it).
     #[test]
     fn a_decimal_point_sits_between_the_digits_on_their_baseline() {
-        let font = FontRef::try_from_slice(crate::density_plot::FONT).unwrap();
+        let font = FontRef::try_from_slice(FONT).unwrap();
         let px = 15.0;
         let line = lay_out(&font, px, "0.2");
         let cell = line.size.0 / 3;
@@ -227,7 +230,7 @@ mod tests {
 
     #[test]
     fn the_line_box_is_the_advances_by_the_font_height() {
-        let font = FontRef::try_from_slice(crate::density_plot::FONT).unwrap();
+        let font = FontRef::try_from_slice(FONT).unwrap();
         let one = lay_out(&font, 15.0, "0").size;
         let three = lay_out(&font, 15.0, "0.2").size;
         assert!((three.0 - 3 * one.0).abs() <= 1, "{one:?} {three:?}");

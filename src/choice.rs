@@ -30,34 +30,18 @@ pub trait Choice: Copy + PartialEq + Send + Sync + 'static {
     }
 }
 
+/// Test that each of `T`'s names reads back, through a run file's serde, as the variant it names:
+/// the command line and run files spell every choice alike. Each choice's module calls it.
 #[cfg(test)]
-mod tests {
-    use super::Choice;
-    use crate::density::Kernel;
-    use crate::scene::{FilterKind, IntegratorKind, LightSelection};
-    use serde::Deserialize;
-
-    /// Each name reads back, through a run file's serde, as the variant it names.
-    fn names_match_serde<T: Choice + std::fmt::Debug + for<'de> Deserialize<'de>>() {
-        #[derive(Deserialize)]
-        struct Table<T> {
-            v: T,
-        }
-        for &(variant, name, _) in T::CHOICES {
-            let table: Table<T> = toml::from_str(&format!("v = \"{name}\"")).expect(name);
-            assert_eq!(table.v, variant, "{name}");
-            assert_eq!(T::from_name(name), Some(variant));
-            assert_eq!(variant.name(), name);
-        }
+pub(crate) fn assert_names_match_serde<T: Choice + std::fmt::Debug + for<'de> serde::Deserialize<'de>>() {
+    #[derive(serde::Deserialize)]
+    struct Table<T> {
+        v: T,
     }
-
-    #[test]
-    fn command_line_names_are_the_run_file_names() {
-        names_match_serde::<IntegratorKind>();
-        names_match_serde::<LightSelection>();
-        names_match_serde::<FilterKind>();
-        names_match_serde::<Kernel>();
-        names_match_serde::<crate::sampling::SamplerKind>();
-        names_match_serde::<crate::film::aov::Aov>();
+    for &(variant, name, _) in T::CHOICES {
+        let table: Table<T> = toml::from_str(&format!("v = \"{name}\"")).expect(name);
+        assert_eq!(table.v, variant, "{name}");
+        assert_eq!(T::from_name(name), Some(variant));
+        assert_eq!(variant.name(), name);
     }
 }

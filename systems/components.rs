@@ -173,7 +173,7 @@ impl HitPoint {
     pub fn record(&mut self, v: &Vertex, wo: Vec3, beta: Vec3) {
         self.p = v.si.p;
         self.beta = beta;
-        self.shading = PackedShading::of(v, wo);
+        self.shading = PackedShading::new(wo, v.si.ns, &v.params, v.si.material);
     }
 
     /// The visible point as the gather sees it: its BSDF rebuilt from the stored parameters.

@@ -119,6 +119,7 @@ pub mod report;
 pub mod resources;
 pub mod scatter;
 pub mod shards;
+pub mod stages;
 pub mod trace;
 pub mod update;
 pub mod workload;
@@ -131,24 +132,4 @@ pub use caustica_core::{
 };
 pub use driver::{Progress, Renderer};
 pub use report::Report;
-
-use bevy_ecs::schedule::SystemSet;
-
-/// The stages of one bounce, in order, and the update that closes a progressive pass. Integrators
-/// place their systems into these sets.
-#[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum PassSystems {
-    /// Start new camera paths (or photons) where the previous ones ended.
-    Emit,
-    /// Closest-hit queries for every active path.
-    Trace,
-    /// Shade hits: emission, light sampling (NEE), BSDF sampling, Russian roulette.
-    Scatter,
-    /// Any-hit queries for the shadow rays of this bounce.
-    Shadow,
-    /// Splat finished paths onto the film; store photons; gather photons into hit points.
-    Gather,
-    /// Fold a pass's photons into the hit points' statistics: radius and flux (progressive photon
-    /// mapping).
-    Update,
-}
+pub use stages::PassSystems;

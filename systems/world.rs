@@ -132,3 +132,13 @@ pub fn add_films(world: &mut World, run: &RunFile) -> Result<()> {
     }
     Ok(())
 }
+
+/// Bytes an ECS entity of components of `component_bytes` costs in bevy's tables: each component,
+/// the two change ticks bevy keeps beside every component, the table's `Entity` column, and the
+/// entity's place in the World's index (24 bytes a slot, grown by doubling: counted twice).
+pub fn entity_bytes(component_bytes: &[usize]) -> u64 {
+    const TICKS: usize = 2 * size_of::<u32>();
+    const INDEX_SLOT: usize = 24;
+    let components: usize = component_bytes.iter().map(|b| b + TICKS).sum();
+    (components + size_of::<bevy_ecs::entity::Entity>() + 2 * INDEX_SLOT) as u64
+}

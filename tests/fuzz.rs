@@ -7,7 +7,7 @@
 use crate::common;
 
 use caustica::film::Image;
-use caustica::scene::{IntegratorKind, RunFile, load, validate};
+use caustica::scene::{RunFile, load, validate};
 use proptest::prelude::*;
 use proptest::test_runner::TestRunner;
 use std::path::{Path, PathBuf};

@@ -154,7 +154,6 @@ use glam::Mat4;
 use std::path::Path;
 use std::time::Instant;
 
-
 /// Photons emitted by one render of [`tiny_run`]: per pass × passes for the progressive mappers, the
 /// global map for `pm`.
 const PROGRESSIVE_PHOTONS: f64 = 4.0 * 5000.0;

@@ -21,7 +21,7 @@ pub fn write_plot(
     by_samples: bool,
 ) -> Result<()> {
     let fail = |e: String| Error::Output { path: path.into(), message: format!("plotting failed: {e}") };
-    let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, crate::density_plot::FONT);
+    let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, crate::plot_text::FONT);
     if path.extension().is_some_and(|e| e == "svg") {
         let root = SVGBackend::new(path, SIZE).into_drawing_area();
         draw(&root, checkpoints, series, by_samples).map_err(fail)?;

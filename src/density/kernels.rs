@@ -116,6 +116,11 @@ impl Kernel {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn command_line_names_are_the_run_file_names() {
+        crate::choice::assert_names_match_serde::<super::Kernel>();
+    }
+
     use super::*;
 
     #[test]

@@ -34,7 +34,7 @@ impl Aov {
     }
 }
 
-impl crate::Choice for Aov {
+impl crate::choice::Choice for Aov {
     const CHOICES: &'static [(Self, &'static str, &'static str)] = &[
         (Aov::Albedo, "albedo", "reflectance at the first non-specular surface (EXR albedo.R, .G, .B)"),
         (Aov::Normal, "normal", "world-space shading normal there, facing the camera (N.X, .Y, .Z)"),
@@ -150,6 +150,11 @@ pub struct AovImages {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn command_line_names_are_the_run_file_names() {
+        crate::choice::assert_names_match_serde::<super::Aov>();
+    }
+
     use super::*;
 
     #[test]

@@ -104,7 +104,7 @@ fn exr_channels(image: &Image, features: &AovImages, which: &[Aov]) -> Vec<(Stri
     let component = |image: &Image, c: usize| image.pixels.iter().map(|p| p[c]).collect::<Vec<f32>>();
     let mut channels: Vec<(String, Vec<f32>)> =
         ["R", "G", "B"].iter().enumerate().map(|(c, n)| (n.to_string(), component(image, c))).collect();
-    for &(aov, _, _) in <Aov as crate::Choice>::CHOICES {
+    for &(aov, _, _) in <Aov as crate::choice::Choice>::CHOICES {
         if !which.contains(&aov) {
             continue;
         }

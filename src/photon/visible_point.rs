@@ -5,8 +5,7 @@
 
 use super::estimate::GatherPoint;
 use super::record::{decode_octahedral, encode_octahedral};
-use crate::kernel::Vertex;
-use crate::materials::Bsdf;
+use crate::materials::{Bsdf, ShadingParams};
 use crate::render_scene::RenderScene;
 use crate::sampling::warp::Frame;
 use glam::Vec3;
@@ -30,15 +29,16 @@ pub struct PackedShading {
 pub const WORDS: usize = 5;
 
 impl PackedShading {
-    /// The shading of vertex `v`, seen from direction `wo` (world, towards the camera).
-    pub fn of(v: &Vertex, wo: Vec3) -> Self {
+    /// The shading of a vertex of `material` with shading normal `ns` and textured `params`, seen
+    /// from direction `wo` (world, towards the camera).
+    pub fn new(wo: Vec3, ns: Vec3, params: &ShadingParams, material: u32) -> Self {
         let unorm = |x: f32| (x.clamp(0.0, 1.0) * 65535.0).round() as u16;
         Self {
             wo: encode_octahedral(wo, 16),
-            ns: encode_octahedral(v.si.ns, 16),
-            base_color: v.params.base_color.to_array().map(unorm),
-            metallic_roughness: [unorm(v.params.metallic), unorm(v.params.roughness)],
-            material: v.si.material as u16,
+            ns: encode_octahedral(ns, 16),
+            base_color: params.base_color.to_array().map(unorm),
+            metallic_roughness: [unorm(params.metallic), unorm(params.roughness)],
+            material: material as u16,
         }
     }
 

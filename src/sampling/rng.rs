@@ -190,6 +190,11 @@ pub fn mix64(mut z: u64) -> u64 {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn command_line_names_are_the_run_file_names() {
+        crate::choice::assert_names_match_serde::<super::SamplerKind>();
+    }
+
     use super::*;
 
     #[test]
@@ -257,41 +262,6 @@ mod tests {
                 for l in [1, 4] {
                     let p = s.get2d(d(l));
                     assert_eq!((lanes[l as usize], lanes[l as usize + 1]), (p.x, p.y), "{kind:?} pair {l}");
-                }
-            }
-        }
-    }
-
-    /// Every dimension the kernel draws, as it draws it (`kernel::dimensions`): the first 2^k samples
-    /// of a pixel are stratified in each 1-D dimension and are a (0, k, 2)-net in each 2-D pair.
-    #[test]
-    fn sobol_samples_of_a_pixel_are_stratified_in_every_dimension_the_kernel_uses() {
-        use crate::kernel::dimensions::{bounce, bounce_dimension, camera};
-        let mut pairs = vec![camera::FILTER, camera::LENS];
-        let mut singles = vec![camera::TIME];
-        for depth in 0..3 {
-            let base = bounce_dimension(depth);
-            pairs.extend([base + bounce::LIGHT_POINT, base + bounce::BSDF_DIRECTION]);
-            singles.extend([base + bounce::LIGHT_SELECT, base + bounce::BSDF_LOBE, base + bounce::ROULETTE]);
-        }
-        for (pixel, k) in [(0u32, 4u32), (12_345, 6), (7, 8)] {
-            let n = 1u32 << k;
-            let sampler = |i| Sampler::of(SamplerKind::Sobol, 42, pixel, i);
-            for &dim in &singles {
-                let mut strata = vec![0; n as usize];
-                (0..n).for_each(|i| strata[(sampler(i).get1d(dim) * n as f32) as usize] += 1);
-                assert!(strata.iter().all(|&c| c == 1), "pixel {pixel}, dimension {dim}, 2^{k}");
-            }
-            for &dim in &pairs {
-                for a in 0..=k {
-                    let (columns, rows) = (1u32 << a, 1u32 << (k - a));
-                    let mut cells = vec![0; n as usize];
-                    for i in 0..n {
-                        let p = sampler(i).get2d(dim);
-                        cells[((p.y * rows as f32) as u32 * columns + (p.x * columns as f32) as u32)
-                            as usize] += 1;
-                    }
-                    assert!(cells.iter().all(|&c| c == 1), "pixel {pixel}, pair {dim}, {columns}×{rows}");
                 }
             }
         }

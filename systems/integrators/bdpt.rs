@@ -30,8 +30,8 @@
 //! state: `--part` and checkpoints work as for `pt`.
 
 use super::descriptor::{Integrator, LightSampling, MemoryNeed, no_checks, one_sample_per_unit};
+use super::film_image;
 use super::memory::PilotPaths;
-use super::{configure_stages, film_image, stage_order};
 use crate::PassSystems;
 use crate::bidirectional::{
     CameraSubpathSums, ConnectionVertex, LightVertexStore, LightVertices, RadiusSequence,
@@ -48,6 +48,7 @@ use crate::plan::{Phase, Plan, Unit, When};
 use crate::report::Report;
 use crate::resources::{FilmResource, SceneFeatures};
 use crate::shards::{ShardLink, ShardPlan, Shards};
+use crate::stages::{configure_stages, stage_order};
 use bevy_ecs::prelude::*;
 use caustica_core::choice::Choice;
 use caustica_core::error::Result;
@@ -94,13 +95,13 @@ fn memory(_: &Integrator, pixels: u64, run: &RunFile, pilot: &PilotPaths) -> Mem
     let rows = run.render.chunk as u64 * crate::shards::workers() as u64;
     // The two columns of their own (their change ticks too) and the connection queue.
     let camera = rows
-        * (super::memory::entity_bytes(&[size_of::<CameraSubpathSums>(), size_of::<ConnectionVertex>()])
-            - super::memory::entity_bytes(&[])
+        * (crate::world::entity_bytes(&[size_of::<CameraSubpathSums>(), size_of::<ConnectionVertex>()])
+            - crate::world::entity_bytes(&[])
             + size_of::<u32>() as u64);
     // A chunk of light subpaths a worker: lt's columns, two of their own, the queues, and what a
     // round keeps before it is folded (about four vertices a row).
     let subpaths =
-        rows * light_subpath_row_bytes() + crate::shards::workers() as u64 * super::memory::SHARD_WORLD_BYTES;
+        rows * light_subpath_row_bytes() + crate::shards::workers() as u64 * crate::shards::SHARD_WORLD_BYTES;
     // Where each subpath's vertices start, and each kept vertex with its subpath's index.
     let kept = subpaths_per_pass(pixels, run) * size_of::<u32>() as u64
         + kept_vertices_per_pass(pixels, run, pilot) * (size_of::<LightVertex>() + size_of::<u32>()) as u64;
@@ -117,7 +118,7 @@ fn light_subpath_row_bytes() -> u64 {
     const QUEUE_BYTES: usize = 3 * size_of::<u32>();
     const KEPT_IN_A_ROUND: usize =
         subpaths::KEPT_ROWS_IN_A_ROUND * (size_of::<LightVertex>() + size_of::<u32>());
-    super::memory::entity_bytes(&[
+    crate::world::entity_bytes(&[
         size_of::<SubpathRay>(),
         size_of::<SubpathHit>(),
         size_of::<SubpathPower>(),

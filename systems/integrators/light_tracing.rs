@@ -37,8 +37,8 @@
 //! directly (a point of no size, as in `pt`).
 
 use super::descriptor::{Integrator, LightSampling, MemoryNeed, no_checks, one_sample_per_unit};
+use super::film_image;
 use super::memory::PilotPaths;
-use super::{configure_stages, film_image, stage_order};
 use crate::PassSystems;
 use crate::camera_paths::{self, PathExtras};
 use crate::light_paths::LightPaths;
@@ -51,6 +51,7 @@ use crate::resources::{
     SceneFeatures, SceneResource, Workload,
 };
 use crate::shards::{ShardPlan, Shards};
+use crate::stages::{configure_stages, stage_order};
 use bevy_ecs::prelude::*;
 use caustica_core::error::Result;
 use caustica_core::photon::PhotonMapKind;
@@ -82,10 +83,10 @@ pub static LT: Integrator = Integrator {
 /// camera chunks are counted even where no camera ray is traced, under delta lights alone: a few
 /// MiB.)
 fn memory(_: &Integrator, pixels: u64, run: &RunFile, _: &PilotPaths) -> MemoryNeed {
-    use super::memory::entity_bytes;
     use crate::camera_paths::{PathSample, PathSampler, PathShadow, PathThroughput};
     use crate::components::{PathAov, PathHit, PathRay};
     use crate::light_subpaths::{SubpathConnection, SubpathHit, SubpathPower, SubpathRay, SubpathSampler};
+    use crate::world::entity_bytes;
     // A camera path's row is in at most two queues, and scatter's spare; a subpath's likewise.
     const QUEUE_BYTES: u64 = 3 * size_of::<u32>() as u64;
     let mut camera = vec![
@@ -108,7 +109,7 @@ fn memory(_: &Integrator, pixels: u64, run: &RunFile, _: &PilotPaths) -> MemoryN
     ];
     let rows = run.render.chunk as u64 * crate::shards::workers() as u64;
     // Two shards a worker: its camera paths' and its light subpaths'.
-    let worlds = 2 * crate::shards::workers() as u64 * super::memory::SHARD_WORLD_BYTES;
+    let worlds = 2 * crate::shards::workers() as u64 * crate::shards::SHARD_WORLD_BYTES;
     let bytes = rows * (entity_bytes(&camera) + entity_bytes(&subpath) + 2 * QUEUE_BYTES) + worlds;
     MemoryNeed { bytes, what: format!("a {pixels}-pixel film, its camera paths and light subpaths") }
 }

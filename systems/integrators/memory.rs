@@ -3,7 +3,7 @@
 //! that the budget bounds the process's peak resident memory, checkpoints included.
 //!
 //! Each integrator counts its own working set (its descriptor's `memory`: paths, hit points,
-//! photons) with [`entity_bytes`] for its entities; this file adds what every render has (the film,
+//! photons) with [`crate::world::entity_bytes`] for its entities; this file adds what every render has (the film,
 //! the feature images' film, the final image as it is written) and a checkpoint's snapshot.
 
 use super::{Integrator, MemoryNeed};
@@ -17,21 +17,6 @@ use caustica_core::photon::PhotonMapKind;
 use caustica_core::render_scene::RenderScene;
 use caustica_core::sampling::SamplerKind;
 use caustica_core::scene::RunFile;
-
-/// Bytes an ECS entity of components of `component_bytes` costs in bevy's tables: each component,
-/// the two change ticks bevy keeps beside every component, the table's `Entity` column, and the
-/// entity's place in the World's index (24 bytes a slot, grown by doubling: counted twice).
-pub fn entity_bytes(component_bytes: &[usize]) -> u64 {
-    const TICKS: usize = 2 * size_of::<u32>();
-    const INDEX_SLOT: usize = 24;
-    let components: usize = component_bytes.iter().map(|b| b + TICKS).sum();
-    (components + size_of::<bevy_ecs::entity::Entity>() + 2 * INDEX_SLOT) as u64
-}
-
-/// What a shard's World costs beside its chunk's tables: bevy's registries and entity index, the
-/// schedule and its systems' state. Measured with the counting allocator (tests/memory_count.rs):
-/// 385 to 530 KiB.
-pub const SHARD_WORLD_BYTES: u64 = 450 << 10;
 
 /// Bytes a pixel of the final image costs while it is written: the mean image (12 bytes), and what
 /// the encoder holds beside it (an EXR's blocks, about 1 byte a pixel; a PNG's 8-bit rows, 3),

@@ -17,11 +17,8 @@ pub mod progressive;
 pub mod sppm;
 pub mod vcm;
 
-use crate::PassSystems;
 use crate::resources::SceneFeatures;
 use bevy_ecs::prelude::*;
-use bevy_ecs::schedule::IntoScheduleConfigs;
-use caustica_core::scene::schedule::{CYCLE, Stage};
 use caustica_core::choice::Choice;
 use caustica_core::scene::{IntegratorKind, RunFile};
 pub use descriptor::{Integrator, LightSampling, MemoryNeed, Setting};
@@ -73,28 +70,6 @@ pub fn names() -> impl Iterator<Item = &'static str> {
 /// The descriptor of the integrator `run` asks for.
 pub fn of_run(run: &RunFile) -> &'static Integrator {
     of(run.render.integrator)
-}
-
-/// The stage set of a run-file stage name.
-pub fn stage_set(stage: Stage) -> PassSystems {
-    match stage {
-        Stage::Emit => PassSystems::Emit,
-        Stage::Trace => PassSystems::Trace,
-        Stage::Scatter => PassSystems::Scatter,
-        Stage::Shadow => PassSystems::Shadow,
-        Stage::Gather => PassSystems::Gather,
-    }
-}
-
-/// Chain the five per-bounce stages in `order` (a checked rotation, `ScheduleSettings::stage_order`).
-pub fn configure_stages(schedule: &mut Schedule, order: [Stage; 5]) {
-    let [a, b, c, d, e] = order.map(stage_set);
-    schedule.configure_sets((a, b, c, d, e).chain());
-}
-
-/// The run's stage order (checked by [`check`]).
-pub fn stage_order(run: &RunFile) -> [Stage; 5] {
-    run.schedule.stage_order().unwrap_or(CYCLE)
 }
 
 /// Visibility-aware selection learns only in `pt` with light sampling: elsewhere, warn and use the

@@ -22,13 +22,14 @@
 //! no light.
 
 use super::descriptor::{Integrator, LightSampling, MemoryNeed, Setting, no_checks, one_sample_per_unit};
-use super::{configure_stages, film_image, stage_order};
+use super::film_image;
 use crate::PassSystems;
 use crate::camera_paths::{PathExtras, spawn_chunk};
 use crate::passes::{finish_light_learning, hand_out_samples, select_unconverged_pixels};
 use crate::plan::{Phase, Plan, Unit, When};
 use crate::resources::{AdaptiveSampling, SceneFeatures};
 use crate::shards::{ShardLink, ShardPlan, Shards};
+use crate::stages::{configure_stages, stage_order};
 use bevy_ecs::prelude::*;
 use caustica_core::error::Result;
 use caustica_core::scene::schedule::Stage;
@@ -71,7 +72,7 @@ pub fn paths_of_wavefront(pixels: u64, max: u32, run: &RunFile) -> MemoryNeed {
     if !run.film.aovs.is_empty() {
         components.push(size_of::<PathAov>());
     }
-    let paths = pixels.min(max as u64) * super::memory::entity_bytes(&components);
+    let paths = pixels.min(max as u64) * crate::world::entity_bytes(&components);
     MemoryNeed {
         bytes: paths + adaptive_bytes(pixels, run),
         what: format!("a {pixels}-pixel film and its paths"),
@@ -108,8 +109,8 @@ pub(super) fn chunked_paths(pixels: u64, run: &RunFile) -> MemoryNeed {
     const QUEUE_BYTES: u64 = 3 * size_of::<u32>() as u64;
     let scratch = crate::camera_paths::LANE_SCRATCH_BYTES_PER_ROW as u64;
     let rows = run.render.chunk as u64 * crate::shards::workers() as u64;
-    let paths = rows * (super::memory::entity_bytes(&components) + QUEUE_BYTES + scratch)
-        + crate::shards::workers() as u64 * super::memory::SHARD_WORLD_BYTES;
+    let paths = rows * (crate::world::entity_bytes(&components) + QUEUE_BYTES + scratch)
+        + crate::shards::workers() as u64 * crate::shards::SHARD_WORLD_BYTES;
     MemoryNeed {
         bytes: paths + adaptive_bytes(pixels, run),
         what: format!("a {pixels}-pixel film and its paths"),

@@ -18,7 +18,7 @@
 
 use super::descriptor::{Integrator, LightSampling, MemoryNeed, PlanFn, Setting};
 use super::memory::PilotPaths;
-use super::{configure_stages, paths_busy, stage_order};
+use super::paths_busy;
 use crate::PassSystems;
 use crate::components::{
     AdaptiveStats, Chi2Cells, HitPoint, PathHit, PathRay, PathState, PathStatus, ShadowRay,
@@ -37,6 +37,7 @@ use crate::resources::{
     SceneFeatures, SceneResource, Workload,
 };
 use crate::scatter::scatter_to_visible_points;
+use crate::stages::{configure_stages, stage_order};
 use crate::trace::{trace_paths, trace_shadow_rays};
 use crate::world::MAX_WAVEFRONT;
 use bevy_ecs::prelude::*;
@@ -137,7 +138,7 @@ fn bytes_per_hit_point(aovs: bool) -> u64 {
     if aovs {
         components.push(size_of::<crate::components::PathAov>());
     }
-    super::memory::entity_bytes(&components)
+    crate::world::entity_bytes(&components)
 }
 
 /// The plan of a progressive integrator for the scene in `world`.

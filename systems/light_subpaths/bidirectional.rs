@@ -242,7 +242,7 @@ pub fn bidirectional_links() -> Vec<ShardLink> {
 /// stages in `order` (a rotation of the cycle).
 pub fn add_bidirectional_systems(schedule: &mut Schedule, order: [caustica_core::scene::schedule::Stage; 5]) {
     use crate::PassSystems;
-    crate::integrators::configure_stages(schedule, order);
+    crate::stages::configure_stages(schedule, order);
     schedule.add_systems(emit_bidirectional_subpaths.in_set(PassSystems::Emit));
     schedule.add_systems(super::trace_subpaths.in_set(PassSystems::Trace));
     schedule.add_systems(scatter_bidirectional_subpaths.in_set(PassSystems::Scatter));

@@ -305,7 +305,7 @@ pub fn begin_subpaths(work: Res<PhotonWork>, handout: Res<SubpathHandout>, mut s
 /// `order` (a rotation of the cycle).
 pub fn add_bounce_systems(schedule: &mut Schedule, order: [caustica_core::scene::schedule::Stage; 5]) {
     use crate::PassSystems;
-    crate::integrators::configure_stages(schedule, order);
+    crate::stages::configure_stages(schedule, order);
     schedule.add_systems(emit_subpaths.in_set(PassSystems::Emit));
     schedule.add_systems(trace_subpaths.in_set(PassSystems::Trace));
     schedule.add_systems(scatter_subpaths.in_set(PassSystems::Scatter));

@@ -66,8 +66,8 @@ pub fn photon_chunk_bytes(rows: u32) -> u64 {
         size_of::<SubpathSampler>(),
     ];
     const TRAIL_BYTES: u64 = 4 * size_of::<(u64, Photon)>() as u64;
-    rows as u64 * (crate::integrators::memory::entity_bytes(&columns) + QUEUE_BYTES + TRAIL_BYTES)
-        + crate::integrators::memory::SHARD_WORLD_BYTES
+    rows as u64 * (crate::world::entity_bytes(&columns) + QUEUE_BYTES + TRAIL_BYTES)
+        + crate::shards::SHARD_WORLD_BYTES
 }
 
 /// What emit writes.
@@ -281,7 +281,7 @@ fn replay_hand_out(total: u32, wavefront: u32, ends: &[(u32, u32)]) -> (Vec<u32>
 /// Add one bounce of photons over a chunk to `schedule` (a shard's): the stages in `order`.
 pub fn add_photon_bounce_systems(schedule: &mut Schedule, order: [caustica_core::scene::schedule::Stage; 5]) {
     use crate::PassSystems;
-    crate::integrators::configure_stages(schedule, order);
+    crate::stages::configure_stages(schedule, order);
     schedule.add_systems(emit_photon_subpaths.in_set(PassSystems::Emit));
     schedule.add_systems(super::trace_subpaths.in_set(PassSystems::Trace));
     schedule.add_systems(scatter_photon_subpaths.in_set(PassSystems::Scatter));

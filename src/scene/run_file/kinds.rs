@@ -116,3 +116,15 @@ impl Choice for FilterKind {
         (Self::Gaussian, "gaussian", "Gaussian, sigma 0.5 pixel, truncated at 1.5"),
     ];
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn command_line_names_are_the_run_file_names() {
+        crate::choice::assert_names_match_serde::<IntegratorKind>();
+        crate::choice::assert_names_match_serde::<LightSelection>();
+        crate::choice::assert_names_match_serde::<FilterKind>();
+    }
+}
