@@ -1,158 +1,13 @@
-//! Command-line arguments (clap derive: the doc comments are the help text).
+//! The flags of `caustica render`, and how they override the run file.
 
-use caustica::Choice;
+use super::EnvironmentArgs;
+use super::values::{Triple, choice, parse_frames, parse_part};
 use caustica::density::Kernel;
 use caustica::film::aov::Aov;
 use caustica::sampling::SamplerKind;
 use caustica::scene::{FilterKind, IntegratorKind, LightSelection, RunFile};
-use clap::{Args, Parser, Subcommand};
+use clap::Args;
 use std::path::PathBuf;
-
-/// Caustica: a physically based renderer on a data-oriented ECS.
-///
-/// `caustica SCENE [flags]` renders, as `caustica render SCENE [flags]` does; with nothing at all it
-/// renders scenes/default.toml.
-#[derive(Parser, Debug)]
-#[command(version, about, args_conflicts_with_subcommands = true)]
-pub struct Cli {
-    /// What to do; with none, renders.
-    #[command(subcommand)]
-    pub command: Option<Command>,
-    /// The render flags, when no command is named.
-    #[command(flatten)]
-    pub render: Box<RenderArgs>,
-    /// Log more: loading summaries, and the source of each warning.
-    #[arg(short, long, global = true)]
-    pub verbose: bool,
-}
-
-/// Subcommands.
-#[derive(Subcommand, Debug)]
-pub enum Command {
-    /// Render a run file (.toml) or a glTF file (.gltf / .glb).
-    Render(Box<RenderArgs>),
-    /// Print RMSE, relMSE and MAE of IMAGE against REFERENCE (linear EXR files).
-    Compare {
-        /// The image to judge.
-        image: PathBuf,
-        /// The reference.
-        reference: PathBuf,
-        /// Compare only the window X0,Y0,X1,Y1 (pixels, end exclusive), e.g. around a caustic.
-        #[arg(long, value_delimiter = ',')]
-        window: Option<Vec<u32>>,
-    },
-    /// Estimate a 1-D density from numbers in a text file and plot it over the data.
-    Density(DensityArgs),
-    /// Run integrators under the same time budget and record their error against a reference over time.
-    Bench(BenchArgs),
-    /// Merge the accumulators of a render split with --part into its image; refuses parts that do
-    /// not belong together, and names any that are missing.
-    Merge {
-        /// The accumulator files, in any order.
-        #[arg(required = true)]
-        parts: Vec<PathBuf>,
-        /// Output image(s), .exr (linear) or .png (sRGB); repeatable.
-        #[arg(short, long, required = true)]
-        output: Vec<PathBuf>,
-        /// PNG exposure in stops.
-        #[arg(long, default_value_t = 0.0)]
-        exposure: f32,
-    },
-}
-
-/// `I/K` with 1 ≤ I ≤ K.
-fn parse_part(text: &str) -> Result<(u32, u32), String> {
-    let (i, k) = text.split_once('/').ok_or("expected I/K, as 3/8")?;
-    let (i, k): (u32, u32) = (
-        i.trim().parse().map_err(|_| format!("'{i}' is not a part number"))?,
-        k.trim().parse().map_err(|_| format!("'{k}' is not a number of parts"))?,
-    );
-    if i == 0 || i > k {
-        return Err(format!("part {i} of {k}: need 1 <= I <= K"));
-    }
-    Ok((i, k))
-}
-
-/// Arguments of `caustica bench`.
-#[derive(Args, Debug, Clone)]
-pub struct BenchArgs {
-    /// Run file or glTF to render.
-    pub scene: PathBuf,
-    /// Reference EXR; without one, a reference is rendered first (see --reference-integrator).
-    #[arg(long)]
-    pub reference: Option<PathBuf>,
-    /// Integrators to compare, comma-separated.
-    #[arg(long, value_parser = choice::<IntegratorKind>(), value_delimiter = ',', default_value = "pt,pm,ppm,sppm")]
-    pub integrators: Vec<IntegratorKind>,
-    /// Light selections to compare for each integrator, comma-separated (default: the run file's).
-    #[arg(long, value_parser = choice::<LightSelection>(), value_delimiter = ',')]
-    pub light_selections: Vec<LightSelection>,
-    /// Wall-clock budget per integrator, seconds.
-    #[arg(long, default_value_t = 60.0)]
-    pub time: f64,
-    /// Where errors.csv, the plots and the images go.
-    #[arg(long, default_value = "out/bench")]
-    pub out_dir: PathBuf,
-    /// Plot error against samples per pixel (or passes) instead of time.
-    #[arg(long)]
-    pub spp_sweep: bool,
-    /// Integrator of the reference rendered when none is given.
-    #[arg(long, value_parser = choice::<IntegratorKind>(), default_value = "sppm")]
-    pub reference_integrator: IntegratorKind,
-    /// Budget of that reference, seconds (default: 4 × --time).
-    #[arg(long)]
-    pub reference_time: Option<f64>,
-    /// Image width when no reference fixes it; overrides the run file.
-    #[arg(long)]
-    pub width: Option<u32>,
-    /// Image height when no reference fixes it; overrides the run file.
-    #[arg(long)]
-    pub height: Option<u32>,
-    /// Sampler seed; overrides the run file (the rendered reference uses seed + 1).
-    #[arg(long)]
-    pub seed: Option<u64>,
-    /// The environment light.
-    #[command(flatten)]
-    pub environment: EnvironmentArgs,
-}
-
-/// Density estimators of `caustica density`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum DensityMethod {
-    /// Bins of width h from an origin.
-    Histogram,
-    /// Fixed-bandwidth kernel estimate.
-    Kernel,
-    /// k-nearest-neighbour estimate.
-    Knn,
-    /// Variable kernel: bandwidth h · (distance of each point to its k-th neighbour).
-    Variable,
-}
-
-/// Arguments of `caustica density`.
-#[derive(Args, Debug, Clone)]
-pub struct DensityArgs {
-    /// Whitespace-separated numbers.
-    pub data: PathBuf,
-    /// Estimator.
-    #[arg(long, value_enum, default_value = "kernel")]
-    pub method: DensityMethod,
-    /// Kernel (kernel and variable methods).
-    #[arg(long, value_parser = choice::<Kernel>(), default_value = "epanechnikov")]
-    pub kernel: Kernel,
-    /// Bandwidth or bin width: a number, `silverman` (the default) or `cv` (least-squares cross-validation).
-    #[arg(long)]
-    pub h: Option<String>,
-    /// Neighbours for the knn and variable methods.
-    #[arg(long, default_value_t = 10)]
-    pub k: usize,
-    /// Histogram origin (default: 0).
-    #[arg(long, default_value_t = 0.0)]
-    pub origin: f64,
-    /// Output PNG.
-    #[arg(short, long, default_value = "density.png")]
-    pub output: PathBuf,
-}
 
 /// Arguments of `caustica render`. Negative numbers are values (`--spp -1` is refused as a count,
 /// not met with clap's tip to write `-- -1`).
@@ -405,82 +260,10 @@ impl RenderArgs {
     }
 }
 
-/// The environment flags of `render` and `bench`.
-#[derive(Args, Debug, Default, Clone)]
-pub struct EnvironmentArgs {
-    /// Environment light: an equirectangular map (.exr or .hdr); overrides the run file.
-    #[arg(long, value_name = "FILE")]
-    pub environment: Option<PathBuf>,
-    /// Environment light of constant radiance R,G,B (linear); overrides the run file.
-    #[arg(long, value_name = "R,G,B", conflicts_with = "environment")]
-    pub environment_color: Option<Triple>,
-    /// Multiplies the environment's radiance.
-    #[arg(long)]
-    pub environment_strength: Option<f32>,
-    /// Rotation of the environment map about world X, then Y, then Z, in degrees.
-    #[arg(long, value_name = "X,Y,Z")]
-    pub environment_rotation: Option<Triple>,
-}
-
-impl EnvironmentArgs {
-    /// Apply the flags over a run file's `[environment]`.
-    pub fn apply(&self, e: &mut caustica::scene::environment::EnvironmentSettings) {
-        if let Some(file) = &self.environment {
-            // Relative to where the command runs, not to the run file's directory.
-            e.file = Some(std::path::absolute(file).unwrap_or_else(|_| file.clone()));
-            e.color = None;
-        }
-        if let Some(color) = self.environment_color {
-            e.color = Some(color.0);
-            e.file = None;
-        }
-        e.strength = self.environment_strength.or(e.strength);
-        e.rotation_degrees = self.environment_rotation.map(|t| t.0).or(e.rotation_degrees);
-    }
-}
-
-/// A parser for an enum of the core, named as in run files, with each name's help.
-fn choice<T: Choice + Clone>() -> impl clap::builder::TypedValueParser<Value = T> {
-    use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
-    PossibleValuesParser::new(T::CHOICES.iter().map(|&(_, name, help)| PossibleValue::new(name).help(help)))
-        .map(|name| T::from_name(&name).expect("clap admits only the listed names"))
-}
-
-/// Three comma-separated numbers (`1,0.5,2`): a point, vector, colour or set of angles.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Triple(pub [f32; 3]);
-
-impl std::str::FromStr for Triple {
-    type Err = String;
-
-    fn from_str(s: &str) -> Result<Self, String> {
-        let values: Vec<f32> = s
-            .split(',')
-            .map(|v| v.trim().parse::<f32>().map_err(|e| format!("'{v}' is not a number: {e}")))
-            .collect::<Result<_, _>>()?;
-        match values[..] {
-            [x, y, z] if values.iter().all(|v| v.is_finite()) => Ok(Triple([x, y, z])),
-            [_, _, _] => Err(format!("'{s}' must be three finite numbers")),
-            _ => Err(format!("'{s}' must be three comma-separated numbers, got {}", values.len())),
-        }
-    }
-}
-
-/// `START:END`, END after START.
-fn parse_frames(text: &str) -> Result<(u32, u32), String> {
-    let (start, end) =
-        text.split_once(':').ok_or_else(|| format!("{text:?}: expected START:END, as 0:48"))?;
-    let number = |s: &str| s.trim().parse::<u32>().map_err(|e| format!("{s:?} in {text:?}: {e}"));
-    let (start, end) = (number(start)?, number(end)?);
-    if end <= start {
-        return Err(format!("{text:?}: END must be after START (END is not rendered)"));
-    }
-    Ok((start, end))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::args::{Cli, Command};
     use caustica::scene::environment::EnvironmentRadiance;
     use clap::Parser;
     use glam::Vec3;
