@@ -22,6 +22,8 @@ mod density_plot;
 mod display;
 mod frames;
 mod logging;
+mod merge;
+mod outputs;
 mod plot_text;
 mod profile;
 mod progress_log;
@@ -81,7 +83,7 @@ fn run() -> Result<()> {
             }
             Ok(())
         }
-        Some(Command::Merge { parts, output, exposure }) => render::merge(&parts, &output, exposure),
+        Some(Command::Merge { parts, output, exposure }) => merge::merge(&parts, &output, exposure),
         Some(Command::Compare { image, reference, window }) => {
             compare::compare_files(&image, &reference, window.as_deref())
         }
