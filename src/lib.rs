@@ -16,6 +16,7 @@ pub mod error;
 pub mod files;
 pub mod film;
 pub mod geometry;
+pub mod guiding;
 pub mod kernel;
 pub mod lights;
 pub mod materials;

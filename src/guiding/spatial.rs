@@ -1,0 +1,334 @@
+//! The SD-tree: a binary tree over a cube around the scene whose leaves hold directional distributions
+//! (Müller et al. 2017, §5.1). The public face of the module: record, sample, pdf, refine.
+
+use super::GuidingConfig;
+use super::cylindrical::to_square;
+use super::fixed_point::to_fixed;
+use super::quadtree::DirectionalDistribution;
+use super::recording::RecordingTree;
+use crate::sampling::ONE_MINUS_EPSILON;
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+
+/// A spatial node is one `u32`: with this bit, the index of its leaf; without, the index of its first
+/// child (the second follows it). The split axis is the depth modulo 3, so it need not be stored.
+const LEAF: u32 = 1 << 31;
+
+/// No spatial leaf deeper than this: 24 levels per axis exhaust an f32 coordinate in [0, 1).
+const MAX_SPATIAL_DEPTH: u32 = 72;
+
+/// What a spatial leaf holds.
+#[derive(Debug)]
+struct LeafData {
+    /// What paths sample from during this iteration (the previous iteration's recording).
+    distribution: DirectionalDistribution,
+    /// What paths record into during this iteration.
+    recording: RecordingTree,
+    /// Splits above it: its extent along axis a is 2^−⌊(depth + 2 − a) / 3⌋ of the cube's.
+    depth: u32,
+}
+
+/// The spatio-directional tree: where to send paths, learned from where light came from.
+#[derive(Debug)]
+pub struct SdTree {
+    /// The cube's lowest corner.
+    origin: Vec3,
+    /// 1 / the cube's side.
+    scale: f32,
+    nodes: Vec<u32>,
+    leaves: Vec<LeafData>,
+    config: GuidingConfig,
+}
+
+/// Sizes of an [`SdTree`], for the memory budget and the logs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct NodeCounts {
+    /// Nodes of the spatial tree, leaves included.
+    pub spatial: usize,
+    /// Spatial leaves (each with two quadtrees).
+    pub leaves: usize,
+    /// Nodes of the quadtrees sampled from, over all leaves.
+    pub sampling: usize,
+    /// Nodes of the quadtrees recorded into, over all leaves.
+    pub recording: usize,
+}
+
+/// A spatial leaf, found once per path vertex: sample, evaluate and record there without walking the
+/// spatial tree again. It borrows the tree, so it cannot outlive a [`SdTree::refine`].
+#[derive(Clone, Copy, Debug)]
+pub struct Leaf<'a> {
+    data: &'a LeafData,
+    index: u32,
+}
+
+impl<'a> Leaf<'a> {
+    /// Its index in the tree, valid until the next [`SdTree::refine`] ([`SdTree::leaf_at`]).
+    pub fn index(&self) -> u32 {
+        self.index
+    }
+
+    /// Its depth in the spatial tree (0 for the whole cube).
+    pub fn depth(&self) -> u32 {
+        self.data.depth
+    }
+
+    /// The distribution sampled from during this iteration.
+    pub fn distribution(&self) -> &'a DirectionalDistribution {
+        &self.data.distribution
+    }
+
+    /// A direction for the numbers `u` ∈ [0, 1)² and its density per steradian.
+    #[inline]
+    pub fn sample(&self, u: Vec2) -> (Vec3, f32) {
+        self.data.distribution.sample(u)
+    }
+
+    /// The density per steradian of direction `d` (0 for a zero or non-finite vector).
+    #[inline]
+    pub fn pdf(&self, d: Vec3) -> f32 {
+        self.data.distribution.pdf(d)
+    }
+
+    /// Record the luminance of radiance arriving from `direction` (any non-zero length) divided by the
+    /// density it was sampled with. Thread-safe, lock-free, order-independent. A sample of zero
+    /// radiance counts towards the spatial split (the paper counts path vertices) but adds no energy;
+    /// a NaN, negative or infinite radiance or a zero or non-finite direction is dropped whole, as a
+    /// broken estimate that should not steer anything.
+    #[inline]
+    pub fn record(&self, direction: Vec3, radiance: f32) {
+        if let (Some(s), Some(energy)) = (to_square(direction), to_fixed(radiance)) {
+            self.data.recording.record(s, energy);
+        }
+    }
+}
+
+impl SdTree {
+    /// A tree over the box [`bounds_min`, `bounds_max`] with the paper's settings.
+    pub fn new(bounds_min: Vec3, bounds_max: Vec3) -> Self {
+        Self::with_config(bounds_min, bounds_max, GuidingConfig::default())
+    }
+
+    /// A tree over the box with the given settings ([`GuidingConfig::sanitized`]). The tree covers the
+    /// cube of the box's longest side from its lowest corner, so that splits cycling x, y, z make
+    /// cells of similar extent on every axis. A non-finite box becomes the unit cube; an empty one a
+    /// cube of side 1 (points outside are clamped onto it anyway). Every leaf starts uniform.
+    pub fn with_config(bounds_min: Vec3, bounds_max: Vec3, config: GuidingConfig) -> Self {
+        let config = config.sanitized();
+        let (lo, hi) = (bounds_min.min(bounds_max), bounds_min.max(bounds_max));
+        let (origin, side) = if lo.is_finite() && hi.is_finite() {
+            let side = (hi - lo).max_element();
+            (lo, if side > 0.0 && side.is_finite() { side } else { 1.0 })
+        } else {
+            (Vec3::ZERO, 1.0)
+        };
+        let nothing = super::recording::Recorded { sums: vec![[0; 4]], children: vec![[0; 4]], samples: 0 };
+        let shape = RecordingTree::refined_shape(&nothing, config.directional_threshold, config.max_depth);
+        let leaf = LeafData {
+            distribution: DirectionalDistribution::default(),
+            recording: RecordingTree::with_shape(&shape),
+            depth: 0,
+        };
+        Self { origin, scale: 1.0 / side, nodes: vec![LEAF], leaves: vec![leaf], config }
+    }
+
+    /// The settings it refines with.
+    pub fn config(&self) -> &GuidingConfig {
+        &self.config
+    }
+
+    /// The leaf holding point `p`: outside the cube, the nearest point of it (NaN coordinates read as
+    /// the lowest). The point is scaled into [0, 1)³ once; then each level doubles one coordinate and
+    /// drops its integer part, which is exact, so a point's leaf depends on its bits alone.
+    #[inline]
+    pub fn leaf(&self, p: Vec3) -> Leaf<'_> {
+        let unit = |c: f32| if c >= 0.0 { c.min(ONE_MINUS_EPSILON) } else { 0.0 };
+        let mut x = ((p - self.origin) * self.scale).to_array().map(unit);
+        let (mut node, mut axis) = (0usize, 0usize);
+        loop {
+            let n = self.nodes[node];
+            if n & LEAF != 0 {
+                let index = n & !LEAF;
+                return Leaf { data: &self.leaves[index as usize], index };
+            }
+            x[axis] *= 2.0;
+            let upper = x[axis] >= 1.0;
+            if upper {
+                x[axis] -= 1.0;
+            }
+            node = n as usize + upper as usize;
+            axis = if axis == 2 { 0 } else { axis + 1 };
+        }
+    }
+
+    /// The leaf of a [`Leaf::index`] taken since the last refine; `None` if out of range.
+    pub fn leaf_at(&self, index: u32) -> Option<Leaf<'_>> {
+        self.leaves.get(index as usize).map(|data| Leaf { data, index })
+    }
+
+    /// Record at `p` (see [`Leaf::record`]).
+    #[inline]
+    pub fn record(&self, p: Vec3, direction: Vec3, radiance: f32) {
+        self.leaf(p).record(direction, radiance);
+    }
+
+    /// A direction at `p` and its density per steradian (see [`Leaf::sample`]).
+    #[inline]
+    pub fn sample(&self, p: Vec3, u: Vec2) -> (Vec3, f32) {
+        self.leaf(p).sample(u)
+    }
+
+    /// The density per steradian at `p` of direction `d` (see [`Leaf::pdf`]).
+    #[inline]
+    pub fn pdf(&self, p: Vec3, d: Vec3) -> f32 {
+        self.leaf(p).pdf(d)
+    }
+
+    /// The spatial split threshold after iteration `iteration`: c·√(2^k), exact powers of two and one
+    /// correctly rounded √2, so the same on every machine.
+    pub fn spatial_threshold(&self, iteration: u32) -> f64 {
+        let k = iteration.min(120);
+        let odd = if k % 2 == 1 { std::f64::consts::SQRT_2 } else { 1.0 };
+        self.config.spatial_threshold * (1u64 << (k / 2)) as f64 * odd
+    }
+
+    /// End training iteration `iteration` (0 for the first): what was recorded becomes what is
+    /// sampled, spatial leaves that recorded more than [`Self::spatial_threshold`] samples are split
+    /// (each half assumed to have seen half, recursively, as in the paper; both start from the
+    /// parent's distribution), and every leaf's recording quadtree is reshaped by the energy it saw
+    /// and emptied. A leaf that recorded no energy samples the uniform sphere next.
+    ///
+    /// Leaves are finished in parallel, each from its own integers alone; the new tree is then built
+    /// depth first in the old one's order, so the result does not depend on the thread count.
+    pub fn refine(&mut self, iteration: u32) {
+        let (rho, max_depth) = (self.config.directional_threshold, self.config.max_depth);
+        let finished: Vec<Finished> = self
+            .leaves
+            .par_iter()
+            .map(|leaf| {
+                let recorded = leaf.recording.finish();
+                Finished {
+                    distribution: DirectionalDistribution::from_sums(
+                        &recorded.sums,
+                        &recorded.children,
+                        recorded.samples,
+                    ),
+                    shape: RecordingTree::refined_shape(&recorded, rho, max_depth),
+                    samples: recorded.samples,
+                }
+            })
+            .collect();
+        let mut build = Rebuild {
+            old: &self.nodes,
+            finished: &finished,
+            threshold: self.spatial_threshold(iteration),
+            nodes: vec![0],
+            leaves: Vec::with_capacity(self.leaves.len()),
+        };
+        build.copy(0, 0, 0);
+        let (nodes, leaves) = (build.nodes, build.leaves);
+        self.nodes = nodes;
+        self.leaves = leaves;
+    }
+
+    /// Node counts of the spatial tree and of the quadtrees.
+    pub fn node_counts(&self) -> NodeCounts {
+        NodeCounts {
+            spatial: self.nodes.len(),
+            leaves: self.leaves.len(),
+            sampling: self.leaves.iter().map(|l| l.distribution.node_count()).sum(),
+            recording: self.leaves.iter().map(|l| l.recording.node_count()).sum(),
+        }
+    }
+
+    /// Bytes the tree holds: spatial nodes, leaves, and both quadtrees of each (4 bytes a spatial node,
+    /// 24 a sampling and 56 a recording quadtree node, 88 a leaf's own fields).
+    pub fn memory_bytes(&self) -> usize {
+        self.nodes.len() * size_of::<u32>()
+            + self.leaves.len() * size_of::<LeafData>()
+            + self
+                .leaves
+                .iter()
+                .map(|l| l.distribution.memory_bytes() + l.recording.memory_bytes())
+                .sum::<usize>()
+    }
+
+    /// The sampled density per steradian at `p` as an image (see [`DirectionalDistribution::image`]).
+    pub fn directional_image(&self, p: Vec3, width: u32, height: u32) -> Vec<f32> {
+        self.leaf(p).distribution().image(width, height)
+    }
+
+    /// A hash of everything the tree holds (cube, shape, distributions, recorded integers): equal
+    /// fingerprints mean the same trees, for the determinism tests across thread counts and orders.
+    pub fn fingerprint(&self) -> u64 {
+        let mut h = xxhash_rust::xxh3::Xxh3::new();
+        self.origin.to_array().iter().for_each(|c| h.update(&c.to_bits().to_le_bytes()));
+        h.update(&self.scale.to_bits().to_le_bytes());
+        self.nodes.iter().for_each(|n| h.update(&n.to_le_bytes()));
+        for leaf in &self.leaves {
+            h.update(&leaf.depth.to_le_bytes());
+            leaf.distribution.hash_into(&mut h);
+            let recorded = leaf.recording.finish();
+            h.update(&recorded.samples.to_le_bytes());
+            recorded.sums.iter().flatten().for_each(|s| h.update(&s.to_le_bytes()));
+            recorded.children.iter().flatten().for_each(|c| h.update(&c.to_le_bytes()));
+        }
+        h.digest()
+    }
+}
+
+/// A leaf after its iteration: its new distribution, its next recording shape, its sample count.
+struct Finished {
+    distribution: DirectionalDistribution,
+    shape: Vec<[u16; 4]>,
+    samples: u64,
+}
+
+/// The new spatial tree being built from the old one and its finished leaves.
+struct Rebuild<'a> {
+    old: &'a [u32],
+    finished: &'a [Finished],
+    threshold: f64,
+    nodes: Vec<u32>,
+    leaves: Vec<LeafData>,
+}
+
+impl Rebuild<'_> {
+    /// Copy old node `old` (at `depth`) into new node `new`.
+    fn copy(&mut self, old: usize, new: usize, depth: u32) {
+        let n = self.old[old];
+        if n & LEAF != 0 {
+            let leaf = (n & !LEAF) as usize;
+            self.split(leaf, self.finished[leaf].samples, new, depth);
+        } else {
+            let first = self.children_of(new);
+            self.copy(n as usize, first, depth + 1);
+            self.copy(n as usize + 1, first + 1, depth + 1);
+        }
+    }
+
+    /// Make new node `new` a leaf of finished leaf `leaf`, or, above the threshold, split it and give
+    /// each half half the samples.
+    fn split(&mut self, leaf: usize, samples: u64, new: usize, depth: u32) {
+        if samples as f64 > self.threshold && depth < MAX_SPATIAL_DEPTH {
+            let first = self.children_of(new);
+            self.split(leaf, samples / 2, first, depth + 1);
+            self.split(leaf, samples / 2, first + 1, depth + 1);
+        } else {
+            let f = &self.finished[leaf];
+            self.nodes[new] = LEAF | self.leaves.len() as u32;
+            self.leaves.push(LeafData {
+                distribution: f.distribution.clone(),
+                recording: RecordingTree::with_shape(&f.shape),
+                depth,
+            });
+        }
+    }
+
+    /// Two new nodes as the children of `new`; the first's index.
+    fn children_of(&mut self, new: usize) -> usize {
+        let first = self.nodes.len();
+        self.nodes.extend([0, 0]);
+        self.nodes[new] = first as u32;
+        first
+    }
+}
