@@ -7,6 +7,7 @@ use crate::sampling::Sampler;
 use glam::{Vec2, Vec3};
 
 mod distribution;
+mod speed;
 mod tree;
 
 /// Train `tree` for `iterations` iterations of `base · 2^k` samples at the points `point(i)`, as a path
