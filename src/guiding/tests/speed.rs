@@ -1,5 +1,7 @@
-//! What a trained tree costs in time and memory, on a room-like scene: ignored by default, run with
-//! `cargo test -p caustica-core --release guiding::tests::speed -- --ignored --nocapture`.
+//! What a trained tree costs in time and memory, on a room-like scene: ignored by default, run
+//! optimised with `CARGO_PROFILE_TEST_OPT_LEVEL=3 cargo test -p caustica-core --lib
+//! guiding::tests::speed -- --ignored --nocapture` (the test profile already builds the dependencies
+//! at level 3, so only this crate is rebuilt).
 
 use super::*;
 use std::time::Instant;
@@ -27,7 +29,7 @@ fn radiance_at(p: Vec3, d: Vec3) -> f32 {
 }
 
 #[test]
-#[ignore = "a measurement, not a check: run in release with --nocapture"]
+#[ignore = "a measurement, not a check: run optimised with --nocapture"]
 fn speed() {
     let mut tree = SdTree::new(Vec3::ZERO, Vec3::new(4.0, 3.0, 4.0));
     // 256² pixels from 1 to 32 paths each, three recorded vertices a path.

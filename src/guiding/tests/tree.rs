@@ -4,7 +4,8 @@
 use super::*;
 
 /// Samples spread over a 4-unit box, denser near one corner, with light from a few directions and
-/// values over many magnitudes (so that sums carry into the high word).
+/// values over eleven orders of magnitude (the bright quadrants' sums pass 2^32 and carry into the
+/// high word).
 fn samples(n: u32) -> Vec<(Vec3, Vec3, f32)> {
     (0..n)
         .map(|i| {
@@ -12,7 +13,7 @@ fn samples(n: u32) -> Vec<(Vec3, Vec3, f32)> {
             let p = s.get2d(0).extend(s.get1d(2));
             let p = if i % 3 == 0 { p * 4.0 } else { p * p * 1.5 };
             let d = from_square(s.get2d(3));
-            let radiance = if d.z > 0.7 { 1e6 * s.get1d(5) } else { s.get1d(5) * 1e-3 };
+            let radiance = if d.z > 0.7 { 1e8 * s.get1d(5) } else { s.get1d(5) * 1e-3 };
             (p, d, radiance)
         })
         .collect()
