@@ -36,7 +36,7 @@ pub fn to_square(d: Vec3) -> Option<Vec2> {
 fn angle(x: f32, y: f32) -> f32 {
     let (ax, ay) = (x.abs(), y.abs());
     let (lo, hi) = (ax.min(ay), ax.max(ay));
-    if !(hi > 0.0) {
+    if hi == 0.0 || hi.is_nan() {
         return 0.0;
     }
     let mut a = atan_unit(lo / hi);
