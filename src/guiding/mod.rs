@@ -16,7 +16,7 @@
 //!   however many threads recorded and in whatever order ([`SdTree::fingerprint`]).
 //! - No lock on the hot path: [`SdTree::record`] takes `&self` (one or two relaxed `fetch_add`s);
 //!   sampling reads a tree nobody writes during the iteration.
-//! - Speed: flat arrays with child indices (4 bytes a spatial node, 24 a sampling quadtree node),
+//! - Speed: flat arrays with child indices (4 bytes a spatial node, 32 a sampling quadtree node),
 //!   no allocation per sample, one walk per level. [`SdTree::leaf`] finds a vertex's leaf once, for
 //!   its sample, pdf and record; a [`Leaf`] borrows the tree, so it cannot outlive a `refine`.
 //!

@@ -1,22 +1,35 @@
 //! The directional distribution a spatial leaf samples from: a quadtree over the cylindrical square,
 //! piecewise constant in each of its leaves (Müller et al. 2017, §5.2–5.3).
 //!
-//! Each node stores its four quadrants' shares of the node's own energy, not of the whole tree's, so a
-//! deep node keeps full f32 precision however small its absolute share. Sampling walks down once,
-//! choosing a quadrant per level and rescaling the same two random numbers into it (hierarchical
-//! warping), so a sample costs one pass of at most `max_depth` levels, no allocation, and keeps the
-//! stratification of the numbers it was given.
+//! Each node stores its split as conditional probabilities (the right column's share of the node, the
+//! top row's share of each column) computed from the exact integers, so a deep node keeps full f32
+//! precision however small its absolute share. Sampling walks down once, choosing a column and a row
+//! per level with the same two random numbers (hierarchical warping): each number's interval of the
+//! chosen cell is narrowed in f64 and divided out only at the leaf, so no division sits in the chain
+//! from one level to the next, a sample costs one pass of at most `max_depth` levels with no
+//! allocation, and the stratification of the numbers survives.
 
 use super::cylindrical::{INV_FOUR_PI, from_square, to_square};
 use crate::sampling::ONE_MINUS_EPSILON;
 use glam::{Vec2, Vec3};
 
-/// One node: quadrant `q` (bit 0: x ≥ ½, bit 1: y ≥ ½) holds `share[q]` of the node's energy and is
-/// a leaf where `child[q]` is 0 (the root is never a child). 24 bytes.
+/// One node. Quadrant `q` (bit 0: x ≥ ½, the right column; bit 1: y ≥ ½, the top row) is reached
+/// with probability `column[q & 1] · row[q & 1][q >> 1]` and is a leaf where `child[q]` is 0 (the
+/// root is never a child). Both halves of each split are stored, each rounded from the integers, so
+/// a tiny share is as precise as a large one (1 − 0.9999999 in f32 would not be). 32 bytes.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct SamplingNode {
-    pub(crate) share: [f32; 4],
+    column: [f32; 2],
+    row: [[f32; 2]; 2],
     pub(crate) child: [u16; 4],
+}
+
+impl SamplingNode {
+    /// The density factor of quadrant `q`: its probability over its area, ¼.
+    #[inline]
+    fn factor(&self, q: usize) -> f32 {
+        4.0 * self.column[q & 1] * self.row[q & 1][q >> 1]
+    }
 }
 
 /// A directional density over the sphere, piecewise constant on a quadtree of the cylindrical square.
@@ -48,14 +61,30 @@ fn unit(u: Vec2) -> Vec2 {
     Vec2::new(clamp(u.x), clamp(u.y))
 }
 
-/// Choose between two intervals of weights `a` and `b` (not both zero) with `u`, and rescale `u` into
-/// the chosen one: measure preserving, so the numbers stay uniform for the next level. An interval
-/// of weight zero is never chosen, even where `u · (a + b)` rounds up to `a + b`.
+/// Split the interval [lo, hi) of a random number `u` in the proportions `p` (summing to one up to
+/// rounding) and keep the part `u` falls in; 1 if it is the second. The cut is measured from the
+/// end of the smaller part, so that part's width is its probability to f64 precision however small.
+/// A part of probability zero is never chosen, whatever the rounding.
+///
+/// Which part is a coin toss the branch predictor cannot learn, so everything here is computed both
+/// ways and selected, without a branch: a mispredicted branch per choice cost more than the rest of
+/// the walk.
 #[inline]
-fn split(u: f32, a: f32, b: f32) -> (bool, f32) {
-    let x = u * (a + b);
-    let (second, v) = if x < a || b == 0.0 { (false, x / a) } else { (true, (x - a) / b) };
-    (second, v.clamp(0.0, ONE_MINUS_EPSILON))
+fn choose(range: &mut [f64; 2], u: f64, p: [f32; 2]) -> usize {
+    let [lo, hi] = *range;
+    let width = hi - lo;
+    let (from_lo, from_hi) = (lo + width * p[0] as f64, hi - width * p[1] as f64);
+    let cut = if p[0] <= p[1] { from_lo } else { from_hi };
+    let second = ((u >= cut) & (p[1] > 0.0)) | (p[0] == 0.0);
+    *range = if second { [cut, hi] } else { [lo, cut] };
+    second as usize
+}
+
+/// The proportions of two integer energies, each rounded once; even for two zeros (a node never
+/// reached, whose arithmetic should stay finite all the same).
+fn proportions(a: u128, b: u128) -> [f32; 2] {
+    let total = a.saturating_add(b);
+    if total == 0 { [0.5; 2] } else { [(a as f64 / total as f64) as f32, (b as f64 / total as f64) as f32] }
 }
 
 impl DirectionalDistribution {
@@ -71,12 +100,10 @@ impl DirectionalDistribution {
         let nodes = sums
             .iter()
             .zip(children)
-            .map(|(s, &child)| {
-                let t = total(s);
-                // A node without energy is never reached (its quadrant has share zero); even shares
-                // keep its arithmetic finite all the same.
-                let share = if t == 0 { [0.25; 4] } else { s.map(|x| (x as f64 / t as f64) as f32) };
-                SamplingNode { share, child }
+            .map(|(&[s0, s1, s2, s3], &child)| SamplingNode {
+                column: proportions(s0.saturating_add(s2), s1.saturating_add(s3)),
+                row: [proportions(s0, s2), proportions(s1, s3)],
+                child,
             })
             .collect();
         Self { nodes, energy: super::fixed_point::from_fixed(root), samples }
@@ -123,25 +150,34 @@ impl DirectionalDistribution {
 
     /// A point of the square and its density there (per unit area of the square).
     pub(crate) fn sample_square(&self, u: Vec2) -> (Vec2, f32) {
-        let mut u = unit(u);
+        let u = unit(u);
         if self.nodes.is_empty() {
             return (u, 1.0);
         }
+        let (ux, uy) = (u.x as f64, u.y as f64);
+        let (mut xs, mut ys) = ([0.0f64, 1.0], [0.0f64, 1.0]);
         let (mut origin, mut size, mut density, mut node) = (Vec2::ZERO, 1.0f32, 1.0f32, 0usize);
         loop {
-            let SamplingNode { share: [s0, s1, s2, s3], child } = self.nodes[node];
-            // Column first (x), then the row within it: the two choices multiply to the quadrant's share.
-            let (right, ux) = split(u.x, s0 + s2, s1 + s3);
-            let (top, uy) = if right { split(u.y, s1, s3) } else { split(u.y, s0, s2) };
-            let q = right as usize | (top as usize) << 1;
-            density *= 4.0 * [s0, s1, s2, s3][q];
+            let n = &self.nodes[node];
+            let right = choose(&mut xs, ux, n.column);
+            // Both columns' rows at once, then one kept: the row no longer waits for the column, which
+            // halves the chain of dependent operations from one level to the next.
+            let (mut below, mut above) = (ys, ys);
+            let tops = [choose(&mut below, uy, n.row[0]), choose(&mut above, uy, n.row[1])];
+            let top = tops[right];
+            ys = if right == 1 { above } else { below };
+            let q = right | top << 1;
+            density *= n.factor(q);
             size *= 0.5;
-            origin += size * Vec2::new(right as u8 as f32, top as u8 as f32);
-            u = Vec2::new(ux, uy);
-            if child[q] == 0 {
-                return (origin + size * u, density);
+            origin += size * Vec2::new(right as f32, top as f32);
+            if n.child[q] == 0 {
+                // Where u lies in its interval is where the point lies in its cell.
+                let local = |u: f64, [lo, hi]: [f64; 2]| {
+                    (((u - lo) / (hi - lo)) as f32).clamp(0.0, ONE_MINUS_EPSILON)
+                };
+                return (origin + size * Vec2::new(local(ux, xs), local(uy, ys)), density);
             }
-            node = child[q] as usize;
+            node = n.child[q] as usize;
         }
     }
 
@@ -154,7 +190,7 @@ impl DirectionalDistribution {
         loop {
             let n = &self.nodes[node];
             let q = quadrant(&mut s);
-            density *= 4.0 * n.share[q];
+            density *= n.factor(q);
             if n.child[q] == 0 || density == 0.0 {
                 return density;
             }
@@ -182,7 +218,8 @@ impl DirectionalDistribution {
         hasher.update(&self.energy.to_bits().to_le_bytes());
         hasher.update(&self.samples.to_le_bytes());
         for n in &self.nodes {
-            n.share.iter().for_each(|s| hasher.update(&s.to_bits().to_le_bytes()));
+            let shares = n.column.iter().chain(n.row.iter().flatten());
+            shares.for_each(|s| hasher.update(&s.to_bits().to_le_bytes()));
             n.child.iter().for_each(|c| hasher.update(&c.to_le_bytes()));
         }
     }
