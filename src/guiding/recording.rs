@@ -102,8 +102,9 @@ impl RecordingTree {
     /// evenly, so one bright cell is cut as finely as its energy warrants in one step, as in the
     /// paper), and a node whose quadrant holds less is dropped with its subtree: its quadrant becomes
     /// a leaf. No node deeper than `max_depth` (the root's quadrants are at depth 1), no more than
-    /// `u16::MAX` nodes. With no energy at all, every quadrant holds its area's share (a uniform tree
-    /// as deep as `threshold` allows).
+    /// 2^16 nodes (children are `u16` indices; at the cap the deepest splits are the ones left out).
+    /// With no energy at all, every quadrant holds its area's share (a uniform tree as deep as
+    /// `threshold` allows).
     ///
     /// Breadth first, so the nodes near the root, visited by every sample, sit together in memory.
     pub(crate) fn refined_shape(recorded: &Recorded, threshold: f64, max_depth: u32) -> Vec<[u16; 4]> {
