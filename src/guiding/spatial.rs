@@ -103,7 +103,7 @@ impl<'a> Leaf<'a> {
 }
 
 impl SdTree {
-    /// A tree over the box [`bounds_min`, `bounds_max`] with the paper's settings.
+    /// A tree over the box from `bounds_min` to `bounds_max` with the paper's settings.
     pub fn new(bounds_min: Vec3, bounds_max: Vec3) -> Self {
         Self::with_config(bounds_min, bounds_max, GuidingConfig::default())
     }
