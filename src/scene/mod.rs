@@ -62,7 +62,7 @@ pub fn load_with_sets(
     let mut scene = match extension.as_deref() {
         Some("toml") => run.load_scene(path)?,
         _ => {
-            let budget = run.memory_budget_bytes(crate::memory::physical_bytes() / 2);
+            let budget = run.memory_budget_bytes();
             let mut scene = self::gltf::load_gltf_within(path, run.camera.name.as_deref(), budget)?;
             // A bare glTF has no run file: environment paths come from the command line, relative
             // to the working directory.

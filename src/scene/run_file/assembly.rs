@@ -25,7 +25,7 @@ impl RunFile {
                 crate::scene::gltf::load_gltf_within(
                     &resolved,
                     self.camera.name.as_deref(),
-                    self.memory_budget_bytes(crate::memory::physical_bytes() / 2),
+                    self.memory_budget_bytes(),
                 )?
             }
             None => {
