@@ -44,7 +44,7 @@ impl Mixture {
         Self {
             conductor: Conductor::new(base, ggx),
             plastic: Plastic::new(base, spec_f0, specular, ggx),
-            dielectric: if p.thin_walled {
+            dielectric: if p.thin_walled() {
                 Dielectric::thin_walled(ior, base, ggx)
             } else {
                 Dielectric::new(ior, base, ggx)

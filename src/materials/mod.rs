@@ -35,12 +35,16 @@ use glam::{Vec2, Vec3};
 use mixture::Mixture;
 use std::f32::consts::FRAC_1_PI;
 
-/// Resolved parameters at a hit point (textures already looked up). glTF metallic-roughness semantics.
+/// The parameters a [`Bsdf`] is built from, in glTF metallic-roughness semantics. A material
+/// (`scene::MaterialDesc::shading`) holds them as the file's factors; a hit's are a copy with its
+/// textures and vertex colour applied (`RenderScene::shading_params`). One struct for both, so a
+/// parameter is described once and a hit's copy is a plain copy of the material's, no indirection.
 #[derive(Clone, Copy, Debug)]
 pub struct ShadingParams {
-    /// Linear RGB base colour: diffuse albedo, conductor F0 and transmission tint.
+    /// Linear RGB base colour (glTF `baseColorFactor`'s RGB): diffuse albedo, conductor F0 and
+    /// transmission tint.
     pub base_color: Vec3,
-    /// Conductor fraction in [0, 1].
+    /// Conductor fraction in [0, 1] (`metallicFactor`).
     pub metallic: f32,
     /// Perceptual roughness in [0, 1]; GGX alpha = roughness².
     pub roughness: f32,
@@ -48,17 +52,44 @@ pub struct ShadingParams {
     pub transmission: f32,
     /// Index of refraction of the inside (KHR_materials_ior, default 1.5); the outside is vacuum.
     pub ior: f32,
-    /// Specular factor of the dielectric base (KHR_materials_specular); 0 gives a pure Lambertian base.
+    /// Specular factor of the dielectric base in [0, 1] (KHR_materials_specular, default 1); 0 gives
+    /// a pure Lambertian base.
     pub specular: f32,
-    /// Specular colour of the dielectric base (KHR_materials_specular).
+    /// Specular colour of the dielectric base (KHR_materials_specular; linear RGB, default 1).
     pub specular_color: Vec3,
     /// Clear coat weight in [0, 1] (KHR_materials_clearcoat).
     pub clearcoat: f32,
-    /// Perceptual roughness of the coat.
+    /// Perceptual roughness of the coat in [0, 1] (KHR_materials_clearcoat).
     pub clearcoat_roughness: f32,
-    /// Transmission through a thin-walled sheet (glTF: no KHR_materials_volume, or thickness 0)
-    /// rather than into a solid.
-    pub thin_walled: bool,
+    /// KHR_materials_volume thickness: > 0 a closed solid, which transmission refracts into; 0 (glTF's
+    /// default, without the extension) a thin-walled sheet.
+    pub thickness: f32,
+}
+
+impl Default for ShadingParams {
+    /// The glTF 2.0 default material's: white, metallic 1, roughness 1, no transmission, thin-walled.
+    fn default() -> Self {
+        Self {
+            base_color: Vec3::ONE,
+            metallic: 1.0,
+            roughness: 1.0,
+            transmission: 0.0,
+            ior: 1.5,
+            specular: 1.0,
+            specular_color: Vec3::ONE,
+            clearcoat: 0.0,
+            clearcoat_roughness: 0.0,
+            thickness: 0.0,
+        }
+    }
+}
+
+impl ShadingParams {
+    /// Whether transmission crosses a thin-walled sheet rather than entering a solid.
+    #[inline]
+    pub fn thin_walled(&self) -> bool {
+        self.thickness <= 0.0
+    }
 }
 
 /// Which quantity a path carries; it matters only for refraction.

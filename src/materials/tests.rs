@@ -10,7 +10,7 @@ use glam::{DVec3, Vec2, Vec3};
 /// Samples per chi-square test.
 const CHI2_SAMPLES: u32 = 100_000;
 
-/// Shading parameters with a white specular colour.
+/// Shading parameters of a solid (any positive thickness) with a white specular colour.
 pub(crate) fn params(
     base_color: Vec3,
     metallic: f32,
@@ -29,7 +29,7 @@ pub(crate) fn params(
         specular_color: Vec3::ONE,
         clearcoat: 0.0,
         clearcoat_roughness: 0.0,
-        thin_walled: false,
+        thickness: 1.0,
     }
 }
 
@@ -129,7 +129,7 @@ fn samples_are_finite_or_none_for_any_parameters() {
             specular_color: Vec3::ONE,
             clearcoat: 0.0,
             clearcoat_roughness: 0.0,
-            thin_walled: false,
+            thickness: 1.0,
         };
         let bsdf = Bsdf::new(&p);
         let mut wo = uniform_sphere(s.get2d(8));

@@ -84,7 +84,7 @@ mod tests {
     use glam::{Vec2, Vec3};
 
     fn sheet(roughness: f32, tint: Vec3) -> Bsdf {
-        Bsdf::new(&ShadingParams { thin_walled: true, ..params(tint, 0.0, roughness, 1.0, 1.5, 1.0) })
+        Bsdf::new(&ShadingParams { thickness: 0.0, ..params(tint, 0.0, roughness, 1.0, 1.5, 1.0) })
     }
 
     #[test]
