@@ -58,7 +58,7 @@ fn params(lobe: &str, roughness: f32) -> ShadingParams {
         specular_color: Vec3::ONE,
         clearcoat: 0.0,
         clearcoat_roughness: 0.0,
-        thin_walled: false,
+        thickness: 1.0,
     };
     match lobe {
         "conductor" => ShadingParams { metallic: 1.0, ..base },

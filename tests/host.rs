@@ -70,7 +70,7 @@ fn bad_moves_and_scenes_the_plan_was_not_built_for_are_refused() {
 
     // Mirrors where there were none: caustics, which the plan was built without.
     let mut mirrored = scene.clone();
-    mirrored.materials.iter_mut().for_each(|m| (m.metallic, m.roughness) = (1.0, 0.0));
+    mirrored.materials.iter_mut().for_each(|m| (m.shading.metallic, m.shading.roughness) = (1.0, 0.0));
     let message = fixed.replace_scene(&mirrored).unwrap_err().to_string();
     assert!(message.contains("new renderer"), "{message}");
     // The same scene is taken, and renders what a new renderer renders.

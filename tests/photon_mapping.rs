@@ -82,7 +82,7 @@ fn uniform_photon_density_gives_the_same_radiance_with_every_kernel() {
         specular_color: Vec3::ONE,
         clearcoat: 0.0,
         clearcoat_roughness: 0.0,
-        thin_walled: false,
+        thickness: 1.0,
     });
     let si = SurfaceHit {
         p: Vec3::new(0.5, 0.0, 0.5),
