@@ -127,7 +127,7 @@ impl Scene {
     /// The integrator the settings choose.
     #[getter]
     fn integrator(&self) -> String {
-        format!("{:?}", self.run.render.integrator).to_lowercase()
+        caustica::Choice::name(self.run.render.integrator).to_owned()
     }
 
     /// Render to the target, or to `spp`/`passes` when given, or until `time_limit` seconds, with
