@@ -26,10 +26,8 @@ pub(crate) fn params(
         transmission,
         ior,
         specular,
-        specular_color: Vec3::ONE,
-        clearcoat: 0.0,
-        clearcoat_roughness: 0.0,
         thickness: 1.0,
+        ..ShadingParams::default()
     }
 }
 
@@ -126,10 +124,8 @@ fn samples_are_finite_or_none_for_any_parameters() {
             transmission: (s.get1d(5) * 3.0).floor() / 2.0,
             ior: [1.0, 1.5, 2.5, 0.8][(s.get1d(6) * 4.0) as usize],
             specular: (s.get1d(7) * 3.0).floor() / 2.0,
-            specular_color: Vec3::ONE,
-            clearcoat: 0.0,
-            clearcoat_roughness: 0.0,
             thickness: 1.0,
+            ..ShadingParams::default()
         };
         let bsdf = Bsdf::new(&p);
         let mut wo = uniform_sphere(s.get2d(8));
