@@ -7,8 +7,9 @@
 use crate::integrators::{self, Integrator};
 
 mod checkpoint;
-mod host;
+mod frames;
 mod pass_loop;
+mod restart;
 mod shares;
 
 use crate::plan::Plan;
@@ -20,7 +21,7 @@ use caustica_core::error::Result;
 use caustica_core::film::Image;
 use caustica_core::scene::pose::FrameScene;
 use caustica_core::scene::{RunFile, Scene};
-pub use host::FrameUpdate;
+pub use frames::{FrameRun, FrameUpdate};
 pub use shares::share_refusal;
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
@@ -49,11 +50,8 @@ pub struct Renderer {
     integrator: &'static Integrator,
     /// The settings it was made with.
     run: RunFile,
-    /// The scene from frame to frame, when its file is animated or a host moves its nodes
-    /// (`Renderer::movable`).
-    frames: Option<FrameScene>,
-    /// What the scene uses.
-    pub features: SceneFeatures,
+    /// What the scene uses: what the plan was built for.
+    features: SceneFeatures,
     /// Passes run.
     passes: u32,
     /// Progress at the end of the last pass.
@@ -84,33 +82,31 @@ pub struct Renderer {
     pass_end_requested: AtomicBool,
     /// The run asks for the `spp` feature image.
     spp_image: bool,
-    /// This frame reuses what an earlier one traced from the lights (`pm`'s photon maps: only the
-    /// camera moved).
+    /// What the phases that trace from the lights alone made for an earlier frame is in the World
+    /// still (`pm`'s photon maps: only the camera moved): they do not run.
     light_kept: bool,
-    /// How the BVHs follow moved meshes.
-    bvh_update: caustica_core::render_scene::BvhUpdate,
 }
 
 impl Renderer {
     /// Check the settings against the scene, build the World and the integrator's plan. The target is
-    /// the run's `render.spp` or `progressive.passes`, by the integrator.
+    /// the run's `render.spp` or `progressive.passes`, by the integrator. A file's animations are
+    /// posed at time 0; its other frames are a [`FrameRun`]'s.
     pub fn new(scene: Scene, run: &RunFile) -> Result<Self> {
-        Self::with_frames(scene, run, false)
+        if scene.animation.is_none() {
+            return Self::with_dynamic(scene, run, &[]);
+        }
+        // Posed as a FrameRun poses its first frame, the animated meshes in a BVH set of their own:
+        // the same trees, so the same bits as that frame.
+        let frames = FrameScene::new(scene);
+        Self::with_dynamic(frames.scene().clone(), run, &frames.dynamic)
     }
 
-    /// As [`Renderer::new`]; `keep_frames` keeps the scene for frames to come (a host's moves)
-    /// even when its file has no animation. A file's animations are posed at time 0.
-    pub(crate) fn with_frames(scene: Scene, run: &RunFile, keep_frames: bool) -> Result<Self> {
+    /// As [`Renderer::new`] of a posed `scene`, whose meshes marked in `dynamic` go to the BVH set
+    /// that frames rebuild alone.
+    fn with_dynamic(scene: Scene, run: &RunFile, dynamic: &[bool]) -> Result<Self> {
         let integrator = integrators::of_run(run);
-        let (scene, frames, dynamic) = if keep_frames || scene.animation.is_some() {
-            let frames = FrameScene::new(scene);
-            let (posed, dynamic) = (frames.scene().clone(), frames.dynamic.clone());
-            (posed, Some(frames), dynamic)
-        } else {
-            (scene, None, Vec::new())
-        };
         integrator.check(&scene, run)?;
-        let (mut world, features) = crate::world::scene_world_dynamic(scene, run, &dynamic)?;
+        let (mut world, features) = crate::world::scene_world_dynamic(scene, run, dynamic)?;
         // With the scene built (what the process holds counts), before the film is allocated.
         let pixels = {
             let camera = world.resource::<crate::resources::CameraResource>();
@@ -138,7 +134,6 @@ impl Renderer {
             plan,
             integrator,
             run: run.clone(),
-            frames,
             features,
             passes: 0,
             done: 0,
@@ -156,7 +151,6 @@ impl Renderer {
             pass_end_requested: AtomicBool::new(false),
             spp_image: run.film.aovs.contains(&caustica_core::film::aov::Aov::Spp),
             light_kept: false,
-            bvh_update: Default::default(),
         })
     }
 
@@ -179,7 +173,7 @@ impl Renderer {
     }
 
     /// Whether adaptive sampling chooses the pixels that take samples (`render.noise_threshold`).
-    pub fn is_adaptive(&self) -> bool {
+    fn is_adaptive(&self) -> bool {
         self.world.contains_resource::<AdaptiveSampling>()
     }
 
@@ -189,7 +183,7 @@ impl Renderer {
     }
 
     /// Whether the render makes feature images (`film.aovs`).
-    pub fn has_aovs(&self) -> bool {
+    fn has_aovs(&self) -> bool {
         self.world.contains_resource::<crate::resources::AovFilmResource>()
     }
 

@@ -1,100 +1,60 @@
-//! What a host does to a render beyond running it: start over, and change the scene (replace it, or
-//! move a node) between frames, on the same entities and plan.
+//! A render frame by frame: the scene posed by its file's animations or moved by a host, the World
+//! following each frame (the moved meshes' BVHs, the lights, the camera), what a frame keeps of the
+//! one before (`pm`'s photon maps when only the camera moved), and a frame blurred over a shutter.
 
 use super::Renderer;
 use crate::report::Report;
-use crate::resources::{
-    AdaptiveSampling, CameraResource, FilmResource, PhotonStats, RenderStats, SceneFeatures, SceneResource,
-};
+use crate::resources::{CameraResource, SceneResource};
 use caustica_core::error::{Error, Result};
-use caustica_core::render_scene::RenderScene;
-use caustica_core::render_scene::{BvhUpdate, SceneUpdate};
+use caustica_core::render_scene::{BvhUpdate, RenderScene, SceneUpdate};
 use caustica_core::scene::pose::FrameScene;
 use caustica_core::scene::{RunFile, Scene};
-use std::sync::atomic::Ordering;
 use std::time::Instant;
 
-impl Renderer {
-    /// Start over on the same entities: a black film, zero counters, no passes (a host's next
-    /// frame, after it has moved things and replaced `SceneResource`).
-    pub fn restart(&mut self) {
-        self.restart_frame(false);
+/// A render whose scene moves from frame to frame: it drives a [`Renderer`], which runs each frame's
+/// passes and knows nothing of frames, and keeps the scene the poses and moves apply to.
+pub struct FrameRun {
+    renderer: Renderer,
+    /// The scene as the frame poses it.
+    frames: FrameScene,
+    /// How the BVHs follow moved meshes.
+    bvh_update: BvhUpdate,
+}
+
+impl FrameRun {
+    /// A render of `scene` with `run`'s settings whose frames a host poses ([`FrameRun::set_time`])
+    /// or whose nodes it moves ([`FrameRun::move_node`]); the file's animations, if any, are posed at
+    /// time 0, as [`Renderer::new`] poses them.
+    pub fn new(scene: Scene, run: &RunFile) -> Result<Self> {
+        let frames = FrameScene::new(scene);
+        let renderer = Renderer::with_dynamic(frames.scene().clone(), run, &frames.dynamic)?;
+        Ok(Self { renderer, frames, bvh_update: BvhUpdate::default() })
     }
 
-    /// As [`Renderer::restart`]; `light_unchanged` says that only the camera moved, and then what the
-    /// integrator traced from the lights alone, if it made it (`pm`'s photon maps), is kept.
-    fn restart_frame(&mut self, light_unchanged: bool) {
-        self.light_kept = light_unchanged && self.photons_built();
-        let (width, height) = {
-            let film = self.world.resource::<FilmResource>();
-            (film.width, film.height)
-        };
-        // The old film goes before its successor is made: the budget counted one film, and the
-        // same size freed just before is there to be had again.
-        let aovs = self.has_aovs();
-        self.world.remove_resource::<FilmResource>();
-        self.world.remove_resource::<crate::resources::AovFilmResource>();
-        self.world.insert_resource(FilmResource::new(caustica_core::film::Film::new(width, height)));
-        if aovs {
-            let film = caustica_core::film::aov::AovFilm::new(width, height);
-            self.world.insert_resource(crate::resources::AovFilmResource::new(film));
-        }
-        self.world.insert_resource(RenderStats::default());
-        if let Some(mut adaptive) = self.world.get_resource_mut::<AdaptiveSampling>() {
-            let (threshold, min_spp) = (adaptive.threshold, adaptive.min_spp);
-            *adaptive = AdaptiveSampling::new(threshold, min_spp, width as usize * height as usize);
-        }
-        if self.world.contains_resource::<PhotonStats>() {
-            self.world.insert_resource(PhotonStats::default());
-        }
-        if !self.light_kept {
-            (self.plan.reset)(&mut self.world);
-        }
-        self.passes = 0;
-        self.done = self.first;
-        self.stopped = false;
-        self.stopped_by = None;
-        self.interrupt.store(false, Ordering::Relaxed);
-        self.seconds = 0.0;
-        self.phase_times.iter_mut().for_each(|t| (t.seconds, t.runs) = (0.0, 0));
+    /// The render of the frame at hand.
+    pub fn renderer(&self) -> &Renderer {
+        &self.renderer
     }
 
-    /// A renderer whose scene's nodes a host can move ([`Renderer::move_node`]): it keeps the scene,
-    /// which the moves apply to.
-    pub fn movable(scene: Scene, run: &RunFile) -> Result<Self> {
-        Self::with_frames(scene, run, true)
-    }
-
-    /// Render `scene` from here on, from a black film: the geometry, materials and lights a host has
-    /// changed (a simulation's next frame), traced by the same entities and plan with the same
-    /// camera and settings. Refused when the new scene needs systems the plan was built without
-    /// (lights where there were none, motion, a lens, specular surfaces where there were none) or
-    /// fails the integrator's checks: make a new `Renderer` for it.
-    pub fn replace_scene(&mut self, scene: &Scene) -> Result<()> {
-        (self.integrator.check)(scene, &self.run)?;
-        let render_scene = RenderScene::build(scene, self.run.render.light_selection);
-        self.check_features(&render_scene)?;
-        self.world.insert_resource(SceneResource::new(render_scene));
-        self.restart();
-        Ok(())
+    /// The render of the frame at hand, to run, look at or extend (its World and plan).
+    pub fn renderer_mut(&mut self) -> &mut Renderer {
+        &mut self.renderer
     }
 
     /// Give glTF node `node` (its name, or its index) the transform `m`, applied to its geometry as
     /// posed (the identity puts it back), and start the image over with the moved scene: only the
-    /// moving meshes' BVH is rebuilt once the node has moved before. For a renderer made by
-    /// [`Renderer::movable`] or of an animated file.
+    /// moving meshes' BVH is rebuilt once the node has moved before.
     pub fn move_node(&mut self, node: &str, m: glam::Mat4) -> Result<FrameUpdate> {
         let start = Instant::now();
-        let changed = self.frames_mut()?.move_node(node, m)?;
+        let changed = self.frames.move_node(node, m)?;
         self.follow_frame(&changed, start.elapsed().as_secs_f64(), false, true)
     }
 
     /// Pose the file's animations at `time` (seconds: meshes, the file's camera, lights) and start
-    /// the image over: the next frame of an animation. For a renderer of an animated file (or made
-    /// by [`Renderer::movable`]).
+    /// the image over: the next frame of an animation.
     pub fn set_time(&mut self, time: f32) -> Result<FrameUpdate> {
         let start = Instant::now();
-        let changed = self.frames_mut()?.set_time(time)?;
+        let changed = self.frames.set_time(time)?;
         let camera = self.animated_camera();
         self.follow_frame(&changed, start.elapsed().as_secs_f64(), camera, true)
     }
@@ -118,54 +78,53 @@ impl Renderer {
                 problem: format!("[{open}, {close}] must be finite with open <= close"),
             });
         }
-        if let Some(phase) = self.plan.phases.iter().find(|p| {
+        if let Some(phase) = self.renderer.plan.phases.iter().find(|p| {
             matches!(p.when, crate::plan::When::FirstPassOfProcess | crate::plan::When::RenderStart)
         }) {
             return Err(Error::Setting {
                 name: "shutter".into(),
                 problem: format!(
                     "{} traces its {} phase once a render, so it would see one pose of the shutter: use pt, sppm or vcm",
-                    self.integrator.name(),
+                    self.renderer.integrator.name(),
                     phase.name
                 ),
             });
         }
-        self.frames_mut()?;
         let start = Instant::now();
-        let target = self.target;
-        let units = target.saturating_sub(self.done).max(1);
-        let first = self.done;
-        let mut report = self.report();
-        while self.done < target && !self.stopped {
-            let k = self.done - first;
+        let target = self.renderer.target;
+        let units = target.saturating_sub(self.renderer.done).max(1);
+        let first = self.renderer.done;
+        let mut report = self.renderer.report();
+        while self.renderer.done < target && !self.renderer.stopped {
+            let k = self.renderer.done - first;
             let time = open + (k as f32 + 0.5) / units as f32 * (close - open);
-            let changed = self.frames_mut()?.set_time(time)?;
+            let changed = self.frames.set_time(time)?;
             let camera = self.animated_camera();
             self.follow_frame(&changed, 0.0, camera, false)?;
-            self.set_target(self.done + 1);
+            self.renderer.set_target(self.renderer.done + 1);
             let left = time_limit.map(|limit| limit - start.elapsed().as_secs_f64());
             if left.is_some_and(|l| l <= 0.0) {
                 break;
             }
-            let before = self.done;
-            report = self.run(left, &mut on_step);
+            let before = self.renderer.done;
+            report = self.renderer.run(left, &mut on_step);
             // Adaptive sampling that has converged stops a run without a sample (and without a
             // stop reason): the shutter's remaining times would be posed for nothing, forever.
-            if report.stopped_by.is_some() || self.done == before {
+            if report.stopped_by.is_some() || self.renderer.done == before {
                 break;
             }
         }
-        self.target = target;
+        self.renderer.target = target;
         Ok(report)
     }
 
     fn animated_camera(&self) -> bool {
-        self.frames.as_ref().and_then(|f| f.scene().animation.as_ref()).is_some_and(|a| a.camera.is_some())
+        self.frames.scene().animation.as_ref().is_some_and(|a| a.camera.is_some())
     }
 
     /// The animation's length in seconds (its last keyframe); 0 for a scene without one.
     pub fn animation_duration(&self) -> f32 {
-        self.frames.as_ref().and_then(|f| f.scene().animation.as_ref()).map_or(0.0, |a| a.duration)
+        self.frames.scene().animation.as_ref().map_or(0.0, |a| a.duration)
     }
 
     /// Place the camera: at `eye`, looking at `target`, `up` up, with vertical field of view `yfov`
@@ -177,7 +136,8 @@ impl Renderer {
         up: glam::Vec3,
         yfov: Option<f32>,
     ) -> Result<()> {
-        let current = self.world.resource::<CameraResource>().0.clone();
+        let renderer = &mut self.renderer;
+        let current = renderer.world.resource::<CameraResource>().0.clone();
         let bad = |problem: &str| Error::Setting { name: "camera".into(), problem: problem.into() };
         if !(eye.is_finite() && target.is_finite() && up.is_finite()) {
             return Err(bad("eye, target and up must be finite"));
@@ -199,7 +159,7 @@ impl Renderer {
             yfov: yfov.unwrap_or(current.yfov()),
             aspect_ratio: None,
         };
-        let mut run = self.run.clone();
+        let mut run = renderer.run.clone();
         run.camera.eye = None;
         run.camera.target = None;
         run.camera.up = None;
@@ -212,55 +172,50 @@ impl Renderer {
             run.film.filter,
         )
         .map_err(|e| bad(&e.to_string()))?;
-        if camera.has_lens() != self.features.lens {
+        if camera.has_lens() != renderer.features.lens {
             return Err(bad(
                 "the new camera has a lens where the render was planned without one, or the reverse",
             ));
         }
-        self.world.insert_resource(CameraResource(camera));
+        renderer.world.insert_resource(CameraResource(camera));
         self.restart_frame(true);
         Ok(())
     }
 
-    /// Whether the plan made view-independent light tracing (`pm`'s photon maps) in a pass already
-    /// run, or kept from an earlier frame.
-    fn photons_built(&self) -> bool {
-        let view_independent =
-            self.plan.phases.iter().any(|p| p.when == crate::plan::When::FirstPassOfProcess);
-        view_independent && (self.passes > 0 || self.light_kept)
-    }
-
     /// Whether this frame uses the light traced for an earlier one (`pm` after a camera-only move).
     pub fn photons_kept(&self) -> bool {
-        self.light_kept
+        self.renderer.light_kept
     }
 
     /// Follow moved meshes by `how` from here on (the default is [`BvhUpdate::TwoLevel`]; the others
     /// are there to be measured against it: `benches/animation.rs`); the BVHs are built anew for it.
     pub fn set_bvh_update(&mut self, how: BvhUpdate) -> Result<()> {
         self.bvh_update = how;
-        let frames = self.frames.as_ref().ok_or_else(|| Error::Setting {
-            name: "bvh update".into(),
-            problem: "this renderer does not keep its scene for frames: make it with Renderer::movable"
-                .into(),
-        })?;
         let render_scene = RenderScene::build_dynamic(
-            frames.scene(),
-            self.run.render.light_selection,
-            how.partition(&frames.dynamic),
+            self.frames.scene(),
+            self.renderer.run.render.light_selection,
+            how.partition(&self.frames.dynamic),
         );
-        self.check_features(&render_scene)?;
-        self.world.insert_resource(SceneResource::new(render_scene));
-        self.restart();
+        self.renderer.check_features(&render_scene)?;
+        self.renderer.world.insert_resource(SceneResource::new(render_scene));
+        self.renderer.restart();
         Ok(())
     }
 
-    fn frames_mut(&mut self) -> Result<&mut FrameScene> {
-        self.frames.as_mut().ok_or_else(|| Error::Setting {
-            name: "node".into(),
-            problem: "this renderer does not keep its scene for frames: make it with Renderer::movable"
-                .into(),
-        })
+    /// Start the image over; `light_unchanged` says that only the camera moved, and then what the
+    /// integrator traced from the lights alone, if it made it (`pm`'s photon maps), is kept.
+    fn restart_frame(&mut self, light_unchanged: bool) {
+        let keep_light = light_unchanged && self.photons_built();
+        self.renderer.start_over(keep_light);
+    }
+
+    /// Whether the plan made view-independent light tracing (`pm`'s photon maps) in a pass already
+    /// run, or kept from an earlier frame.
+    fn photons_built(&self) -> bool {
+        let renderer = &self.renderer;
+        let view_independent =
+            renderer.plan.phases.iter().any(|p| p.when == crate::plan::When::FirstPassOfProcess);
+        view_independent && (renderer.passes > 0 || renderer.light_kept)
     }
 
     /// The World follows the frame the scene now stands at, its meshes `changed` moved: the BVHs,
@@ -273,64 +228,50 @@ impl Renderer {
         camera: bool,
         restart: bool,
     ) -> Result<FrameUpdate> {
-        let frames = self.frames.as_ref().expect("called with frames");
+        let (renderer, frames) = (&mut self.renderer, &self.frames);
         let scene = frames.scene();
-        (self.integrator.check)(scene, &self.run)?;
+        (renderer.integrator.check)(scene, &renderer.run)?;
         let mut update = FrameUpdate { pose_seconds, ..FrameUpdate::default() };
-        let light_selection = self.run.render.light_selection;
+        let light_selection = renderer.run.render.light_selection;
         let lights_moved = scene.animation.as_ref().is_some_and(|a| !a.lights.is_empty());
         let geometry_changed = !changed.is_empty() || lights_moved;
         if geometry_changed {
             let mut render_scene =
-                self.world.remove_resource::<SceneResource>().expect("a scene").into_inner();
+                renderer.world.remove_resource::<SceneResource>().expect("a scene").into_inner();
             update.scene =
                 render_scene.update(scene, changed, &frames.dynamic, light_selection, self.bvh_update);
-            if let Err(e) = self.check_features(&render_scene) {
-                self.world.insert_resource(SceneResource::new(render_scene));
+            if let Err(e) = renderer.check_features(&render_scene) {
+                renderer.world.insert_resource(SceneResource::new(render_scene));
                 return Err(e);
             }
-            self.world.insert_resource(SceneResource::new(render_scene));
+            renderer.world.insert_resource(SceneResource::new(render_scene));
         }
         if camera {
             let start = Instant::now();
-            let current = &self.world.resource::<CameraResource>().0;
+            let current = &renderer.world.resource::<CameraResource>().0;
             let (width, height) = (current.width, current.height);
-            let render_scene = &**self.world.resource::<SceneResource>();
+            let render_scene = &**renderer.world.resource::<SceneResource>();
             let camera = crate::world::scene_camera(
                 scene.camera.clone(),
                 &scene.source,
-                &self.run,
+                &renderer.run,
                 render_scene,
                 width,
                 height,
             )?;
-            self.world.insert_resource(CameraResource(camera));
+            renderer.world.insert_resource(CameraResource(camera));
             update.camera_seconds = start.elapsed().as_secs_f64();
         }
         // What light does is the same when only the camera moved.
         if restart {
             self.restart_frame(!geometry_changed);
         }
-        update.photons_kept = self.light_kept;
+        update.photons_kept = self.renderer.light_kept;
         Ok(update)
-    }
-
-    fn check_features(&self, render_scene: &RenderScene) -> Result<()> {
-        let features = SceneFeatures::of(self.world.resource::<CameraResource>(), render_scene);
-        if !self.features.covers(features) {
-            return Err(Error::Setting {
-                name: "scene".into(),
-                problem: format!(
-                    "the new scene uses {features:?}, the render was planned for {:?}: make a new renderer for it",
-                    self.features
-                ),
-            });
-        }
-        Ok(())
     }
 }
 
-/// What following a frame cost ([`Renderer::set_time`], [`Renderer::move_node`]).
+/// What following a frame cost ([`FrameRun::set_time`], [`FrameRun::move_node`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FrameUpdate {
     /// Seconds posing the meshes (animations and moves).
