@@ -95,7 +95,7 @@ impl FrameRun {
         let units = target.saturating_sub(self.renderer.done).max(1);
         let first = self.renderer.done;
         let mut report = self.renderer.report();
-        while self.renderer.done < target && !self.renderer.stopped {
+        while self.renderer.done < target && !self.renderer.stops.stopped {
             let k = self.renderer.done - first;
             let time = open + (k as f32 + 0.5) / units as f32 * (close - open);
             let changed = self.frames.set_time(time)?;

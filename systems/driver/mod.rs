@@ -23,8 +23,6 @@ use caustica_core::scene::pose::FrameScene;
 use caustica_core::scene::{RunFile, Scene};
 pub use frames::{FrameRun, FrameUpdate};
 pub use shares::share_refusal;
-use std::sync::Arc;
-use std::sync::atomic::AtomicBool;
 
 pub use crate::world::{DEFAULT_RESOLUTION, MAX_WAVEFRONT, init_thread_pools, resolution, scene_world};
 
@@ -60,26 +58,18 @@ pub struct Renderer {
     first: u32,
     /// Progress aimed at.
     target: u32,
-    /// Set when a time limit stopped the render.
-    stopped: bool,
     /// Seconds spent rendering.
     seconds: f64,
     /// Where the time went, phase by phase (same order as the plan's).
     phase_times: Vec<PhaseTime>,
     /// Camera samples per pixel that one unit of progress stands for (`pm`: its final-gather rays).
     samples_per_unit: u32,
-    /// Set from outside (a signal handler, a host's UI) to stop the render at the next step.
-    interrupt: Arc<AtomicBool>,
+    /// When the pass loop stops.
+    stops: pass_loop::Stops,
     /// Largest pass, in units (`None`: what the plan chooses).
     max_pass: Option<u32>,
-    /// Why the last `run` ended early, if it did.
-    stopped_by: Option<StopReason>,
-    /// Stop only between passes, so that the film holds whole passes (checkpoints).
-    whole_passes: bool,
     /// The last pass has ended and no step of the next has run: the film holds exactly `done`.
     at_pass_boundary: bool,
-    /// Asked to end the running sample pass at the next whole unit (a checkpoint is due).
-    pass_end_requested: AtomicBool,
     /// The run asks for the `spp` feature image.
     spp_image: bool,
     /// What the phases that trace from the lights alone made for an earlier frame is in the World
@@ -139,16 +129,12 @@ impl Renderer {
             done: 0,
             first: 0,
             target,
-            stopped: false,
             seconds: 0.0,
             phase_times,
             samples_per_unit,
-            interrupt: Arc::new(AtomicBool::new(false)),
+            stops: pass_loop::Stops::default(),
             max_pass: None,
-            stopped_by: None,
-            whole_passes: false,
             at_pass_boundary: true,
-            pass_end_requested: AtomicBool::new(false),
             spp_image: run.film.aovs.contains(&caustica_core::film::aov::Aov::Spp),
             light_kept: false,
         })
@@ -163,8 +149,8 @@ impl Renderer {
     /// keeps what it has), as benchmarks do to measure the error after 1, 2, 4, … of them.
     pub fn set_target(&mut self, target: u32) {
         self.target = target;
-        self.stopped = false;
-        self.stopped_by = None;
+        self.stops.stopped = false;
+        self.stops.reason = None;
     }
 
     /// What the integrator is.
@@ -263,7 +249,7 @@ impl Renderer {
             wavefront,
             photons: None,
             hit_points: None,
-            stopped_by: self.stopped_by,
+            stopped_by: self.stops.reason,
             adaptive: self.adaptive_summary(),
             notes: Vec::new(),
         };

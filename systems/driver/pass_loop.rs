@@ -13,19 +13,53 @@ use std::time::Instant;
 /// limit, interrupts): long enough that the meeting costs nothing, short enough to stop promptly.
 const ROUND: std::time::Duration = std::time::Duration::from_millis(100);
 
+/// When the pass loop stops: what asks it to, from outside and from the render's own settings, and
+/// why it last did.
+#[derive(Default)]
+pub(super) struct Stops {
+    /// Set from outside (a signal handler, a host's UI) to stop the render at the next step.
+    pub(super) interrupt: Arc<AtomicBool>,
+    /// Set when an interrupt or a time limit stopped the render.
+    pub(super) stopped: bool,
+    /// Why the last `run` ended early, if it did.
+    pub(super) reason: Option<StopReason>,
+    /// Stop only between passes, so that the film holds whole passes (checkpoints).
+    whole_passes: bool,
+    /// Asked to end the running sample pass at the next whole unit (a checkpoint is due).
+    pass_end_requested: AtomicBool,
+}
+
+impl Stops {
+    fn stop(&mut self, reason: StopReason) {
+        self.stopped = true;
+        self.reason.get_or_insert(reason);
+    }
+
+    /// Whether to stop now, and why: the interrupt flag first, then the time limit.
+    fn due(&self, deadline: Option<(Instant, f64)>) -> Option<StopReason> {
+        if self.interrupt.load(Ordering::Relaxed) {
+            Some(StopReason::Interrupted)
+        } else if deadline.is_some_and(|(start, limit)| start.elapsed().as_secs_f64() >= limit) {
+            Some(StopReason::TimeLimit)
+        } else {
+            None
+        }
+    }
+}
+
 impl Renderer {
     /// Stop for a signal or the time limit only between passes, so that the film always holds whole
     /// passes (what a checkpoint needs): a photon pass in flight is finished first, a sample pass
     /// is cut at the next whole sample per pixel.
     pub fn set_whole_passes(&mut self, whole: bool) {
-        self.whole_passes = whole;
+        self.stops.whole_passes = whole;
     }
 
     /// End the running sample pass at the next whole sample per pixel, so that a checkpoint can be
     /// written soon without cutting every pass short (each pass's tail, its last paths alone on the
     /// cores, costs time). Photon passes end by themselves; callable from `on_step`.
     pub fn request_pass_end(&self) {
-        self.pass_end_requested.store(true, Ordering::Relaxed);
+        self.stops.pass_end_requested.store(true, Ordering::Relaxed);
     }
 
     /// Cut the running sample pass `begin..end` at the next whole unit past the samples handed out
@@ -54,13 +88,13 @@ impl Renderer {
     /// The flag that stops the render at its next step when raised (from a signal handler or another
     /// thread): no new work starts, what is in flight finishes, and the image so far stays valid.
     pub fn interrupt_flag(&self) -> Arc<AtomicBool> {
-        self.interrupt.clone()
+        self.stops.interrupt.clone()
     }
 
     /// Clear a stop (an interrupt, a time limit) so that `run` goes on from where it stopped.
     pub fn clear_stop(&mut self) {
-        self.interrupt.store(false, Ordering::Relaxed);
-        self.stopped = false;
+        self.stops.interrupt.store(false, Ordering::Relaxed);
+        self.stops.stopped = false;
     }
 
     /// Cut passes to at most `units` samples per pixel (or passes), so that a caller gets control —
@@ -71,7 +105,7 @@ impl Renderer {
 
     /// Why the last run stopped before its target, if it did.
     pub fn stopped_by(&self) -> Option<StopReason> {
-        self.stopped_by
+        self.stops.reason
     }
 
     /// Run passes until the target is reached or, with `time_limit`, that many seconds have passed:
@@ -81,8 +115,8 @@ impl Renderer {
     pub fn run(&mut self, time_limit: Option<f64>, mut on_step: impl FnMut(&Renderer)) -> Report {
         let start = Instant::now();
         let deadline = time_limit.map(|limit| (start, limit));
-        self.stopped_by = None;
-        while self.done < self.target && !self.stopped && !self.converged() {
+        self.stops.reason = None;
+        while self.done < self.target && !self.stops.stopped && !self.converged() {
             self.run_pass(deadline, &mut on_step);
         }
         self.report()
@@ -98,7 +132,7 @@ impl Renderer {
         }
         self.world.insert_resource(PassRange { index, begin, end, stop: false });
         self.at_pass_boundary = false;
-        self.pass_end_requested.store(false, Ordering::Relaxed);
+        self.stops.pass_end_requested.store(false, Ordering::Relaxed);
         let mut cut = false;
         let _span = tracing::info_span!("pass", index).entered();
         for i in 0..self.plan.phases.len() {
@@ -130,12 +164,11 @@ impl Renderer {
                         busy(&self.world)
                     }
                 };
-                let whole_passes = self.whole_passes || self.integrator.whole_passes;
-                if let Some(reason) = self.should_stop(deadline) {
+                let whole_passes = self.stops.whole_passes || self.integrator.whole_passes;
+                if let Some(reason) = self.stops.due(deadline) {
                     if self.plan.phases[i].dropped_on_stop && busy {
                         // Nothing of this pass is in the film yet: stop now, not at the phase's end.
-                        self.stopped = true;
-                        self.stopped_by.get_or_insert(reason);
+                        self.stops.stop(reason);
                         self.phase_times[i].seconds += phase_start.elapsed().as_secs_f64();
                         self.phase_times[i].runs += runs;
                         self.at_pass_boundary = true;
@@ -147,15 +180,14 @@ impl Renderer {
                     if !whole_passes {
                         self.world.resource_mut::<PassRange>().stop = true;
                     }
-                    self.stopped = true;
-                    self.stopped_by.get_or_insert(reason);
+                    self.stops.stop(reason);
                 }
-                let end_requested = self.pass_end_requested.swap(false, Ordering::Relaxed);
-                if self.whole_passes
+                let end_requested = self.stops.pass_end_requested.swap(false, Ordering::Relaxed);
+                if self.stops.whole_passes
                     && !self.integrator.whole_passes
                     && self.integrator.unit == Unit::Samples
                     && !cut
-                    && (self.stopped || end_requested)
+                    && (self.stops.stopped || end_requested)
                 {
                     end = self.cut_sample_pass(begin, end);
                     cut = true;
@@ -175,23 +207,11 @@ impl Renderer {
         self.done = end;
         self.at_pass_boundary = true;
         self.seconds += pass_start.elapsed().as_secs_f64();
-        if let Some(reason) = self.should_stop(deadline)
+        if let Some(reason) = self.stops.due(deadline)
             && self.done < self.target
         {
-            self.stopped = true;
-            self.stopped_by.get_or_insert(reason);
+            self.stops.stop(reason);
         }
         on_step(self);
-    }
-
-    /// Whether to stop now, and why: the interrupt flag first, then the time limit.
-    fn should_stop(&self, deadline: Option<(Instant, f64)>) -> Option<StopReason> {
-        if self.interrupt.load(Ordering::Relaxed) {
-            Some(StopReason::Interrupted)
-        } else if deadline.is_some_and(|(start, limit)| start.elapsed().as_secs_f64() >= limit) {
-            Some(StopReason::TimeLimit)
-        } else {
-            None
-        }
     }
 }

@@ -49,9 +49,9 @@ impl Renderer {
         }
         self.passes = 0;
         self.done = self.first;
-        self.stopped = false;
-        self.stopped_by = None;
-        self.interrupt.store(false, Ordering::Relaxed);
+        self.stops.stopped = false;
+        self.stops.reason = None;
+        self.stops.interrupt.store(false, Ordering::Relaxed);
         self.seconds = 0.0;
         self.phase_times.iter_mut().for_each(|t| (t.seconds, t.runs) = (0.0, 0));
     }
