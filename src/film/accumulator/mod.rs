@@ -52,12 +52,12 @@ pub struct PartInfo {
 }
 
 impl PartInfo {
-    /// Share `part` (from 1) of `parts` of the render `run` sets up of `scene`, of `units` samples
-    /// per pixel or passes in all: its units, and the fingerprint a merge checks; `per_unit` is 1
-    /// until the renderer says more. The problem, if the share cannot exist.
+    /// Share `part` (from 1) of `parts` of a render of `units` samples per pixel or passes in all,
+    /// by `integrator`, whose scene and settings `fingerprint` names (the merge checks it): its
+    /// units; `per_unit` is 1 until the renderer says more. The problem, if the share cannot exist.
     pub fn of_share(
-        scene: &crate::scene::Scene,
-        run: &crate::scene::RunFile,
+        fingerprint: String,
+        integrator: &str,
         units: u32,
         part: u32,
         parts: u32,
@@ -71,8 +71,8 @@ impl PartInfo {
             ));
         }
         Ok(Self {
-            fingerprint: crate::scene::fingerprint::fingerprint(scene, run),
-            integrator: format!("{:?}", run.render.integrator).to_lowercase(),
+            fingerprint,
+            integrator: integrator.to_owned(),
             part,
             parts,
             samples: Self::share(part, parts, units),
