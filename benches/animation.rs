@@ -9,8 +9,7 @@
 //!
 //! Run: `cargo bench --bench animation`.
 
-use caustica::Renderer;
-use caustica::driver::init_thread_pools;
+use caustica::driver::{FrameRun, init_thread_pools};
 use caustica::render_scene::BvhUpdate;
 use caustica::scene::load;
 use glam::{Mat4, Vec3};
@@ -29,14 +28,14 @@ fn main() {
     let triangles: usize = scene.meshes.iter().map(|m| m.indices.len()).sum();
     println!("scene {} ({triangles} triangles), moving node 'light', pt 16 spp 256x256", path.display());
     let ways = [BvhUpdate::TwoLevel, BvhUpdate::Refit, BvhUpdate::Rebuild];
-    let mut renderers: Vec<Renderer> = ways
+    let mut frame_runs: Vec<FrameRun> = ways
         .iter()
         .map(|&how| {
-            let mut renderer = Renderer::movable(scene.clone(), &run).expect("prepares");
-            renderer.set_bvh_update(how).expect("sets");
+            let mut frame_run = FrameRun::new(scene.clone(), &run).expect("prepares");
+            frame_run.set_bvh_update(how).expect("sets");
             // The first move may build anew (the light joins the dynamic set); the frames after it count.
-            renderer.move_node("light", Mat4::IDENTITY).expect("moves");
-            renderer
+            frame_run.move_node("light", Mat4::IDENTITY).expect("moves");
+            frame_run
         })
         .collect();
     let frames = 12;
@@ -48,12 +47,12 @@ fn main() {
         let mut order: Vec<usize> = (0..ways.len()).collect();
         order.rotate_left(frame % ways.len());
         for w in order {
-            let (renderer, (sums, builds)) = (&mut renderers[w], &mut totals[w]);
-            let update = renderer.move_node("light", m).expect("moves");
+            let (frame_run, (sums, builds)) = (&mut frame_runs[w], &mut totals[w]);
+            let update = frame_run.move_node("light", m).expect("moves");
             sums[0] += update.pose_seconds;
             sums[1] += update.scene.geometry_seconds;
             sums[2] += update.scene.lights_seconds;
-            sums[3] += renderer.run(None, |_| {}).seconds;
+            sums[3] += frame_run.renderer_mut().run(None, |_| {}).seconds;
             *builds += update.scene.whole_build as u32;
         }
     }

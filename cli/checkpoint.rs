@@ -47,7 +47,7 @@ pub struct Resumed {
 fn identity(scene: &Scene, run: &RunFile) -> (String, String) {
     (
         caustica::scene::fingerprint::fingerprint(scene, run),
-        format!("{:?}", run.render.integrator).to_lowercase(),
+        caustica::Choice::name(run.render.integrator).to_owned(),
     )
 }
 

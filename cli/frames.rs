@@ -6,7 +6,7 @@ use crate::args::RenderArgs;
 use crate::report::{Timing, print_report};
 use anyhow::{Context, Result};
 use caustica::Renderer;
-use caustica::driver::StopReason;
+use caustica::driver::{FrameRun, StopReason};
 use caustica::film::aov::Aov;
 use caustica::film::output;
 use caustica::scene::{RunFile, Scene};
@@ -104,9 +104,9 @@ pub fn render_frames(
             (animation.duration * fps).floor()
         );
     }
-    let mut renderer = Renderer::new(scene, run).context(format!("preparing {}", scene_path.display()))?;
+    let mut frame_run = FrameRun::new(scene, run).context(format!("preparing {}", scene_path.display()))?;
     let setup = start.elapsed().as_secs_f64();
-    crate::signals::watch_for_signals(&renderer);
+    crate::signals::watch_for_signals(frame_run.renderer());
     let frames = range.len() as u64;
     let bar = if args.quiet { ProgressBar::hidden() } else { ProgressBar::new(frames) };
     bar.set_style(
@@ -120,7 +120,7 @@ pub fn render_frames(
         let time = frame as f32 / fps;
         let mut times = FrameTimes::default();
         if frame != range.start || time != 0.0 {
-            let update = renderer.set_time(time).with_context(|| format!("frame {frame} at {time} s"))?;
+            let update = frame_run.set_time(time).with_context(|| format!("frame {frame} at {time} s"))?;
             times.pose = update.pose_seconds + update.camera_seconds;
             times.bvh = update.scene.geometry_seconds;
             times.lights = update.scene.lights_seconds;
@@ -137,10 +137,11 @@ pub fn render_frames(
             bar.set_message(format!("{:.1}/{} {}", p.done, p.target, p.unit.name()));
         };
         let report = match run.frames.shutter_of(frame) {
-            Some(shutter) => renderer.run_over_shutter(shutter, run.render.time_limit, show)?,
-            None => renderer.run(run.render.time_limit, show),
+            Some(shutter) => frame_run.run_over_shutter(shutter, run.render.time_limit, show)?,
+            None => frame_run.renderer_mut().run(run.render.time_limit, show),
         };
         times.render = render_start.elapsed().as_secs_f64();
+        let renderer = frame_run.renderer();
         let image = renderer.image();
         let write_start = Instant::now();
         let features = renderer.aov_images();

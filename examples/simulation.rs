@@ -10,11 +10,12 @@
 //! ```
 
 use bevy_ecs::prelude::*;
+use caustica::PassSystems;
 use caustica::camera_paths::PathQueues;
+use caustica::driver::FrameRun;
 use caustica::film::output::write_image;
 use caustica::scene::{IntegratorKind, load};
 use caustica::shards::ShardLink;
-use caustica::{PassSystems, Renderer};
 use glam::{Mat4, Vec3};
 use std::path::Path;
 
@@ -45,9 +46,10 @@ fn main() -> anyhow::Result<()> {
     run.film.width = Some(SIZE);
     run.film.height = Some(SIZE);
 
-    // Caustica's World and plan, with the host's resource and system in them; `movable` keeps the
+    // Caustica's World and plan, with the host's resource and system in them; a `FrameRun` keeps the
     // scene as loaded, which `move_node` moves.
-    let mut renderer = Renderer::movable(scene, &run)?;
+    let mut frame_run = FrameRun::new(scene, &run)?;
+    let renderer = frame_run.renderer_mut();
     renderer.world.insert_resource(Simulation::default());
     let bounce = renderer.plan.phase_mut("bounce").expect("pt has a bounce phase");
     bounce.add_path_systems(|schedule| {
@@ -60,7 +62,8 @@ fn main() -> anyhow::Result<()> {
         // Move the short block along +x: the renderer rebuilds what its systems trace against and
         // starts a black film, on the same entities.
         let offset = Vec3::new(0.04 * frame as f32 - 0.06, 0.0, 0.0);
-        renderer.move_node("short_block", Mat4::from_translation(offset))?;
+        frame_run.move_node("short_block", Mat4::from_translation(offset))?;
+        let renderer = frame_run.renderer_mut();
         renderer.world.resource_mut::<Simulation>().bounces = 0;
         renderer.run(None, |_| {});
         let image = renderer.image();

@@ -119,17 +119,16 @@ impl RenderScene {
     pub fn shading_params(&self, hit: &SurfaceHit) -> ShadingParams {
         let m = &self.materials[hit.material as usize];
         let lookup = |t: &TextureRef| t.lookup(&self.textures, hit.uv[(t.tex_coord as usize).min(1)]);
-        let mut base_color = m.base_color * hit.color;
+        let mut params = m.shading;
+        params.base_color *= hit.color;
         if let Some(t) = &m.base_color_texture {
-            base_color *= lookup(t).truncate();
+            params.base_color *= lookup(t).truncate();
         }
-        let (mut metallic, mut roughness) = (m.metallic, m.roughness);
         if let Some(t) = &m.metallic_roughness_texture {
             let texel = lookup(t);
-            roughness *= texel.y;
-            metallic *= texel.z;
+            params.roughness *= texel.y;
+            params.metallic *= texel.z;
         }
-        let mut params = m.shading_params(base_color, metallic, roughness);
         if let Some(t) = &m.clearcoat_texture {
             params.clearcoat *= lookup(t).x;
         }
@@ -158,7 +157,7 @@ impl RenderScene {
     pub fn coat_normal(&self, hit: &SurfaceHit, wo: Vec3) -> Option<Vec3> {
         let m = &self.materials[hit.material as usize];
         let (map, scale) = m.clearcoat_normal_texture.as_ref()?;
-        (m.clearcoat > 0.0).then(|| self.mapped_normal(hit, map, *scale, wo))
+        (m.shading.clearcoat > 0.0).then(|| self.mapped_normal(hit, map, *scale, wo))
     }
 
     /// The interpolated normal perturbed by tangent-space normal map `map` (x and y scaled by `scale`).
@@ -209,7 +208,7 @@ impl RenderScene {
     #[inline]
     pub fn is_volume(&self, material: u32) -> bool {
         let m = &self.materials[material as usize];
-        m.thickness > 0.0 && m.transmission > 0.0
+        m.shading.thickness > 0.0 && m.shading.transmission > 0.0
     }
 
     /// Whether any material is a pure delta (mirror, smooth glass): only then can caustics form.
@@ -219,10 +218,7 @@ impl RenderScene {
 
     /// The materials that are pure deltas (mirrors, smooth glass), by name.
     pub fn specular_materials(&self) -> impl Iterator<Item = &str> {
-        self.materials
-            .iter()
-            .filter(|m| Bsdf::new(&m.shading_params(m.base_color, m.metallic, m.roughness)).is_delta())
-            .map(|m| m.name.as_str())
+        self.materials.iter().filter(|m| Bsdf::new(&m.shading).is_delta()).map(|m| m.name.as_str())
     }
 
     /// Total surface area of the primitives (for the initial-radius heuristic of progressive photon

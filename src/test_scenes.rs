@@ -1,5 +1,6 @@
 //! Procedural scenes for tests and benches (no files needed), like obvhs's `test_util`.
 
+use crate::materials::ShadingParams;
 use crate::scene::{CameraDesc, MaterialDesc, Mesh, Scene};
 use glam::{Mat4, Vec2, Vec3};
 
@@ -7,9 +8,12 @@ use glam::{Mat4, Vec2, Vec3};
 pub fn diffuse(name: &str, albedo: Vec3, emission: Vec3) -> MaterialDesc {
     MaterialDesc {
         name: name.into(),
-        base_color: albedo,
-        metallic: 0.0,
-        specular: 0.0,
+        shading: ShadingParams {
+            base_color: albedo,
+            metallic: 0.0,
+            specular: 0.0,
+            ..ShadingParams::default()
+        },
         emission,
         double_sided: true,
         ..MaterialDesc::default()

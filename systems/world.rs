@@ -125,7 +125,7 @@ pub fn add_films(world: &mut World, run: &RunFile) -> Result<()> {
         let camera = world.resource::<CameraResource>();
         (camera.width, camera.height)
     };
-    let budget = crate::integrators::memory::budget(run);
+    let budget = run.memory_budget_bytes();
     world.insert_resource(FilmResource::new(Film::try_new(width, height, budget)?));
     if run.film.aovs.iter().any(|aov| aov.needs_surface()) {
         world.insert_resource(AovFilmResource::new(AovFilm::try_new(width, height, budget)?));

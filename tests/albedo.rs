@@ -48,18 +48,7 @@ fn mitsuba_albedos() -> Vec<Row> {
 }
 
 fn params(lobe: &str, roughness: f32) -> ShadingParams {
-    let base = ShadingParams {
-        base_color: Vec3::ONE,
-        metallic: 0.0,
-        roughness,
-        transmission: 0.0,
-        ior: 1.5,
-        specular: 1.0,
-        specular_color: Vec3::ONE,
-        clearcoat: 0.0,
-        clearcoat_roughness: 0.0,
-        thin_walled: false,
-    };
+    let base = ShadingParams { metallic: 0.0, roughness, thickness: 1.0, ..ShadingParams::default() };
     match lobe {
         "conductor" => ShadingParams { metallic: 1.0, ..base },
         "dielectric" => ShadingParams { transmission: 1.0, ..base },

@@ -7,8 +7,7 @@
 
 use crate::common;
 
-use caustica::Renderer;
-use caustica::driver::init_thread_pools;
+use caustica::driver::{FrameRun, init_thread_pools};
 use caustica::film::Image;
 use caustica::scene::pose::FrameScene;
 use caustica::scene::{IntegratorKind, RunFile, Scene, load};
@@ -71,7 +70,7 @@ fn frame_equals_the_posed_file(name: &str, times: &[f32]) {
     let file = common::data(&format!("gltf-samples/{name}"));
     let (scene, run) = setup(&file);
     let dir = tempfile::tempdir().unwrap();
-    let mut renderer = Renderer::new(scene.clone(), &run).unwrap();
+    let mut frame_run = FrameRun::new(scene.clone(), &run).unwrap();
     let mut frames = FrameScene::new(scene.clone());
     let mut images = Vec::new();
     for &t in times {
@@ -81,7 +80,8 @@ fn frame_equals_the_posed_file(name: &str, times: &[f32]) {
         assert!(posed.animation.is_none());
         same_meshes(frames.scene(), &posed, &format!("{name} at {t} s"));
 
-        renderer.set_time(t).unwrap();
+        frame_run.set_time(t).unwrap();
+        let renderer = frame_run.renderer_mut();
         assert_eq!(renderer.units_done(), 0, "a new frame starts the image over");
         renderer.run(None, |_| {});
         let frame = bits(&renderer.image());
@@ -126,19 +126,20 @@ fn pm_keeps_its_photon_maps_when_only_the_camera_moves() {
         run.render.spp = 2;
         (run.film.width, run.film.height) = (Some(24), Some(24));
         (run.photons.photons, run.photons.caustic_photons) = (4000, 0);
-        let mut renderer = Renderer::new(scene.clone(), &run).unwrap();
-        renderer.run(None, |_| {});
+        let mut frame_run = FrameRun::new(scene.clone(), &run).unwrap();
+        frame_run.renderer_mut().run(None, |_| {});
         for t in [0.5, 1.0] {
-            let update = renderer.set_time(t).unwrap();
+            let update = frame_run.set_time(t).unwrap();
             assert!(update.photons_kept, "{}: at {t} s the photon maps were traced again", file.display());
-            let report = renderer.run(None, |_| {});
+            let report = frame_run.renderer_mut().run(None, |_| {});
             let photon_phase = report.phases.iter().find(|p| p.name == "photons").map_or(0, |p| p.runs);
             assert_eq!(photon_phase, 0, "at {t} s a photon pass ran");
             // A renderer of the same file posed at t, from scratch, traces the same maps.
-            let mut fresh = Renderer::new(scene.clone(), &run).unwrap();
+            let mut fresh = FrameRun::new(scene.clone(), &run).unwrap();
             fresh.set_time(t).unwrap();
-            fresh.run(None, |_| {});
-            assert_eq!(bits(&renderer.image()), bits(&fresh.image()), "{}: at {t} s", file.display());
+            fresh.renderer_mut().run(None, |_| {});
+            let (kept, fresh) = (frame_run.renderer().image(), fresh.renderer().image());
+            assert_eq!(bits(&kept), bits(&fresh), "{}: at {t} s", file.display());
         }
     }
 }
@@ -178,14 +179,16 @@ fn a_blurred_frame_is_the_sum_of_its_samples_each_posed_at_its_own_time() {
     let (scene, mut run) = setup(&common::data("gltf-samples/AnimatedTriangle.gltf"));
     run.render.spp = 4;
     let (open, close) = (0.1f32, 0.35f32);
-    let mut blurred = Renderer::new(scene.clone(), &run).unwrap();
+    let mut blurred = FrameRun::new(scene.clone(), &run).unwrap();
     blurred.run_over_shutter((open, close), None, |_| {}).unwrap();
+    let blurred = blurred.renderer();
     let pixels = (24 * 24) as u32;
     let mut sums = vec![([0i128; 3], 0u32); pixels as usize];
     for k in 0..4u32 {
         let time = open + (k as f32 + 0.5) / 4.0 * (close - open);
-        let mut one = Renderer::new(scene.clone(), &run).unwrap();
-        one.set_time(time).unwrap();
+        let mut posed = FrameRun::new(scene.clone(), &run).unwrap();
+        posed.set_time(time).unwrap();
+        let one = posed.renderer_mut();
         one.set_samples(k..k + 1).unwrap();
         one.run(None, |_| {});
         for (pixel, sum) in sums.iter_mut().enumerate() {
@@ -199,10 +202,10 @@ fn a_blurred_frame_is_the_sum_of_its_samples_each_posed_at_its_own_time() {
     for (pixel, sum) in sums.iter().enumerate() {
         assert_eq!(blurred.film().sums(pixel as u32), *sum, "pixel {pixel}");
     }
-    let mut sharp = Renderer::new(scene.clone(), &run).unwrap();
+    let mut sharp = FrameRun::new(scene.clone(), &run).unwrap();
     sharp.set_time(0.5 * (open + close)).unwrap();
-    sharp.run(None, |_| {});
-    assert_ne!(bits(&blurred.image()), bits(&sharp.image()), "the blur is the middle pose");
+    sharp.renderer_mut().run(None, |_| {});
+    assert_ne!(bits(&blurred.image()), bits(&sharp.renderer().image()), "the blur is the middle pose");
 }
 
 /// Adaptive sampling under a shutter: once every pixel has converged the blurred frame ends (a run
@@ -214,9 +217,9 @@ fn a_blurred_frame_with_adaptive_sampling_ends_when_its_pixels_converge() {
     std::thread::spawn(move || {
         let (scene, mut run) = setup(&common::data("gltf-samples/AnimatedTriangle.gltf"));
         (run.render.spp, run.render.noise_threshold, run.render.min_spp) = (1024, 0.5, 4);
-        let mut renderer = Renderer::new(scene, &run).unwrap();
-        renderer.run_over_shutter((0.1, 0.35), None, |_| {}).unwrap();
-        tx.send(renderer.units_done()).unwrap();
+        let mut frame_run = FrameRun::new(scene, &run).unwrap();
+        frame_run.run_over_shutter((0.1, 0.35), None, |_| {}).unwrap();
+        tx.send(frame_run.renderer().units_done()).unwrap();
     });
     let done = rx.recv_timeout(std::time::Duration::from_secs(120)).expect("the blurred frame never ended");
     assert!((4..1024).contains(&done), "{done} samples per pixel: the pixels should converge early");
@@ -229,9 +232,10 @@ fn the_shutter_is_refused_where_a_render_traces_its_light_once() {
     let (scene, mut run) = setup(&common::data("gltf-samples/AnimatedTriangle.gltf"));
     for kind in [IntegratorKind::Pm, IntegratorKind::Ppm] {
         run.render.integrator = kind;
-        let mut renderer = Renderer::new(scene.clone(), &run).unwrap();
-        let message = renderer.run_over_shutter((0.0, 0.1), None, |_| {}).unwrap_err().to_string();
-        assert!(message.contains(renderer.integrator().name()) && message.contains("once"), "{message}");
+        let mut frame_run = FrameRun::new(scene.clone(), &run).unwrap();
+        let message = frame_run.run_over_shutter((0.0, 0.1), None, |_| {}).unwrap_err().to_string();
+        let name = frame_run.renderer().integrator().name();
+        assert!(message.contains(name) && message.contains("once"), "{message}");
     }
 }
 

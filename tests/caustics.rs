@@ -23,6 +23,7 @@ use caustica::Renderer;
 use caustica::camera::look_at;
 use caustica::driver::init_thread_pools;
 use caustica::film::Image;
+use caustica::materials::ShadingParams;
 use caustica::materials::fresnel::fresnel_dielectric;
 use caustica::scene::punctual::{PunctualKind, PunctualLightDesc};
 use caustica::scene::{CameraDesc, IntegratorKind, MaterialDesc, RunFile, Scene};
@@ -59,11 +60,14 @@ const T_QUANTILE: f64 = 4.88;
 fn glass() -> MaterialDesc {
     MaterialDesc {
         name: "glass".into(),
-        metallic: 0.0,
-        roughness: 0.0,
-        transmission: 1.0,
-        ior: IOR,
-        thickness: SLAB,
+        shading: ShadingParams {
+            metallic: 0.0,
+            roughness: 0.0,
+            transmission: 1.0,
+            ior: IOR,
+            thickness: SLAB,
+            ..ShadingParams::default()
+        },
         ..MaterialDesc::default()
     }
 }

@@ -5,7 +5,7 @@
 use crate::common;
 
 use caustica::Renderer;
-use caustica::driver::init_thread_pools;
+use caustica::driver::{FrameRun, init_thread_pools};
 use caustica::film::Image;
 use caustica::scene::{RunFile, Scene, load};
 use glam::{Mat4, Vec3};
@@ -31,13 +31,13 @@ fn rendered(renderer: &mut Renderer) -> Vec<[u32; 3]> {
 fn a_moved_node_renders_the_file_posed_the_same_way_and_the_identity_puts_it_back() {
     init_thread_pools(None);
     let (scene, run) = setup(&common::data("cornell-box.gltf"));
-    let mut renderer = Renderer::movable(scene, &run).unwrap();
-    let loaded = rendered(&mut renderer);
+    let mut frame_run = FrameRun::new(scene, &run).unwrap();
+    let loaded = rendered(frame_run.renderer_mut());
 
     let shift = Vec3::new(0.12, 0.0, 0.0);
-    renderer.move_node("short_block", Mat4::from_translation(shift)).unwrap();
-    assert_eq!(renderer.units_done(), 0, "a move starts the image over");
-    let moved = rendered(&mut renderer);
+    frame_run.move_node("short_block", Mat4::from_translation(shift)).unwrap();
+    assert_eq!(frame_run.renderer().units_done(), 0, "a move starts the image over");
+    let moved = rendered(frame_run.renderer_mut());
     assert_ne!(moved, loaded);
 
     // The same translation written into the file's node, placed by the loader.
@@ -51,26 +51,24 @@ fn a_moved_node_renders_the_file_posed_the_same_way_and_the_identity_puts_it_bac
     let (posed, _) = setup(&posed_file);
     assert_eq!(moved, bits(&common::render(posed, &run)), "not the scene with the block moved");
 
-    renderer.move_node("short_block", Mat4::IDENTITY).unwrap();
-    assert_eq!(rendered(&mut renderer), loaded, "the identity does not restore the loaded scene");
+    frame_run.move_node("short_block", Mat4::IDENTITY).unwrap();
+    assert_eq!(rendered(frame_run.renderer_mut()), loaded, "the identity does not restore the loaded scene");
 }
 
 #[test]
 fn bad_moves_and_scenes_the_plan_was_not_built_for_are_refused() {
     init_thread_pools(None);
     let (scene, run) = setup(&common::data("cornell-box.gltf"));
-    let mut movable = Renderer::movable(scene.clone(), &run).unwrap();
-    let message = movable.move_node("no_such_node", Mat4::IDENTITY).unwrap_err().to_string();
+    let mut frame_run = FrameRun::new(scene.clone(), &run).unwrap();
+    let message = frame_run.move_node("no_such_node", Mat4::IDENTITY).unwrap_err().to_string();
     assert!(message.contains("no_such_node"), "{message}");
-    let message = movable.move_node("short_block", Mat4::ZERO).unwrap_err().to_string();
+    let message = frame_run.move_node("short_block", Mat4::ZERO).unwrap_err().to_string();
     assert!(message.contains("invertible"), "{message}");
     let mut fixed = Renderer::new(scene.clone(), &run).unwrap();
-    let message = fixed.move_node("short_block", Mat4::IDENTITY).unwrap_err().to_string();
-    assert!(message.contains("movable"), "{message}");
 
     // Mirrors where there were none: caustics, which the plan was built without.
     let mut mirrored = scene.clone();
-    mirrored.materials.iter_mut().for_each(|m| (m.metallic, m.roughness) = (1.0, 0.0));
+    mirrored.materials.iter_mut().for_each(|m| (m.shading.metallic, m.shading.roughness) = (1.0, 0.0));
     let message = fixed.replace_scene(&mirrored).unwrap_err().to_string();
     assert!(message.contains("new renderer"), "{message}");
     // The same scene is taken, and renders what a new renderer renders.
@@ -126,13 +124,13 @@ fn every_way_of_following_a_move_renders_the_posed_file() {
     let (posed, _) = setup(&posed_file);
     let expected = bits(&common::render(posed, &run));
     for how in [BvhUpdate::TwoLevel, BvhUpdate::Refit, BvhUpdate::Rebuild] {
-        let mut renderer = Renderer::movable(scene.clone(), &run).unwrap();
-        renderer.set_bvh_update(how).unwrap();
+        let mut frame_run = FrameRun::new(scene.clone(), &run).unwrap();
+        frame_run.set_bvh_update(how).unwrap();
         // Twice: the first move may build anew (the node joins the dynamic set); the second cannot.
-        renderer.move_node("tall_block", Mat4::from_translation(-shift)).unwrap();
-        let update = renderer.move_node("tall_block", Mat4::from_translation(shift)).unwrap();
+        frame_run.move_node("tall_block", Mat4::from_translation(-shift)).unwrap();
+        let update = frame_run.move_node("tall_block", Mat4::from_translation(shift)).unwrap();
         assert_eq!(update.scene.whole_build, how == BvhUpdate::Rebuild, "{how:?}");
-        assert_eq!(rendered(&mut renderer), expected, "{how:?}");
+        assert_eq!(rendered(frame_run.renderer_mut()), expected, "{how:?}");
     }
 }
 
@@ -154,11 +152,11 @@ fn a_frame_whose_emitters_are_gone_is_dark_and_a_flattened_mesh_keeps_finite_nor
     let (scene, mut run) = setup(&cornell_scaling(dir.path(), "light", Vec3::ZERO));
     for integrator in [IntegratorKind::Pt, IntegratorKind::Pm, IntegratorKind::Sppm, IntegratorKind::Bdpt] {
         run.render.integrator = integrator;
-        let mut renderer = Renderer::new(scene.clone(), &run).unwrap();
-        renderer.set_time(1.0).unwrap();
-        let report = renderer.run(None, |_| {});
+        let mut frame_run = FrameRun::new(scene.clone(), &run).unwrap();
+        frame_run.set_time(1.0).unwrap();
+        let report = frame_run.renderer_mut().run(None, |_| {});
         assert_eq!(report.paths.nan_samples, 0, "{integrator:?}");
-        let lit = renderer.image().pixels.iter().filter(|p| **p != Vec3::ZERO).count();
+        let lit = frame_run.renderer().image().pixels.iter().filter(|p| **p != Vec3::ZERO).count();
         assert_eq!(lit, 0, "{integrator:?}: {lit} pixels lit with the light gone");
     }
 
@@ -176,9 +174,9 @@ fn a_frame_whose_emitters_are_gone_is_dark_and_a_flattened_mesh_keeps_finite_nor
         }
     }
     run.render.integrator = IntegratorKind::Pt;
-    let mut renderer = Renderer::new(scene, &run).unwrap();
-    renderer.set_time(1.0).unwrap();
-    assert_eq!(renderer.run(None, |_| {}).paths.nan_samples, 0);
+    let mut frame_run = FrameRun::new(scene, &run).unwrap();
+    frame_run.set_time(1.0).unwrap();
+    assert_eq!(frame_run.renderer_mut().run(None, |_| {}).paths.nan_samples, 0);
 }
 
 /// A pose the loader would have refused in a file (here the camera's node scaled to nothing: no
@@ -189,19 +187,19 @@ fn a_pose_without_a_camera_orientation_is_refused_and_the_frame_before_it_stays(
     init_thread_pools(None);
     let dir = tempfile::tempdir().unwrap();
     let (scene, run) = setup(&cornell_scaling(dir.path(), "camera", Vec3::ZERO));
-    let mut renderer = Renderer::new(scene, &run).unwrap();
-    let before = rendered(&mut renderer);
-    let error = renderer.set_time(1.0).expect_err("the camera has no orientation at 1 s").to_string();
+    let mut frame_run = FrameRun::new(scene, &run).unwrap();
+    let before = rendered(frame_run.renderer_mut());
+    let error = frame_run.set_time(1.0).expect_err("the camera has no orientation at 1 s").to_string();
     assert!(
         error.contains("scaling-camera.gltf") && error.contains("camera") && error.contains("at 1 s"),
         "{error}"
     );
-    renderer.set_time(0.5).unwrap();
-    assert_eq!(rendered(&mut renderer), before, "the pose before the refused one");
+    frame_run.set_time(0.5).unwrap();
+    assert_eq!(rendered(frame_run.renderer_mut()), before, "the pose before the refused one");
 }
 
 /// A mesh that rests at scale zero and that an animation scales up (an object that pops in) loads,
-/// and its frames have its triangles: it was refused as singular, or removed as empty.
+/// and its frame_run have its triangles: it was refused as singular, or removed as empty.
 #[test]
 fn a_mesh_resting_at_scale_zero_appears_when_its_animation_scales_it_up() {
     init_thread_pools(None);

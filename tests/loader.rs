@@ -89,7 +89,11 @@ fn cornell_box_loads_with_its_light_camera_and_resolution() {
     assert!(!emitters[0].double_sided, "the light is one-sided");
 
     let white = scene.materials.iter().find(|m| m.name == "white").expect("material 'white'");
-    assert_eq!((white.metallic, white.roughness, white.specular), (0.0, 1.0, 0.0), "diffuse encoding");
+    assert_eq!(
+        (white.shading.metallic, white.shading.roughness, white.shading.specular),
+        (0.0, 1.0, 0.0),
+        "diffuse encoding"
+    );
     assert!(white.double_sided);
 
     let camera = scene.camera.as_ref().expect("a camera");
@@ -109,11 +113,14 @@ fn cornell_box_loads_with_its_light_camera_and_resolution() {
 fn cornell_spheres_has_a_solid_glass_and_a_perfect_mirror() {
     let (scene, _) = scene::load(&data("cornell-spheres.gltf")).expect("cornell-spheres loads");
     let glass = scene.materials.iter().find(|m| m.name == "glass").expect("material 'glass'");
-    assert_eq!((glass.transmission, glass.ior), (1.0, 1.5));
-    assert!(glass.thickness > 0.0, "glass is a closed solid");
-    assert_eq!((glass.metallic, glass.roughness), (0.0, 0.0));
+    assert_eq!((glass.shading.transmission, glass.shading.ior), (1.0, 1.5));
+    assert!(glass.shading.thickness > 0.0, "glass is a closed solid");
+    assert_eq!((glass.shading.metallic, glass.shading.roughness), (0.0, 0.0));
     let mirror = scene.materials.iter().find(|m| m.name == "mirror").expect("material 'mirror'");
-    assert_eq!((mirror.metallic, mirror.roughness, mirror.base_color), (1.0, 0.0, Vec3::ONE));
+    assert_eq!(
+        (mirror.shading.metallic, mirror.shading.roughness, mirror.shading.base_color),
+        (1.0, 0.0, Vec3::ONE)
+    );
 
     // The sphere nodes scale a unit sphere by 0.1: world normals must stay unit length.
     let sphere =
@@ -139,7 +146,10 @@ fn triangle_without_normals_has_flat_normals_and_the_default_material() {
     assert_eq!(mesh.indices, vec![[0, 1, 2]]);
     assert_eq!(mesh.name, "node #0 mesh #0 primitive 0");
     let material = &scene.materials[mesh.material as usize];
-    assert_eq!((material.metallic, material.roughness, material.base_color), (1.0, 1.0, Vec3::ONE));
+    assert_eq!(
+        (material.shading.metallic, material.shading.roughness, material.shading.base_color),
+        (1.0, 1.0, Vec3::ONE)
+    );
     assert!(scene.camera.is_none() && scene.resolution.is_none());
 }
 
@@ -171,8 +181,8 @@ fn box_root_matrix_turns_z_up_into_y_up() {
     assert!(close(mesh.positions[0], Vec3::new(-0.5, 0.5, 0.5)), "vertex 0 is {}", mesh.positions[0]);
     assert!(close(mesh.normals.as_ref().expect("normals")[0], Vec3::Y));
     let material = &scene.materials[mesh.material as usize];
-    assert!(close(material.base_color, Vec3::new(0.8, 0.0, 0.0)));
-    assert_eq!((material.metallic, material.roughness), (1.0, 1.0), "glTF defaults");
+    assert!(close(material.shading.base_color, Vec3::new(0.8, 0.0, 0.0)));
+    assert_eq!((material.shading.metallic, material.shading.roughness), (1.0, 1.0), "glTF defaults");
 }
 
 #[test]
@@ -220,7 +230,7 @@ fn box_textured_decodes_its_texture_with_repeat_wrap() {
     let material = &scene.materials[mesh.material as usize];
     let reference = material.base_color_texture.expect("base colour texture");
     assert_eq!((reference.texture, reference.tex_coord, reference.transform), (0, 0, None));
-    assert_eq!(material.metallic, 0.0);
+    assert_eq!(material.shading.metallic, 0.0);
     assert!(!mesh.uvs.is_empty() && mesh.uvs[0].len() == mesh.positions.len(), "TEXCOORD_0 read");
     assert!(mesh.uvs[0].iter().any(|uv| uv.x > 1.0), "uvs outside [0, 1] are kept for Repeat");
     assert!(mesh.uvs[0].iter().all(|uv| uv.cmpge(Vec2::ZERO).all()));
@@ -506,8 +516,11 @@ translate = [0.05, 0.0, 0.0]
         ("ball", 0.1, Some(Vec3::new(0.0, 0.1, 0.0)))
     );
     let material = &scene.materials[sphere.material as usize];
-    assert_eq!((material.name.as_str(), material.transmission, material.ior), ("ball", 1.0, 1.33));
-    assert!(material.double_sided && material.thickness > 0.0);
+    assert_eq!(
+        (material.name.as_str(), material.shading.transmission, material.shading.ior),
+        ("ball", 1.0, 1.33)
+    );
+    assert!(material.double_sided && material.shading.thickness > 0.0);
     let moving: Vec<_> = scene.meshes.iter().filter(|m| m.motion.is_some()).collect();
     assert_eq!(moving.len(), 1);
     assert_eq!(moving[0].node_name.as_deref(), Some("short_block"));

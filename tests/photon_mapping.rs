@@ -75,14 +75,9 @@ fn uniform_photon_density_gives_the_same_radiance_with_every_kernel() {
     let bsdf = Bsdf::new(&ShadingParams {
         base_color: Vec3::splat(albedo),
         metallic: 0.0,
-        roughness: 1.0,
-        transmission: 0.0,
-        ior: 1.5,
         specular: 0.0,
-        specular_color: Vec3::ONE,
-        clearcoat: 0.0,
-        clearcoat_roughness: 0.0,
-        thin_walled: false,
+        thickness: 1.0,
+        ..ShadingParams::default()
     });
     let si = SurfaceHit {
         p: Vec3::new(0.5, 0.0, 0.5),

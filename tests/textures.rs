@@ -322,7 +322,7 @@ fn a_steep_normal_map_leaves_no_black_spots() {
             wrap_t: Wrap::Repeat,
         }];
         scene.materials[0].normal_texture = Some(TextureRef { texture: 0, tex_coord: 0, transform: None });
-        scene.materials[0].base_color = Vec3::splat(0.8);
+        scene.materials[0].shading.base_color = Vec3::splat(0.8);
         scene.materials[0].double_sided = false;
         scene.environment = Some(caustica::scene::environment::EnvironmentDesc::constant(Vec3::ONE));
         scene.camera.as_mut().unwrap().camera_to_world =
@@ -355,12 +355,13 @@ fn clearcoat_textures_are_read_and_scale_their_factors() {
     assert!(material("Partial_Coated").clearcoat_texture.is_some());
     assert!(material("RoughVariations_Coated").clearcoat_roughness_texture.is_some());
     assert!(
-        material("Simple_Coated").clearcoat > 0.0 && material("Simple_Coated").clearcoat_texture.is_none()
+        material("Simple_Coated").shading.clearcoat > 0.0
+            && material("Simple_Coated").clearcoat_texture.is_none()
     );
 
     let mut coated = diffuse("coated", Vec3::splat(0.5), Vec3::ZERO);
-    coated.clearcoat = 1.0;
-    coated.clearcoat_roughness = 0.5;
+    coated.shading.clearcoat = 1.0;
+    coated.shading.clearcoat_roughness = 0.5;
     coated.clearcoat_texture = Some(TextureRef { texture: 0, tex_coord: 0, transform: None });
     coated.clearcoat_roughness_texture = Some(TextureRef { texture: 0, tex_coord: 0, transform: None });
     let texel = Texture {

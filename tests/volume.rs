@@ -5,6 +5,7 @@ use crate::common;
 
 use caustica::camera::look_at;
 use caustica::film::Image;
+use caustica::materials::ShadingParams;
 use caustica::scene::{CameraDesc, IntegratorKind, MaterialDesc, Mesh, RunFile, Scene};
 use caustica::test_scenes::{diffuse, quad};
 use glam::Vec3;
@@ -33,11 +34,14 @@ fn cuboid(name: &str, min: Vec3, max: Vec3, material: u32) -> Mesh {
 fn absorber(sigma: Vec3) -> MaterialDesc {
     MaterialDesc {
         name: "absorber".into(),
-        metallic: 0.0,
-        roughness: 0.0,
-        transmission: 1.0,
-        ior: 1.0,
-        thickness: THICKNESS,
+        shading: ShadingParams {
+            metallic: 0.0,
+            roughness: 0.0,
+            transmission: 1.0,
+            ior: 1.0,
+            thickness: THICKNESS,
+            ..ShadingParams::default()
+        },
         attenuation: sigma,
         double_sided: true,
         ..MaterialDesc::default()

@@ -21,7 +21,7 @@ pub(crate) fn color_array<'py>(
 /// What a render did, as a dict of plain numbers.
 pub(crate) fn stats<'py>(py: Python<'py>, report: &caustica::Report) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
-    d.set_item("integrator", format!("{:?}", report.integrator).to_lowercase())?;
+    d.set_item("integrator", caustica::Choice::name(report.integrator))?;
     d.set_item("unit", if report.unit == Unit::Samples { "spp" } else { "passes" })?;
     d.set_item("done", report.done)?;
     d.set_item("target", report.target)?;

@@ -4,6 +4,7 @@
 use crate::convert::{aov_dict, color_array, image_of, stats};
 use crate::session::Session;
 use crate::{refused, run_detached};
+use caustica::driver::FrameRun;
 use caustica::film::accumulator;
 use caustica::film::aov::{Aov, AovImages};
 use caustica::scene::{self, RunFile};
@@ -72,19 +73,15 @@ impl Scene {
 
     /// A renderer of this scene with settings `run`, aiming at `target` units (samples per pixel, or
     /// passes) when given.
-    /// A renderer of these settings aiming at `target`; `movable` keeps the scene as loaded, for
-    /// `Session.set_transform`.
-    fn renderer(
-        &self,
-        py: Python<'_>,
-        run: &RunFile,
-        target: Option<(u32, &str)>,
-        movable: bool,
-    ) -> PyResult<Renderer> {
+    fn renderer(&self, py: Python<'_>, run: &RunFile, target: Option<(u32, &str)>) -> PyResult<Renderer> {
         let scene = self.scene.clone();
-        let made =
-            py.detach(|| if movable { Renderer::movable(scene, run) } else { Renderer::new(scene, run) });
-        let mut renderer = made.map_err(crate::render_error)?;
+        let mut renderer = py.detach(|| Renderer::new(scene, run)).map_err(crate::render_error)?;
+        self.aim(&mut renderer, target)?;
+        Ok(renderer)
+    }
+
+    /// Make `renderer` stop at whole units and aim at `target` when given.
+    fn aim(&self, renderer: &mut Renderer, target: Option<(u32, &str)>) -> PyResult<()> {
         // Stop (Ctrl-C, a time limit) only at whole samples per pixel or passes, so that `done` is
         // exact and a session that goes on renders what an uninterrupted one would.
         renderer.set_whole_passes(true);
@@ -103,7 +100,7 @@ impl Scene {
             }
             renderer.set_target(target);
         }
-        Ok(renderer)
+        Ok(())
     }
 }
 
@@ -127,7 +124,7 @@ impl Scene {
     /// The integrator the settings choose.
     #[getter]
     fn integrator(&self) -> String {
-        format!("{:?}", self.run.render.integrator).to_lowercase()
+        caustica::Choice::name(self.run.render.integrator).to_owned()
     }
 
     /// Render to the target, or to `spp`/`passes` when given, or until `time_limit` seconds, with
@@ -146,7 +143,7 @@ impl Scene {
             return Err(PyValueError::new_err("time_limit must be a positive number of seconds"));
         }
         let run = self.settings(&override_sets(py, overrides)?, &aovs)?;
-        let mut renderer = self.renderer(py, &run, target_of(spp, passes)?, false)?;
+        let mut renderer = self.renderer(py, &run, target_of(spp, passes)?)?;
         let report = run_detached(py, &mut renderer, time_limit)?;
         let (image, features) = py.detach(|| (renderer.image(), renderer.aov_images()));
         Ok(RenderResult {
@@ -220,8 +217,11 @@ impl Scene {
         overrides: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Session> {
         let run = self.settings(&override_sets(py, overrides)?, &aovs)?;
-        let renderer = self.renderer(py, &run, None, true)?;
-        Ok(Session::new(renderer, run.film.aovs.clone()))
+        // The scene kept as loaded, for `Session.set_transform` and `advance`.
+        let scene = self.scene.clone();
+        let mut frames = py.detach(|| FrameRun::new(scene, &run)).map_err(crate::render_error)?;
+        self.aim(frames.renderer_mut(), None)?;
+        Ok(Session::new(frames, run.film.aovs.clone()))
     }
 }
 

@@ -2,7 +2,7 @@
 
 use crate::convert::{aov_dict, color_array, stats};
 use crate::{refused, run_detached};
-use caustica::Renderer;
+use caustica::driver::FrameRun;
 use caustica::film::aov::Aov;
 use caustica::report::Unit;
 use pyo3::exceptions::PyValueError;
@@ -19,7 +19,7 @@ use std::sync::{Mutex, MutexGuard, TryLockError};
 /// names neither the session nor the cause.
 #[pyclass(module = "caustica", frozen)]
 pub(crate) struct Session {
-    renderer: Mutex<Renderer>,
+    frames: Mutex<FrameRun>,
     /// The settings' target, what `step()` with no argument runs to.
     final_target: u32,
     /// The feature images it makes.
@@ -27,18 +27,18 @@ pub(crate) struct Session {
 }
 
 impl Session {
-    pub(crate) fn new(renderer: Renderer, aovs: Vec<Aov>) -> Self {
-        let final_target = renderer.target();
-        Self { renderer: Mutex::new(renderer), final_target, aovs }
+    pub(crate) fn new(frames: FrameRun, aovs: Vec<Aov>) -> Self {
+        let final_target = frames.renderer().target();
+        Self { frames: Mutex::new(frames), final_target, aovs }
     }
 
-    /// The renderer, once no other thread's call holds it. The wait releases the GIL (the call
+    /// The render, once no other thread's call holds it. The wait releases the GIL (the call
     /// holding the lock may need it to check for Ctrl-C) and looks at this thread's signals, so
     /// Ctrl-C ends a wait as it ends a step.
-    fn lock(&self, py: Python<'_>) -> PyResult<MutexGuard<'_, Renderer>> {
+    fn lock(&self, py: Python<'_>) -> PyResult<MutexGuard<'_, FrameRun>> {
         loop {
-            match self.renderer.try_lock() {
-                Ok(renderer) => return Ok(renderer),
+            match self.frames.try_lock() {
+                Ok(frames) => return Ok(frames),
                 // A panic in a call was raised as PanicException; the renderer is whole between
                 // calls, as every change to it is made by one call.
                 Err(TryLockError::Poisoned(e)) => return Ok(e.into_inner()),
@@ -57,7 +57,8 @@ impl Session {
     /// released; without an argument, run to the settings' target.
     #[pyo3(signature = (units=None))]
     fn step(&self, py: Python<'_>, units: Option<u32>) -> PyResult<Py<PyDict>> {
-        let mut renderer = self.lock(py)?;
+        let mut frames = self.lock(py)?;
+        let renderer = frames.renderer_mut();
         let done = renderer.units_done();
         let target = match units {
             Some(0) => return Err(PyValueError::new_err("step(units): units must be at least 1")),
@@ -65,7 +66,7 @@ impl Session {
             None => self.final_target.max(done),
         };
         renderer.set_target(target);
-        let report = run_detached(py, &mut renderer, None)?;
+        let report = run_detached(py, renderer, None)?;
         Ok(stats(py, &report)?.unbind())
     }
 
@@ -82,8 +83,8 @@ impl Session {
     ) -> PyResult<Bound<'py, PyDict>> {
         let m = glam::Mat4::from_cols_array_2d(&matrix).transpose();
         let mut guard = self.lock(py)?;
-        let renderer = &mut *guard;
-        let update = py.detach(|| renderer.move_node(&node, m)).map_err(setting_or_refused)?;
+        let frames = &mut *guard;
+        let update = py.detach(|| frames.move_node(&node, m)).map_err(setting_or_refused)?;
         frame_dict(py, &update)
     }
 
@@ -92,8 +93,8 @@ impl Session {
     /// camera moved. Returns where the time went (`pose`, `bvh`, `lights` seconds, `photons_kept`).
     fn advance<'py>(&self, py: Python<'py>, time: f32) -> PyResult<Bound<'py, PyDict>> {
         let mut guard = self.lock(py)?;
-        let renderer = &mut *guard;
-        let update = py.detach(|| renderer.set_time(time)).map_err(setting_or_refused)?;
+        let frames = &mut *guard;
+        let update = py.detach(|| frames.set_time(time)).map_err(setting_or_refused)?;
         frame_dict(py, &update)
     }
 
@@ -129,7 +130,7 @@ impl Session {
     /// The image so far: float32, height × width × 3, linear.
     fn image<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         let guard = self.lock(py)?;
-        let renderer = &*guard;
+        let renderer = guard.renderer();
         let image = py.detach(|| renderer.image());
         color_array(py, &image)
     }
@@ -137,7 +138,7 @@ impl Session {
     /// The feature images so far, by name (empty when the session makes none).
     fn aovs<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let guard = self.lock(py)?;
-        let renderer = &*guard;
+        let renderer = guard.renderer();
         let features = py.detach(|| renderer.aov_images());
         let film = renderer.film();
         aov_dict(py, features.as_ref(), &self.aovs, [film.height as usize, film.width as usize])
@@ -146,13 +147,13 @@ impl Session {
     /// Units done: samples per pixel, or passes.
     #[getter]
     fn done(&self, py: Python<'_>) -> PyResult<u32> {
-        Ok(self.lock(py)?.units_done())
+        Ok(self.lock(py)?.renderer().units_done())
     }
 
     /// What the session counts: "spp" or "passes".
     #[getter]
     fn unit(&self, py: Python<'_>) -> PyResult<&'static str> {
-        let samples = self.lock(py)?.progress().unit == Unit::Samples;
+        let samples = self.lock(py)?.renderer().progress().unit == Unit::Samples;
         Ok(if samples { "spp" } else { "passes" })
     }
 }

@@ -87,16 +87,17 @@ impl Media {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::materials::ShadingParams;
     use crate::scene::{MaterialDesc, Scene};
 
     fn scene() -> RenderScene {
         let solid = |sigma: f32| MaterialDesc {
-            thickness: 1.0,
-            transmission: 1.0,
+            shading: ShadingParams { thickness: 1.0, transmission: 1.0, ..ShadingParams::default() },
             attenuation: Vec3::splat(sigma),
             ..MaterialDesc::default()
         };
-        let thin = MaterialDesc { thickness: 0.0, transmission: 1.0, ..MaterialDesc::default() };
+        let shading = ShadingParams { thickness: 0.0, transmission: 1.0, ..ShadingParams::default() };
+        let thin = MaterialDesc { shading, ..MaterialDesc::default() };
         let scene = Scene { materials: vec![solid(1.0), solid(2.0), thin], ..Scene::default() };
         RenderScene::build(&scene, crate::scene::LightSelection::Power)
     }

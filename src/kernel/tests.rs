@@ -152,12 +152,15 @@ fn light_samples_average_to_the_reflected_direct_radiance() {
 #[test]
 fn russian_roulette_divides_the_eta_scale_out_of_the_throughput() {
     let glass = MaterialDesc {
-        transmission: 1.0,
-        // A solid: a thin-walled sheet would not bend the light or scale it by 1/η².
-        thickness: 1.0,
-        ior: 1.5,
-        roughness: 0.0,
-        metallic: 0.0,
+        shading: ShadingParams {
+            transmission: 1.0,
+            // A solid: a thin-walled sheet would not bend the light or scale it by 1/η².
+            thickness: 1.0,
+            ior: 1.5,
+            roughness: 0.0,
+            metallic: 0.0,
+            ..ShadingParams::default()
+        },
         ..MaterialDesc::default()
     };
     let scene =

@@ -47,14 +47,15 @@ impl PackedShading {
     pub fn gather_point(&self, scene: &RenderScene, p: Vec3, beta: Vec3) -> GatherPoint {
         let from_unorm = |x: u16| x as f32 / 65535.0;
         let m = &scene.materials[self.material as usize];
-        let params = m.shading_params(
-            Vec3::from_array(self.base_color.map(from_unorm)),
-            from_unorm(self.metallic_roughness[0]),
-            from_unorm(self.metallic_roughness[1]),
-        );
+        let params = ShadingParams {
+            base_color: Vec3::from_array(self.base_color.map(from_unorm)),
+            metallic: from_unorm(self.metallic_roughness[0]),
+            roughness: from_unorm(self.metallic_roughness[1]),
+            ..m.shading
+        };
         let frame = Frame::from_z(decode_octahedral(self.ns, 16));
         let wo = frame.to_local(decode_octahedral(self.wo, 16));
-        GatherPoint { p, beta, bsdf: Bsdf::new(&params), frame, wo, transmits: m.transmission > 0.0 }
+        GatherPoint { p, beta, bsdf: Bsdf::new(&params), frame, wo, transmits: m.shading.transmission > 0.0 }
     }
 
     /// As words: wo, ns, then the 16-bit fields two to a word.

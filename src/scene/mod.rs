@@ -15,6 +15,7 @@ pub mod tangents;
 pub mod validate;
 
 use crate::error::{Error, Result};
+use crate::materials::ShadingParams;
 use glam::{Mat4, Vec2, Vec3, Vec4};
 use std::path::{Path, PathBuf};
 
@@ -62,7 +63,7 @@ pub fn load_with_sets(
     let mut scene = match extension.as_deref() {
         Some("toml") => run.load_scene(path)?,
         _ => {
-            let budget = run.memory_budget_bytes(crate::memory::physical_bytes() / 2);
+            let budget = run.memory_budget_bytes();
             let mut scene = self::gltf::load_gltf_within(path, run.camera.name.as_deref(), budget)?;
             // A bare glTF has no run file: environment paths come from the command line, relative
             // to the working directory.
@@ -175,15 +176,12 @@ impl TextureRef {
 pub struct MaterialDesc {
     /// Name for messages.
     pub name: String,
-    /// Linear RGB base colour factor.
-    pub base_color: Vec3,
-    /// sRGB base colour texture (decoded to linear at load).
+    /// The BSDF's factors: base colour, metallic, roughness, transmission, IOR, specular, clear coat
+    /// and thickness. The textures below multiply some of them at a hit.
+    pub shading: ShadingParams,
+    /// sRGB base colour texture (decoded to linear at load), multiplying `shading.base_color`.
     pub base_color_texture: Option<TextureRef>,
-    /// Metallic factor in [0, 1].
-    pub metallic: f32,
-    /// Perceptual roughness in [0, 1]; GGX alpha = roughness².
-    pub roughness: f32,
-    /// Linear texture: roughness in G, metallic in B.
+    /// Linear texture: roughness in G, metallic in B, multiplying their factors.
     pub metallic_roughness_texture: Option<TextureRef>,
     /// Emitted radiance: emissiveFactor × KHR_materials_emissive_strength.
     pub emission: Vec3,
@@ -193,27 +191,13 @@ pub struct MaterialDesc {
     pub normal_texture: Option<TextureRef>,
     /// Scales the normal map's x and y (glTF `normalTexture.scale`).
     pub normal_scale: f32,
-    /// KHR_materials_transmission factor in [0, 1].
-    pub transmission: f32,
-    /// KHR_materials_ior (1.5 by default).
-    pub ior: f32,
-    /// KHR_materials_specular factor in [0, 1] (1 by default).
-    pub specular: f32,
-    /// KHR_materials_specular colour factor (linear RGB, 1 by default).
-    pub specular_color: Vec3,
-    /// KHR_materials_clearcoat factor in [0, 1].
-    pub clearcoat: f32,
-    /// KHR_materials_clearcoat roughness factor in [0, 1].
-    pub clearcoat_roughness: f32,
-    /// Clearcoat texture: its red channel multiplies `clearcoat`.
+    /// Clearcoat texture: its red channel multiplies `shading.clearcoat`.
     pub clearcoat_texture: Option<TextureRef>,
-    /// Clearcoat roughness texture: its green channel multiplies `clearcoat_roughness`.
+    /// Clearcoat roughness texture: its green channel multiplies `shading.clearcoat_roughness`.
     pub clearcoat_roughness_texture: Option<TextureRef>,
     /// The coat's own tangent-space normal map, and its scale.
     pub clearcoat_normal_texture: Option<(TextureRef, f32)>,
-    /// KHR_materials_volume thickness > 0 means a closed solid; 0 means a thin-walled surface.
-    pub thickness: f32,
-    /// Absorption coefficient σa (1/m) inside a solid (thickness > 0): −ln(attenuationColor) /
+    /// Absorption coefficient σa (1/m) inside a solid (`shading.thickness` > 0): −ln(attenuationColor) /
     /// attenuationDistance; zero for a clear one.
     pub attenuation: Vec3,
     /// glTF doubleSided.
@@ -253,54 +237,20 @@ impl Default for MaterialDesc {
     fn default() -> Self {
         Self {
             name: "default".into(),
-            base_color: Vec3::ONE,
+            shading: ShadingParams::default(),
             base_color_texture: None,
-            metallic: 1.0,
-            roughness: 1.0,
             metallic_roughness_texture: None,
             emission: Vec3::ZERO,
             emissive_texture: None,
             normal_texture: None,
             normal_scale: 1.0,
-            transmission: 0.0,
-            ior: 1.5,
-            specular: 1.0,
-            specular_color: Vec3::ONE,
-            clearcoat: 0.0,
-            clearcoat_roughness: 0.0,
             clearcoat_texture: None,
             clearcoat_roughness_texture: None,
             clearcoat_normal_texture: None,
-            thickness: 0.0,
             attenuation: Vec3::ZERO,
             double_sided: false,
             alpha_mode: AlphaMode::Opaque,
             alpha: 1.0,
-        }
-    }
-}
-
-impl MaterialDesc {
-    /// The BSDF parameters of this material with the given base colour, metallic and roughness (its
-    /// factors, or those after textures and vertex colours); the rest comes from the material.
-    #[inline]
-    pub fn shading_params(
-        &self,
-        base_color: Vec3,
-        metallic: f32,
-        roughness: f32,
-    ) -> crate::materials::ShadingParams {
-        crate::materials::ShadingParams {
-            base_color,
-            metallic,
-            roughness,
-            transmission: self.transmission,
-            ior: self.ior,
-            specular: self.specular,
-            specular_color: self.specular_color,
-            clearcoat: self.clearcoat,
-            clearcoat_roughness: self.clearcoat_roughness,
-            thin_walled: self.thickness <= 0.0,
         }
     }
 }

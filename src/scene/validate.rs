@@ -283,12 +283,13 @@ fn check_material(m: &MaterialDesc, textures: usize) -> Result<(), String> {
             Err(format!("{name} is {v}, must be finite and non-negative"))
         }
     };
-    non_negative("base colour", m.base_color)?;
-    unit("metallic", m.metallic)?;
-    unit("roughness", m.roughness)?;
-    unit("transmission", m.transmission)?;
-    unit("specular", m.specular)?;
-    non_negative("specular colour", m.specular_color)?;
+    let shading = &m.shading;
+    non_negative("base colour", shading.base_color)?;
+    unit("metallic", shading.metallic)?;
+    unit("roughness", shading.roughness)?;
+    unit("transmission", shading.transmission)?;
+    unit("specular", shading.specular)?;
+    non_negative("specular colour", shading.specular_color)?;
     non_negative("emission", m.emission)?;
     unit("base colour alpha", m.alpha)?;
     if let super::AlphaMode::Mask { cutoff } = m.alpha_mode
@@ -303,11 +304,11 @@ fn check_material(m: &MaterialDesc, textures: usize) -> Result<(), String> {
             m.emission.x, m.emission.y, m.emission.z
         ));
     }
-    if !(m.ior > 0.0 && m.ior.is_finite()) {
-        return Err(format!("ior is {}, must be positive and finite", m.ior));
+    if !(shading.ior > 0.0 && shading.ior.is_finite()) {
+        return Err(format!("ior is {}, must be positive and finite", shading.ior));
     }
-    if !(m.thickness >= 0.0 && m.thickness.is_finite()) {
-        return Err(format!("thickness is {}, must be finite and non-negative", m.thickness));
+    if !(shading.thickness >= 0.0 && shading.thickness.is_finite()) {
+        return Err(format!("thickness is {}, must be finite and non-negative", shading.thickness));
     }
     for (name, texture) in textures_of(m) {
         if texture.texture as usize >= textures {

@@ -15,10 +15,10 @@
 
 use super::descriptor::Integrator;
 use super::progressive::{self, Variant};
-use crate::PassSystems;
 use crate::gather::{build_pass_photon_map, gather_photons_with_laplacian};
 use crate::plan::Plan;
 use crate::resources::SceneFeatures;
+use crate::stages::PassSystems;
 use crate::update::update_radii_adaptive;
 use bevy_ecs::prelude::*;
 use caustica_core::error::Result;

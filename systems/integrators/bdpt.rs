@@ -32,7 +32,6 @@
 use super::descriptor::{Integrator, LightSampling, MemoryNeed, no_checks, one_sample_per_unit};
 use super::film_image;
 use super::memory::PilotPaths;
-use crate::PassSystems;
 use crate::bidirectional::{
     CameraSubpathSums, ConnectionVertex, LightVertexStore, LightVertices, RadiusSequence,
     add_camera_subpath_columns, begin_light_vertices, build_merge_grids, connect_to_light_vertices,
@@ -48,6 +47,7 @@ use crate::plan::{Phase, Plan, Unit, When};
 use crate::report::Report;
 use crate::resources::{FilmResource, SceneFeatures};
 use crate::shards::{ShardLink, ShardPlan, Shards};
+use crate::stages::PassSystems;
 use crate::stages::{configure_stages, stage_order};
 use bevy_ecs::prelude::*;
 use caustica_core::choice::Choice;

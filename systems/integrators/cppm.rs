@@ -14,10 +14,10 @@
 
 use super::descriptor::Integrator;
 use super::progressive::{self, Variant};
-use crate::PassSystems;
 use crate::gather::{build_pass_photon_map, gather_photons_into_chi2_cells};
 use crate::plan::Plan;
 use crate::resources::SceneFeatures;
+use crate::stages::PassSystems;
 use crate::update::update_radii_by_chi2;
 use bevy_ecs::prelude::*;
 use caustica_core::error::Result;

@@ -39,7 +39,6 @@
 use super::descriptor::{Integrator, LightSampling, MemoryNeed, no_checks, one_sample_per_unit};
 use super::film_image;
 use super::memory::PilotPaths;
-use crate::PassSystems;
 use crate::camera_paths::{self, PathExtras};
 use crate::light_paths::LightPaths;
 use crate::light_subpaths::{self, SubpathHandout};
@@ -51,6 +50,7 @@ use crate::resources::{
     SceneFeatures, SceneResource, Workload,
 };
 use crate::shards::{ShardPlan, Shards};
+use crate::stages::PassSystems;
 use crate::stages::{configure_stages, stage_order};
 use bevy_ecs::prelude::*;
 use caustica_core::error::Result;

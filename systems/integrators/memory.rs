@@ -39,7 +39,7 @@ pub fn render_need(integrator: &Integrator, pixels: u64, run: &RunFile, pilot: &
 /// with what the process holds now, before anything of it is allocated. The bytes the process will
 /// hold at its peak, as counted.
 pub fn check(run: &RunFile, need: MemoryNeed) -> Result<u64> {
-    let budget = budget(run);
+    let budget = run.memory_budget_bytes();
     let over = |held: u64| {
         let mib = |b: u64| b.div_ceil(1 << 20);
         let problem = format!(
@@ -71,11 +71,6 @@ pub fn check(run: &RunFile, need: MemoryNeed) -> Result<u64> {
     Ok(total)
 }
 
-/// The run's budget, else half the machine's memory.
-pub fn budget(run: &RunFile) -> u64 {
-    run.memory_budget_bytes(caustica_core::memory::physical_bytes() / 2)
-}
-
 /// What a checkpoint's snapshot of a `pixels`-pixel film and `hit_point_bytes` of hit points holds
 /// while its thread writes it.
 pub fn checkpoint_need(pixels: u64, hit_point_bytes: u64) -> MemoryNeed {
@@ -88,7 +83,7 @@ pub fn checkpoint_need(pixels: u64, hit_point_bytes: u64) -> MemoryNeed {
 /// Refuse checkpoints whose snapshot, beside the `counted` bytes the render was checked with, is over
 /// the budget.
 pub fn check_checkpoints(run: &RunFile, counted: u64, snapshot: MemoryNeed) -> Result<()> {
-    let budget = budget(run);
+    let budget = run.memory_budget_bytes();
     if counted + snapshot.bytes > budget {
         return Err(Error::Setting {
             name: "render.memory_budget_mib".into(),

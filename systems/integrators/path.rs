@@ -23,12 +23,12 @@
 
 use super::descriptor::{Integrator, LightSampling, MemoryNeed, Setting, no_checks, one_sample_per_unit};
 use super::film_image;
-use crate::PassSystems;
 use crate::camera_paths::{PathExtras, spawn_chunk};
 use crate::passes::{finish_light_learning, hand_out_samples, select_unconverged_pixels};
 use crate::plan::{Phase, Plan, Unit, When};
 use crate::resources::{AdaptiveSampling, SceneFeatures};
 use crate::shards::{ShardLink, ShardPlan, Shards};
+use crate::stages::PassSystems;
 use crate::stages::{configure_stages, stage_order};
 use bevy_ecs::prelude::*;
 use caustica_core::error::Result;

@@ -25,7 +25,6 @@
 use super::descriptor::{Integrator, LightSampling, MemoryNeed, Setting};
 use super::memory::PilotPaths;
 use super::{film_image, paths_busy};
-use crate::PassSystems;
 use crate::emit::emit_camera_paths_for;
 use crate::gather::splat_paths_to_film;
 use crate::light_subpaths::SubpathHandout;
@@ -39,6 +38,7 @@ use crate::resources::{
     PhotonBuffer, PhotonMaps, PhotonStats, PhotonWork, RenderConfig, SceneFeatures, SceneResource,
 };
 use crate::scatter::scatter_photon_mapped;
+use crate::stages::PassSystems;
 use crate::stages::{configure_stages, stage_order};
 use crate::trace::{trace_paths, trace_shadow_rays};
 use crate::world::MAX_WAVEFRONT;

@@ -14,13 +14,13 @@
 
 use super::descriptor::Integrator;
 use super::progressive::{self, Variant};
-use crate::PassSystems;
 use crate::components::{HitPoint, PathState};
 use crate::gather::{build_pass_photon_map, gather_photons_into_hit_points};
 use crate::plan::Plan;
 use crate::resources::{
     CameraResource, FilmResource, ProgressiveConfig, SceneFeatures, SceneResource, wavefront_batching,
 };
+use crate::stages::PassSystems;
 use bevy_ecs::prelude::*;
 use caustica_core::error::Result;
 use caustica_core::film::fixed;

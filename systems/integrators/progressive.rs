@@ -19,7 +19,6 @@
 use super::descriptor::{Integrator, LightSampling, MemoryNeed, PlanFn, Setting};
 use super::memory::PilotPaths;
 use super::paths_busy;
-use crate::PassSystems;
 use crate::components::{
     AdaptiveStats, Chi2Cells, HitPoint, PathHit, PathRay, PathState, PathStatus, ShadowRay,
 };
@@ -37,6 +36,7 @@ use crate::resources::{
     SceneFeatures, SceneResource, Workload,
 };
 use crate::scatter::scatter_to_visible_points;
+use crate::stages::PassSystems;
 use crate::stages::{configure_stages, stage_order};
 use crate::trace::{trace_paths, trace_shadow_rays};
 use crate::world::MAX_WAVEFRONT;

@@ -8,10 +8,10 @@
 
 use super::descriptor::Integrator;
 use super::progressive::{self, Variant};
-use crate::PassSystems;
 use crate::gather::{build_pass_photon_map, gather_photons_into_hit_points};
 use crate::plan::Plan;
 use crate::resources::SceneFeatures;
+use crate::stages::PassSystems;
 use crate::update::update_hit_point_radii;
 use bevy_ecs::prelude::*;
 use caustica_core::error::Result;

@@ -241,7 +241,7 @@ pub fn bidirectional_links() -> Vec<ShardLink> {
 /// Add one bounce of bdpt's or vcm's light subpaths over a chunk to `schedule` (a shard's): the
 /// stages in `order` (a rotation of the cycle).
 pub fn add_bidirectional_systems(schedule: &mut Schedule, order: [caustica_core::scene::schedule::Stage; 5]) {
-    use crate::PassSystems;
+    use crate::stages::PassSystems;
     crate::stages::configure_stages(schedule, order);
     schedule.add_systems(emit_bidirectional_subpaths.in_set(PassSystems::Emit));
     schedule.add_systems(super::trace_subpaths.in_set(PassSystems::Trace));

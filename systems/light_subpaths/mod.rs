@@ -304,7 +304,7 @@ pub fn begin_subpaths(work: Res<PhotonWork>, handout: Res<SubpathHandout>, mut s
 /// Add one bounce of the light subpaths over a chunk to `schedule` (a shard's): the stages in
 /// `order` (a rotation of the cycle).
 pub fn add_bounce_systems(schedule: &mut Schedule, order: [caustica_core::scene::schedule::Stage; 5]) {
-    use crate::PassSystems;
+    use crate::stages::PassSystems;
     crate::stages::configure_stages(schedule, order);
     schedule.add_systems(emit_subpaths.in_set(PassSystems::Emit));
     schedule.add_systems(trace_subpaths.in_set(PassSystems::Trace));

@@ -280,7 +280,7 @@ fn replay_hand_out(total: u32, wavefront: u32, ends: &[(u32, u32)]) -> (Vec<u32>
 
 /// Add one bounce of photons over a chunk to `schedule` (a shard's): the stages in `order`.
 pub fn add_photon_bounce_systems(schedule: &mut Schedule, order: [caustica_core::scene::schedule::Stage; 5]) {
-    use crate::PassSystems;
+    use crate::stages::PassSystems;
     crate::stages::configure_stages(schedule, order);
     schedule.add_systems(emit_photon_subpaths.in_set(PassSystems::Emit));
     schedule.add_systems(super::trace_subpaths.in_set(PassSystems::Trace));

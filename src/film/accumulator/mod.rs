@@ -16,14 +16,17 @@
 
 use super::Film;
 use crate::error::{Error, Result};
-use std::collections::HashMap;
+use header::{crc, data_crc, entries_attribute};
 use std::path::Path;
 
 mod checkpoint;
+mod header;
 mod merge;
+mod read;
 
 pub use checkpoint::{HitPointState, write_checkpoint};
 pub use merge::merge_parts;
+pub use read::{read_checkpoint, read_info, read_part};
 
 /// Version of the layout above.
 pub const FORMAT_VERSION: u32 = 1;
@@ -49,12 +52,12 @@ pub struct PartInfo {
 }
 
 impl PartInfo {
-    /// Share `part` (from 1) of `parts` of the render `run` sets up of `scene`, of `units` samples
-    /// per pixel or passes in all: its units, and the fingerprint a merge checks; `per_unit` is 1
-    /// until the renderer says more. The problem, if the share cannot exist.
+    /// Share `part` (from 1) of `parts` of a render of `units` samples per pixel or passes in all,
+    /// by `integrator`, whose scene and settings `fingerprint` names (the merge checks it): its
+    /// units; `per_unit` is 1 until the renderer says more. The problem, if the share cannot exist.
     pub fn of_share(
-        scene: &crate::scene::Scene,
-        run: &crate::scene::RunFile,
+        fingerprint: String,
+        integrator: &str,
         units: u32,
         part: u32,
         parts: u32,
@@ -68,8 +71,8 @@ impl PartInfo {
             ));
         }
         Ok(Self {
-            fingerprint: crate::scene::fingerprint::fingerprint(scene, run),
-            integrator: format!("{:?}", run.render.integrator).to_lowercase(),
+            fingerprint,
+            integrator: integrator.to_owned(),
             part,
             parts,
             samples: Self::share(part, parts, units),
@@ -86,9 +89,6 @@ impl PartInfo {
     }
 }
 
-const ATTRIBUTE_PREFIX: &str = "caustica.";
-/// The name of the attribute that holds a layer's entries.
-const ENTRIES_ATTRIBUTE: &str = "caustica";
 const CHANNELS: [&str; 3] = ["R", "G", "B"];
 
 /// Write `film` with `info` to `path` (a temporary file beside it, renamed over it once complete),
@@ -217,296 +217,8 @@ impl Snapshot {
     }
 }
 
-/// What an accumulator's header says it is, and its size, without reading its pixels.
-pub fn read_info(path: &Path) -> Result<(PartInfo, (u32, u32))> {
-    let meta = exr::meta::MetaData::read_from_file(path, false)
-        .map_err(|e| bad(path, format!("not a readable EXR accumulator: {e}")))?;
-    let header = meta
-        .headers
-        .iter()
-        .find(|h| h.own_attributes.layer_name.as_ref().is_some_and(|n| *n == *"accumulator"))
-        .ok_or_else(|| {
-            bad(path, "no accumulator part: not a caustica accumulator (written with --part)".into())
-        })?;
-    let info = info_from(&header.own_attributes, path)?;
-    let (width, height) = (header.layer_size.width(), header.layer_size.height());
-    let pixels = width as u64 * height as u64;
-    // A checkpoint's hit points are read whole too: every word of every point counts.
-    let hit_point_bytes = meta
-        .headers
-        .iter()
-        .filter(|h| h.own_attributes.layer_name.as_ref().is_some_and(|n| *n == *"hit_points"))
-        .map(|h| {
-            let words = h.channels.list.len() as u64;
-            (h.layer_size.width() as u64 * h.layer_size.height() as u64)
-                .saturating_mul(words)
-                .saturating_mul(4)
-        })
-        .fold(0u64, u64::saturating_add);
-    check_claimed_size(path, pixels, hit_point_bytes)?;
-    Ok((info, (width as u32, height as u32)))
-}
-
-/// Refuse an accumulator whose header claims more than its file can hold, before anything of that
-/// size is allocated: every pixel is [`Snapshot::BYTES_PER_PIXEL`] bytes of channels, a checkpoint
-/// adds `hit_point_bytes`, and zlib (EXR's ZIP) packs at most 1032 to 1, so a file holds at most
-/// 1100 × its length.
-fn check_claimed_size(path: &Path, pixels: u64, hit_point_bytes: u64) -> Result<()> {
-    const MAX_RATIO: u64 = 1100;
-    let length = std::fs::metadata(path).map_err(|e| bad(path, e.to_string()))?.len();
-    let sums = pixels.saturating_mul(Snapshot::BYTES_PER_PIXEL);
-    let claimed = sums.saturating_add(hit_point_bytes);
-    if claimed > length.saturating_mul(MAX_RATIO) {
-        let hit_points = if hit_point_bytes > 0 {
-            format!(" and {hit_point_bytes} bytes of hit points")
-        } else {
-            String::new()
-        };
-        return Err(bad(
-            path,
-            format!(
-                "its header claims {pixels} pixels ({sums} bytes of sums){hit_points}, more than a file of {length} bytes can hold"
-            ),
-        ));
-    }
-    Ok(())
-}
-
 fn bad(path: &Path, message: String) -> Error {
     Error::Accumulator { path: path.to_path_buf(), message }
-}
-
-/// CRC-32 of everything a resumed render or a merge takes from an accumulator's pixels: every
-/// pixel's sums and count, and the hit points' words (the `checksum` entry of files written before
-/// the header was covered too; [`crc`] goes on from here).
-fn data_crc(film: &Film, hit_points: Option<&HitPointState>) -> crc32fast::Hasher {
-    let mut crc = crc32fast::Hasher::new();
-    let mut bytes = Vec::with_capacity(28 * film.width as usize);
-    for pixel in 0..film.width * film.height {
-        let (sums, count) = (film.sums(pixel).0, film.samples(pixel));
-        bytes.extend(sums.iter().flat_map(|s| s.to_le_bytes()));
-        bytes.extend(count.to_le_bytes());
-        if bytes.len() >= 1 << 16 {
-            crc.update(&bytes);
-            bytes.clear();
-        }
-    }
-    for channel in hit_points.iter().flat_map(|state| &state.channels) {
-        bytes.extend(channel.iter().flat_map(|w| w.to_le_bytes()));
-        crc.update(&bytes);
-        bytes.clear();
-    }
-    crc.update(&bytes);
-    crc
-}
-
-/// The `crc` entry: [`data_crc`] followed by what the header says the sums are (the share, its
-/// samples, the render's units, the fingerprint, the hit points' layout and radius), in canonical
-/// form, so that an edited `samples=0..1` is damage like a flipped bit in the sums: resumed, it would
-/// take one pass for two and make another image.
-fn crc(data: &crc32fast::Hasher, info: &PartInfo, hit_points: Option<&HitPointState>) -> String {
-    let mut crc = data.clone();
-    let header = format!(
-        "format={FORMAT_VERSION}\nfingerprint={}\nintegrator={}\npart={}/{}\nsamples={}..{}\nspp={}\nper_unit={}\n",
-        info.fingerprint,
-        info.integrator,
-        info.part,
-        info.parts,
-        info.samples.start,
-        info.samples.end,
-        info.spp,
-        info.per_unit
-    );
-    crc.update(header.as_bytes());
-    if let Some(state) = hit_points {
-        let hit = format!(
-            "words_per_point={}\npoints_per_pixel={}\nr0={}\n",
-            state.channels.len(),
-            state.points_per_pixel,
-            state.r0.to_bits()
-        );
-        crc.update(hit.as_bytes());
-    }
-    format!("{:08x}", crc.finalize())
-}
-
-/// The attribute that holds a layer's `key=value` entries, in their order. One attribute, because
-/// the EXR writer writes a layer's attributes in the order of a `HashMap`, which differs from process
-/// to process: several would make the same sums different bytes run to run.
-fn entries_attribute(
-    entries: &[(&str, String)],
-) -> HashMap<exr::prelude::Text, exr::prelude::AttributeValue> {
-    use exr::prelude::{AttributeValue, Text};
-    let list = entries.iter().map(|(key, value)| Text::from(format!("{key}={value}").as_str())).collect();
-    HashMap::from([(Text::from(ENTRIES_ATTRIBUTE), AttributeValue::TextVector(list))])
-}
-
-/// A layer's entries: the one list attribute, or in files written before it, a text attribute per
-/// key (`caustica.format`, …).
-fn entries(attributes: &exr::meta::header::LayerAttributes) -> Vec<(String, String)> {
-    use exr::prelude::{AttributeValue, Text};
-    if let Some(AttributeValue::TextVector(list)) = attributes.other.get(&Text::from(ENTRIES_ATTRIBUTE)) {
-        return list
-            .iter()
-            .filter_map(|t| t.to_string().split_once('=').map(|(k, v)| (k.to_owned(), v.to_owned())))
-            .collect();
-    }
-    attributes
-        .other
-        .iter()
-        .filter_map(|(name, value)| match value {
-            AttributeValue::Text(t) => {
-                name.to_string().strip_prefix(ATTRIBUTE_PREFIX).map(|key| (key.to_owned(), t.to_string()))
-            }
-            _ => None,
-        })
-        .collect()
-}
-
-/// The value of `key` among `entries`.
-fn entry<'a>(entries: &'a [(String, String)], key: &str) -> Option<&'a str> {
-    entries.iter().find(|(k, _)| k == key).map(|(_, v)| v.as_str())
-}
-
-fn info_from(attributes: &exr::meta::header::LayerAttributes, path: &Path) -> Result<PartInfo> {
-    let entries = entries(attributes);
-    let attribute = |key: &str| -> Result<String> {
-        match entry(&entries, key) {
-            Some(value) => Ok(value.to_owned()),
-            None => Err(bad(
-                path,
-                format!(
-                    "no {ATTRIBUTE_PREFIX}{key} attribute: not a caustica accumulator (written with --part)"
-                ),
-            )),
-        }
-    };
-    let format: u32 =
-        attribute("format")?.parse().map_err(|_| bad(path, "unreadable format version".into()))?;
-    if format != FORMAT_VERSION {
-        return Err(bad(
-            path,
-            format!("accumulator format {format}; this build reads format {FORMAT_VERSION}"),
-        ));
-    }
-    let number = |s: &str| s.parse::<u32>().map_err(|_| bad(path, format!("'{s}' is not a count")));
-    let part = attribute("part")?;
-    let (i, k) = part.split_once('/').ok_or_else(|| bad(path, format!("part '{part}' is not I/K")))?;
-    let samples = attribute("samples")?;
-    let (s0, s1) =
-        samples.split_once("..").ok_or_else(|| bad(path, format!("samples '{samples}' is not A..B")))?;
-    Ok(PartInfo {
-        fingerprint: attribute("fingerprint")?,
-        integrator: attribute("integrator")?,
-        part: number(i)?,
-        parts: number(k)?,
-        samples: number(s0)?..number(s1)?,
-        spp: number(&attribute("spp")?)?,
-        per_unit: number(&attribute("per_unit")?)?,
-    })
-}
-
-/// Read an accumulator: its film and what it is of. A file that is not one (an ordinary image, a
-/// truncated file, a newer format) is an error naming it.
-pub fn read_part(path: &Path) -> Result<(Film, PartInfo)> {
-    read_checkpoint(path).map(|(film, info, _)| (film, info))
-}
-
-/// Read an accumulator with the hit points a checkpoint of a progressive mapper holds, if any.
-pub fn read_checkpoint(path: &Path) -> Result<(Film, PartInfo, Option<HitPointState>)> {
-    use exr::prelude::*;
-    // The header and its claimed size first: the pixels are read whole.
-    read_info(path)?;
-    let image = read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .all_layers()
-        .all_attributes()
-        .from_file(path)
-        .map_err(|e| bad(path, format!("not a readable EXR accumulator: {e}")))?;
-    let named = |name: &str| {
-        image.layer_data.iter().find(|l| l.attributes.layer_name.as_ref().is_some_and(|n| *n == *name))
-    };
-    let layer = named("accumulator").ok_or_else(|| {
-        bad(path, "no accumulator part: not a caustica accumulator (written with --part)".into())
-    })?;
-    let info = info_from(&layer.attributes, path)?;
-    let (width, height) = (layer.size.width() as u32, layer.size.height() as u32);
-    let channel = |name: &str| -> crate::error::Result<&[u32]> {
-        match layer.channel_data.list.iter().find(|c| c.name == *name).map(|c| &c.sample_data) {
-            Some(FlatSamples::U32(v)) => Ok(v),
-            _ => Err(bad(path, format!("no uint channel '{name}'"))),
-        }
-    };
-    let film = Film::new(width, height);
-    let words: Vec<[&[u32]; 3]> = CHANNELS
-        .iter()
-        .map(|c| {
-            Ok([
-                channel(&format!("sum.{c}.0"))?,
-                channel(&format!("sum.{c}.1"))?,
-                channel(&format!("sum.{c}.2"))?,
-            ])
-        })
-        .collect::<crate::error::Result<_>>()?;
-    let count = channel("count")?;
-    for i in 0..width as usize * height as usize {
-        let sum = |c: usize| {
-            let bits =
-                words[c][0][i] as u128 | (words[c][1][i] as u128) << 32 | (words[c][2][i] as u128) << 64;
-            ((bits << 32) as i128) >> 32
-        };
-        film.add_sums(i as u32, [sum(0), sum(1), sum(2)], count[i]);
-    }
-    let hit_points = match named("hit_points") {
-        None => None,
-        Some(layer) => {
-            let entries = entries(&layer.attributes);
-            let number = |key: &str| -> crate::error::Result<u32> {
-                match entry(&entries, key) {
-                    Some(value) => value.parse().map_err(|_| bad(path, format!("unreadable {key}"))),
-                    None => Err(bad(path, format!("hit points without {ATTRIBUTE_PREFIX}{key}"))),
-                }
-            };
-            let per = number("words_per_point")? as usize;
-            let channels = (0..per)
-                .map(|w| {
-                    match layer
-                        .channel_data
-                        .list
-                        .iter()
-                        .find(|c| c.name == *format!("w.{w:03}").as_str())
-                        .map(|c| &c.sample_data)
-                    {
-                        Some(FlatSamples::U32(v)) => Ok(v.clone()),
-                        _ => Err(bad(path, format!("no hit-point word channel w.{w:03}"))),
-                    }
-                })
-                .collect::<crate::error::Result<_>>()?;
-            Some(HitPointState {
-                points_per_pixel: number("points_per_pixel")?,
-                r0: f32::from_bits(number("r0")?),
-                channels,
-            })
-        }
-    };
-    // Files of the per-key form came before any checksum, and `checksum` (the pixels alone) before
-    // `crc` (the pixels and the header).
-    let entries = entries(&layer.attributes);
-    let (written, read) = match (entry(&entries, "crc"), entry(&entries, "checksum")) {
-        (Some(written), _) => {
-            (written, crc(&data_crc(&film, hit_points.as_ref()), &info, hit_points.as_ref()))
-        }
-        (None, Some(written)) => {
-            (written, format!("{:08x}", data_crc(&film, hit_points.as_ref()).finalize()))
-        }
-        (None, None) => return Ok((film, info, hit_points)),
-    };
-    if written != read {
-        return Err(bad(path, format!("checksum {read}, written {written}: the file is damaged")));
-    }
-    Ok((film, info, hit_points))
 }
 
 #[cfg(test)]

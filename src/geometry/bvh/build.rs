@@ -1,7 +1,7 @@
 //! Building the sets: the binary trees over the primitives' (swept) boxes, their flattening into
-//! wide trees with the leaf rules, the triangle packs, and the meshes' shading data.
+//! wide trees with the leaf rules, and the triangle packs.
 
-use super::{MeshShading, NO_LIGHT, PrimitiveInfo, PrimitiveKind, PrimitiveSet, PrimitiveShape};
+use super::{NO_LIGHT, PrimitiveInfo, PrimitiveKind, PrimitiveSet, PrimitiveShape};
 use crate::geometry::alpha::Cutouts;
 use crate::geometry::alpha::NO_CUTOUT;
 use crate::geometry::triangle_pack::{LANES, PackLanes, TrianglePack};
@@ -226,17 +226,5 @@ fn shape_aabb(shape: &PrimitiveShape) -> Aabb {
             Aabb::new(min.into(), max.into())
         }
         PrimitiveShape::Sphere(c, r) => Aabb::new((c - r).into(), (c + r).into()),
-    }
-}
-
-impl From<&Mesh> for MeshShading {
-    fn from(m: &Mesh) -> Self {
-        Self {
-            normals: m.normals.clone(),
-            uvs: m.uvs.clone(),
-            colors: m.colors.clone(),
-            tangents: m.tangents.clone(),
-            indices: m.indices.clone(),
-        }
     }
 }

@@ -3,7 +3,8 @@
 //! `benches/animation.rs` measures: it touches every pack and node whatever moved, and a tree fitted
 //! to old positions traces slower the further things move.
 
-use super::{Geometry, MeshShading, PrimitiveSet, PrimitiveShape};
+use super::surface::MeshShading;
+use super::{Geometry, PrimitiveSet, PrimitiveShape};
 use crate::geometry::triangle_pack::{LANES, TrianglePack};
 use crate::scene::Scene;
 use glam::Vec3;

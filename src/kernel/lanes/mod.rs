@@ -54,10 +54,10 @@ pub fn plain_lambert(m: &MaterialDesc) -> Option<Vec3> {
         || m.clearcoat_texture.is_some()
         || m.clearcoat_roughness_texture.is_some()
         || m.clearcoat_normal_texture.is_some();
-    if textured || (m.thickness > 0.0 && m.transmission > 0.0) {
+    if textured || (m.shading.thickness > 0.0 && m.shading.transmission > 0.0) {
         return None;
     }
-    Bsdf::new(&m.shading_params(m.base_color, m.metallic, m.roughness)).lambert_albedo()
+    Bsdf::new(&m.shading).lambert_albedo()
 }
 
 /// One camera vertex on a plain Lambertian triangle that does not emit: what the lanes read

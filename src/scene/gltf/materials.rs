@@ -3,6 +3,7 @@
 
 use super::{Loader, label};
 use crate::error::Result;
+use crate::materials::ShadingParams;
 use crate::scene::{AlphaMode, MaterialDesc, Texture, TextureRef, Wrap};
 use glam::{Vec2, Vec3, Vec4};
 use tracing::warn;
@@ -88,25 +89,29 @@ impl Loader<'_> {
 
         Ok(MaterialDesc {
             name: material.name().map_or_else(|| format!("material #{index}"), str::to_owned),
-            base_color: Vec3::new(r, g, b),
+            shading: ShadingParams {
+                base_color: Vec3::new(r, g, b),
+                metallic: pbr.metallic_factor(),
+                roughness: pbr.roughness_factor(),
+                transmission: material.transmission().map_or(0.0, |t| t.transmission_factor()),
+                ior: material.ior().unwrap_or(1.5),
+                specular: specular.as_ref().map_or(1.0, |s| s.specular_factor()),
+                specular_color: specular
+                    .as_ref()
+                    .map_or(Vec3::ONE, |s| Vec3::from(s.specular_color_factor())),
+                clearcoat: factor("clearcoatFactor", 0.0),
+                clearcoat_roughness: factor("clearcoatRoughnessFactor", 0.0),
+                thickness: volume.as_ref().map_or(0.0, |v| v.thickness_factor()),
+            },
             base_color_texture,
-            metallic: pbr.metallic_factor(),
-            roughness: pbr.roughness_factor(),
             metallic_roughness_texture,
             emission: Vec3::from(material.emissive_factor()) * material.emissive_strength().unwrap_or(1.0),
             emissive_texture,
             normal_texture,
             normal_scale: normal.as_ref().map_or(1.0, |n| n.scale()),
-            transmission: material.transmission().map_or(0.0, |t| t.transmission_factor()),
-            ior: material.ior().unwrap_or(1.5),
-            specular: specular.as_ref().map_or(1.0, |s| s.specular_factor()),
-            specular_color: specular.as_ref().map_or(Vec3::ONE, |s| Vec3::from(s.specular_color_factor())),
-            clearcoat: factor("clearcoatFactor", 0.0),
-            clearcoat_roughness: factor("clearcoatRoughnessFactor", 0.0),
             clearcoat_texture,
             clearcoat_roughness_texture,
             clearcoat_normal_texture,
-            thickness: volume.as_ref().map_or(0.0, |v| v.thickness_factor()),
             attenuation: volume.as_ref().map_or(Vec3::ZERO, |v| {
                 crate::scene::absorption(Vec3::from(v.attenuation_color()), v.attenuation_distance())
             }),

@@ -2,6 +2,7 @@
 
 use super::{MaterialSpec, RunFile};
 use crate::error::{Error, Result};
+use crate::materials::ShadingParams;
 use crate::scene::{MaterialDesc, Scene, Sphere};
 use glam::Vec3;
 use std::path::Path;
@@ -25,7 +26,7 @@ impl RunFile {
                 crate::scene::gltf::load_gltf_within(
                     &resolved,
                     self.camera.name.as_deref(),
-                    self.memory_budget_bytes(crate::memory::physical_bytes() / 2),
+                    self.memory_budget_bytes(),
                 )?
             }
             None => {
@@ -98,25 +99,27 @@ impl MaterialSpec {
     pub fn to_material(&self, name: &str, radius: f32) -> MaterialDesc {
         MaterialDesc {
             name: name.to_owned(),
-            base_color: Vec3::from(self.base_color),
+            shading: ShadingParams {
+                base_color: Vec3::from(self.base_color),
+                metallic: self.metallic,
+                roughness: self.roughness,
+                transmission: self.transmission,
+                ior: self.ior,
+                specular: self.specular,
+                specular_color: Vec3::ONE,
+                clearcoat: self.clearcoat,
+                clearcoat_roughness: self.clearcoat_roughness,
+                thickness: 2.0 * radius,
+            },
             base_color_texture: None,
-            metallic: self.metallic,
-            roughness: self.roughness,
             metallic_roughness_texture: None,
             emission: self.emission(),
             emissive_texture: None,
             normal_texture: None,
             normal_scale: 1.0,
-            transmission: self.transmission,
-            ior: self.ior,
-            specular: self.specular,
-            specular_color: Vec3::ONE,
-            clearcoat: self.clearcoat,
-            clearcoat_roughness: self.clearcoat_roughness,
             clearcoat_texture: None,
             clearcoat_roughness_texture: None,
             clearcoat_normal_texture: None,
-            thickness: 2.0 * radius,
             attenuation: self.attenuation(),
             double_sided: true,
             alpha_mode: crate::scene::AlphaMode::Opaque,

@@ -150,9 +150,11 @@ impl RunFile {
 pub const MAX_MEMORY_BUDGET_MIB: u64 = 1 << 40;
 
 impl RunFile {
-    /// The memory budget in bytes: `[render]`'s, else `[progressive]`'s, else `default`.
-    pub fn memory_budget_bytes(&self, default: u64) -> u64 {
-        self.render.memory_budget_mib.or(self.progressive.memory_budget_mib).map_or(default, |mib| mib << 20)
+    /// The memory budget in bytes: `[render]`'s, else `[progressive]`'s, else half the machine's
+    /// memory.
+    pub fn memory_budget_bytes(&self) -> u64 {
+        let given = self.render.memory_budget_mib.or(self.progressive.memory_budget_mib);
+        given.map_or_else(|| crate::memory::physical_bytes() / 2, |mib| mib << 20)
     }
 }
 

@@ -58,7 +58,7 @@ impl Renderer {
 
     /// The memory budget this render is checked against, bytes.
     pub fn memory_budget(&self) -> u64 {
-        crate::integrators::memory::budget(&self.run)
+        self.run.memory_budget_bytes()
     }
 
     /// The hit points' state, for a checkpoint (`None` without hit points).
