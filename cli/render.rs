@@ -210,6 +210,9 @@ pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>, start: Instant
             .collect(),
         None => write_outputs(&renderer, &image, &outputs, &written_aovs, &run),
     };
+    if let Some((x, y)) = args.guiding_debug {
+        write_guide_image(&renderer, x, y, &outputs[0]);
+    }
     let denoise_failed = if args.denoise && part.is_none() {
         write_denoised(&renderer, &image, &denoised, &run).err()
     } else {
@@ -278,6 +281,23 @@ pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>, start: Instant
         return Err(e);
     }
     Ok(report.stopped_by != Some(StopReason::Interrupted))
+}
+
+/// `--guiding-debug X,Y`: what the guide learnt where pixel X,Y looks, beside `output`.
+fn write_guide_image(renderer: &Renderer, x: u32, y: u32, output: &Path) {
+    let path = output.with_file_name(format!(
+        "{}-guide.exr",
+        output.file_stem().map_or("render".into(), |s| s.to_string_lossy())
+    ));
+    match caustica::camera_paths::guide::learnt_at_pixel(&renderer.world, x, y) {
+        Some((p, image)) => match output::write_image(&image, &path, 0.0) {
+            Ok(()) => outln!("guide       at {p} (pixel {x},{y}): {}", path.display()),
+            Err(e) => tracing::warn!("--guiding-debug: {e}"),
+        },
+        None => tracing::warn!(
+            "--guiding-debug {x},{y}: no guide there (no --guiding, off the film, or no surface)"
+        ),
+    }
 }
 
 /// Denoise `image` with the render's albedo and normal and write it to every path of `denoised`.

@@ -25,6 +25,7 @@ mod furnace;
 mod fuzz;
 mod fuzz_cli;
 mod fuzz_files;
+mod guiding;
 mod hard_cases;
 mod host;
 mod light_selection;

@@ -1,7 +1,7 @@
 //! The flags of `caustica render`, and how they override the run file.
 
 use super::EnvironmentArgs;
-use super::values::{Triple, choice, parse_frames, parse_part};
+use super::values::{Triple, choice, parse_frames, parse_part, parse_pixel};
 use caustica::density::Kernel;
 use caustica::film::aov::Aov;
 use caustica::sampling::SamplerKind;
@@ -141,6 +141,14 @@ pub struct RenderArgs {
     /// however many samples or passes that is; overrides the run file.
     #[arg(long)]
     pub time_limit: Option<f64>,
+    /// Path guiding (pt, pt-naive): training passes of 1, 2, 4, … samples per pixel learn where light
+    /// comes from, and the rest sample by it too (run file: `[guiding] enabled = true`).
+    #[arg(long)]
+    pub guiding: bool,
+    /// With --guiding: write what the guide learnt at the surface pixel X,Y sees, as an image of the
+    /// sphere (φ across, cos θ down), beside the first output as NAME-guide.exr.
+    #[arg(long, value_name = "X,Y", value_parser = parse_pixel)]
+    pub guiding_debug: Option<(u32, u32)>,
     /// Adaptive sampling (pt, pt-naive): a pixel stops taking samples once its estimated relative
     /// error is under this (0.01 = 1%), and --spp is the most a pixel takes; 0 turns it off;
     /// overrides the run file. With --time-limit: until the limit or every pixel under it.
@@ -215,6 +223,7 @@ impl RenderArgs {
         r.time_limit = self.time_limit.or(r.time_limit);
         r.noise_threshold = self.noise_threshold.unwrap_or(r.noise_threshold);
         r.min_spp = self.min_spp.unwrap_or(r.min_spp);
+        run.guiding.enabled |= self.guiding;
         // A time limit alone on the command line is the budget: render until it, without end.
         let until_the_limit = self.time_limit.is_some() && self.spp.is_none() && self.passes.is_none();
         if until_the_limit {

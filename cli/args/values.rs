@@ -53,3 +53,10 @@ pub(super) fn parse_part(text: &str) -> Result<(u32, u32), String> {
     }
     Ok((i, k))
 }
+
+/// `X,Y`: a pixel.
+pub(super) fn parse_pixel(text: &str) -> Result<(u32, u32), String> {
+    let (x, y) = text.split_once(',').ok_or("expected X,Y, as 128,200")?;
+    let number = |s: &str| s.trim().parse::<u32>().map_err(|_| format!("'{s}' is not a pixel coordinate"));
+    Ok((number(x)?, number(y)?))
+}

@@ -4,7 +4,7 @@
 use super::{CameraPath, Quantity, Vertex, VertexSampler};
 use crate::geometry::Ray;
 use crate::geometry::offset::offset_ray_origin;
-use crate::materials::TransportMode;
+use crate::materials::{BsdfSample, TransportMode};
 use glam::Vec3;
 
 /// Highest Russian-roulette survival probability: a path trapped by total internal reflection keeps
@@ -41,6 +41,21 @@ pub fn continue_path(
         return None;
     }
     let bs = v.bsdf.sample_with(v.wo, || u.bsdf_lobe(), u.bsdf_direction(), TransportMode::Radiance)?;
+    continue_along(path, v, time, u, limits, bs)
+}
+
+/// [`continue_path`] past the choice of direction, for a path below the maximum depth: follow the
+/// sample `bs` (whatever drew it: the BSDF, or path guiding's mixture, whose pdf it then carries),
+/// then Russian roulette.
+#[inline]
+pub fn continue_along(
+    path: &mut CameraPath,
+    v: &Vertex,
+    time: f32,
+    u: &VertexSampler,
+    limits: PathLimits,
+    bs: BsdfSample,
+) -> Option<Ray> {
     if bs.pdf <= 0.0 || bs.f.max_element() <= 0.0 {
         return None;
     }

@@ -36,6 +36,21 @@ pub fn sample_light(
     u: &VertexSampler,
     mis: bool,
 ) -> Option<ShadowSample> {
+    sample_light_against(scene, v, path, time, u, mis, |wi, _| v.bsdf.pdf(v.wo, wi))
+}
+
+/// [`sample_light`] weighed by MIS against a continuation whose pdf towards a direction (local,
+/// then world) is `scatter_pdf`: the BSDF's, or path guiding's mixture of the BSDF and the guide.
+#[inline]
+pub fn sample_light_against(
+    scene: &RenderScene,
+    v: &Vertex,
+    path: &CameraPath,
+    time: f32,
+    u: &VertexSampler,
+    mis: bool,
+    scatter_pdf: impl FnOnce(Vec3, Vec3) -> f32,
+) -> Option<ShadowSample> {
     let si = &v.si;
     let normal = v.n_side();
     let (light, mut ls) = scene.lights.sample(si.p, normal, time, u.light_select(), u.light_point())?;
@@ -64,7 +79,7 @@ pub fn sample_light(
     // interface, which blocks shadow rays).
     let beta = path.beta * path.media.transmittance(scene, (ls.p - si.p).length());
     let contribution = if mis && !ls.delta {
-        let weight = power_heuristic(ls.pdf, v.bsdf.pdf(v.wo, wi));
+        let weight = power_heuristic(ls.pdf, scatter_pdf(wi, wi_world));
         beta * f * ls.le * (weight / ls.pdf)
     } else {
         beta * f * ls.le / ls.pdf

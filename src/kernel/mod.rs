@@ -21,6 +21,7 @@ pub mod continuation;
 pub mod dimensions;
 pub mod direct;
 pub mod emission;
+pub mod guided;
 pub mod lanes;
 pub mod light_path;
 pub mod media;

@@ -32,6 +32,7 @@
 //! | `Gather` | `splat_paths` |
 
 mod emit;
+pub mod guide;
 mod scatter;
 mod seen;
 mod shadow;
@@ -171,6 +172,8 @@ pub struct PathExtras {
     pub aov: bool,
     /// Visibility-aware light selection learns from the shadow rays.
     pub learning: bool,
+    /// Path guiding trains on what the paths find.
+    pub guide: bool,
 }
 
 /// Spawn `rows` camera paths into a shard's World, all in one table (one archetype: the extras go
@@ -184,19 +187,22 @@ pub fn spawn_chunk(world: &mut World, rows: u32, index: usize, count: usize, ext
         PathSampler(Sampler::new(0, 0, 0)),
         PathShadow::default(),
     );
-    match (extras.aov, extras.learning) {
-        (false, false) => {
-            world.spawn_batch((0..rows).map(|_| path));
-        }
-        (true, false) => {
-            world.spawn_batch((0..rows).map(|_| (path, PathAov::default())));
-        }
-        (false, true) => {
-            world.spawn_batch((0..rows).map(|_| (path, ShadowLearning::default())));
-        }
-        (true, true) => {
-            world.spawn_batch((0..rows).map(|_| (path, PathAov::default(), ShadowLearning::default())));
-        }
+    // One table: every row carries the same extras, each column only where the render uses it.
+    macro_rules! spawn_with {
+        ($($extra:expr),*) => {{
+            world.spawn_batch((0..rows).map(|_| (path, $($extra),*)));
+        }};
+    }
+    let (aov, learning, guide) = (PathAov::default(), ShadowLearning::default(), guide::PathGuide::default());
+    match (extras.aov, extras.learning, extras.guide) {
+        (false, false, false) => spawn_with!(),
+        (true, false, false) => spawn_with!(aov),
+        (false, true, false) => spawn_with!(learning),
+        (true, true, false) => spawn_with!(aov, learning),
+        (false, false, true) => spawn_with!(guide),
+        (true, false, true) => spawn_with!(aov, guide),
+        (false, true, true) => spawn_with!(learning, guide),
+        (true, true, true) => spawn_with!(aov, learning, guide),
     }
     world.insert_resource(PathQueues::new(rows));
     world.insert_resource(ShardIndex { index, count });

@@ -3,12 +3,14 @@
 //! it goes to next. Vertices on plain Lambertian triangles are queued together and shaded in lanes
 //! (`kernel::lanes`, the scalar kernel's bits); the others one by one.
 
+use super::guide::{Guide, PathGuide};
 use super::{PathQueues, PathSampler, PathShadow, PathThroughput, ShadowLearning};
 use crate::components::{PathAov, PathHit, PathRay};
 use crate::resources::{RenderConfig, SceneResource};
 use bevy_ecs::prelude::*;
 use caustica_core::geometry::Ray;
 use caustica_core::geometry::bvh::{NO_LIGHT, PlainTriangle};
+use caustica_core::kernel::guided::guided_path_vertex;
 use caustica_core::kernel::lanes::{DiffuseOutcome, DiffuseVertex, diffuse_vertices, plain_lambert};
 use caustica_core::kernel::path_vertex::path_vertex;
 use caustica_core::kernel::{CameraPath, ShadowSample, VertexSampler};
@@ -23,6 +25,7 @@ type ScatterColumns = (
     &'static mut PathShadow,
     Option<&'static mut ShadowLearning>,
     Option<&'static mut PathAov>,
+    Option<&'static mut PathGuide>,
 );
 
 /// The lanes' queue and their inputs and outputs, kept from step to step (no allocation per step).
@@ -50,6 +53,7 @@ pub fn scatter_paths<const NEE: bool>(
     scene: Res<SceneResource>,
     config: Res<RenderConfig>,
     mut queues: ResMut<PathQueues>,
+    guide: Option<Res<Guide>>,
     mut lanes: Local<LaneScratch>,
     mut paths: Query<ScatterColumns>,
 ) {
@@ -57,7 +61,8 @@ pub fn scatter_paths<const NEE: bool>(
         return;
     }
     let Ok(mut tables) = paths.contiguous_iter_mut() else { return };
-    let Some((hits, samplers, mut rays, mut states, mut shadows, mut learning, mut aovs)) = tables.next()
+    let Some((hits, samplers, mut rays, mut states, mut shadows, mut learning, mut aovs, mut remembered)) =
+        tables.next()
     else {
         return;
     };
@@ -65,6 +70,7 @@ pub fn scatter_paths<const NEE: bool>(
         (rays.bypass_change_detection(), states.bypass_change_detection(), shadows.bypass_change_detection());
     let mut learning = learning.as_mut().map(|l| l.bypass_change_detection());
     let mut aovs = aovs.as_mut().map(|a| a.bypass_change_detection());
+    let mut remembered = remembered.as_mut().map(|r| r.bypass_change_detection());
     let queues = &mut *queues;
     let lanes = &mut *lanes;
     lanes.albedo.clear();
@@ -85,6 +91,38 @@ pub fn scatter_paths<const NEE: bool>(
     };
     for &row in &active {
         let i = row as usize;
+        // A guided render shades every vertex in the scalar kernel: the lanes know no guide.
+        if let Some(guide) = &guide {
+            let mut training = remembered.as_deref_mut().filter(|_| guide.training()).map(|r| &mut r[i]);
+            let aov = aovs.as_deref_mut().map(|a| &mut a[i].0);
+            let path = &mut states[i].0;
+            if let Some(remembered) = training.as_deref_mut() {
+                remembered.arrive(path.l);
+            }
+            let (continues, light_sample, step) = guided_path_vertex::<NEE>(
+                &scene,
+                config.limits,
+                &hits[i].0,
+                &mut rays[i].0,
+                path,
+                samplers[i].0,
+                aov,
+                &guide.tree,
+                guide.bsdf_share,
+            );
+            if let (Some(remembered), Some(step), true) = (training, step, continues) {
+                remembered.remember(step, path.beta);
+            }
+            if let Some(sample) = light_sample {
+                queue_shadow(row, sample, queues);
+            }
+            if continues {
+                next.push(row)
+            } else {
+                queues.finished.push(row)
+            }
+            continue;
+        }
         // Feature images record the first surface from the scalar vertex: a render that asks for
         // them shades every vertex there.
         if aovs.is_none()

@@ -26,6 +26,12 @@ impl Renderer {
                     .into(),
             );
         }
+        if self.run.guiding.enabled {
+            return Some(
+                "path guiding's learnt distribution is not in a checkpoint: render guided renders without one"
+                    .into(),
+            );
+        }
         self.features.learns_visibility.then(|| {
             "visibility-aware light selection learns from the first samples, which a checkpoint does not \
              hold; use uniform, power or tree"

@@ -194,8 +194,11 @@ pub(super) fn plan_bidirectional(
         )
             .chain(),
     );
-    let extras =
-        PathExtras { aov: world.contains_resource::<crate::resources::AovFilmResource>(), learning: false };
+    let extras = PathExtras {
+        aov: world.contains_resource::<crate::resources::AovFilmResource>(),
+        learning: false,
+        guide: false,
+    };
     let mut links = super::path::camera_path_links();
     links.push(ShardLink::share::<LightVertexStore>());
     let shards = Shards::new(ShardPlan {

@@ -30,6 +30,8 @@ pub enum Setting {
     CausticMap,
     /// `render.noise_threshold`: adaptive sampling, which stops a pixel alone.
     NoiseThreshold,
+    /// `guiding.enabled`: path guiding.
+    Guiding,
 }
 
 impl Setting {
@@ -39,6 +41,7 @@ impl Setting {
             Self::PassOrder => "schedule.passes",
             Self::CausticMap => "schedule.caustic_map",
             Self::NoiseThreshold => "render.noise_threshold",
+            Self::Guiding => "guiding.enabled",
         }
     }
 
@@ -50,6 +53,7 @@ impl Setting {
             Self::NoiseThreshold => {
                 ": the photon mappers' pixels share their photons, so a pixel cannot stop alone"
             }
+            Self::Guiding => ": its paths are not sampled by the path tracer's continuation",
         }
     }
 }
@@ -170,6 +174,13 @@ impl Integrator {
                 names(|i| i.film_is_the_state)
             ));
         }
+        if run.guiding.enabled {
+            return Some(
+                "path guiding learns from the render's first passes, which a later share does not have: \
+                 render guided renders unsplit"
+                    .into(),
+            );
+        }
         if run.render.light_selection == LightSelection::Visibility {
             return Some(
                 "visibility-aware light selection learns from the render's first samples, which one share \
@@ -210,6 +221,7 @@ impl Integrator {
             (Setting::PassOrder, schedule.passes.is_some()),
             (Setting::CausticMap, schedule.caustic_map == Some(false)),
             (Setting::NoiseThreshold, run.is_adaptive()),
+            (Setting::Guiding, run.guiding.enabled),
         ];
         if let Some(&(setting, _)) = given.iter().find(|&&(setting, given)| given && !self.takes(setting)) {
             let takers = names(|i| i.takes(setting));

@@ -129,7 +129,8 @@ fn plan(_: &Integrator, world: &mut World, run: &RunFile, features: SceneFeature
     let camera = if camera_rays_can_see_light(world, run) {
         // As pt's: one lane, which the pass's first schedule replaces keeping it.
         world.insert_resource(Workload::new(pixels, 0, 0, 1));
-        let extras = PathExtras { aov: world.contains_resource::<AovFilmResource>(), learning: false };
+        let extras =
+            PathExtras { aov: world.contains_resource::<AovFilmResource>(), learning: false, guide: false };
         let shards = Shards::new(ShardPlan {
             chunk: run.render.chunk,
             spawn: Box::new(move |world, rows, index, count| {

@@ -21,8 +21,9 @@
 //! when the camera has an aperture or something moves, and `pt` drops light sampling when there is
 //! no light.
 
-use super::descriptor::{Integrator, LightSampling, MemoryNeed, Setting, no_checks, one_sample_per_unit};
+use super::descriptor::{Integrator, LightSampling, MemoryNeed, Setting, one_sample_per_unit};
 use super::film_image;
+use crate::camera_paths::guide::{self, Guide};
 use crate::camera_paths::{PathExtras, spawn_chunk};
 use crate::passes::{finish_light_learning, hand_out_samples, select_unconverged_pixels};
 use crate::plan::{Phase, Plan, Unit, When};
@@ -48,13 +49,23 @@ const PATH_TRACER: Integrator = Integrator {
     film_is_the_state: true,
     whole_passes: false,
     light_sampling: LightSampling::On,
-    takes: &[Setting::NoiseThreshold],
+    takes: &[Setting::NoiseThreshold, Setting::Guiding],
     default_hit_points_per_pixel: 0,
     hit_points_traced_once: false,
     counts_light_paths: false,
     camera_samples_per_unit: one_sample_per_unit,
     memory: |_, pixels, run, _| chunked_paths(pixels, run),
-    check: no_checks,
+    check: |_, run| {
+        if run.guiding.enabled && run.is_adaptive() {
+            return Err(caustica_core::error::Error::Setting {
+                name: "guiding.enabled".into(),
+                problem: "path guiding's training passes and adaptive sampling's passes cannot both set the \
+                          passes: render guided with render.noise_threshold = 0"
+                    .into(),
+            });
+        }
+        Ok(())
+    },
     plan,
 };
 
@@ -105,6 +116,9 @@ pub(super) fn chunked_paths(pixels: u64, run: &RunFile) -> MemoryNeed {
     if run.render.light_selection == caustica_core::scene::LightSelection::Visibility {
         components.push(size_of::<ShadowLearning>());
     }
+    if run.guiding.enabled {
+        components.push(size_of::<guide::PathGuide>());
+    }
     // The queues: a row in at most two of them, each a u32, and scatter's spare; the lanes' scratch.
     const QUEUE_BYTES: u64 = 3 * size_of::<u32>() as u64;
     let scratch = crate::camera_paths::LANE_SCRATCH_BYTES_PER_ROW as u64;
@@ -129,9 +143,11 @@ fn plan(this: &Integrator, world: &mut World, run: &RunFile, features: SceneFeat
     } else {
         super::without_visibility_learning(world, features, "using the light tree")
     };
+    let guided = guide::begin(world, run);
     let extras = PathExtras {
         aov: world.contains_resource::<crate::resources::AovFilmResource>(),
         learning: features.learns_visibility,
+        guide: guided,
     };
     let chunk = run.render.chunk;
     // The Workload the pass's first schedule replaces, keeping its lanes: one, as no entity of the
@@ -155,7 +171,16 @@ fn plan(this: &Integrator, world: &mut World, run: &RunFile, features: SceneFeat
         chunk,
         spawn: Box::new(move |world, rows, index, count| spawn_chunk(world, rows, index, count, extras)),
         in_flight: crate::camera_paths::in_flight,
-        systems: Box::new(move |schedule| add_bounce_systems(schedule, features, order, nee)),
+        systems: Box::new(move |schedule| {
+            add_bounce_systems(schedule, features, order, nee);
+            if guided {
+                schedule.add_systems(
+                    guide::record_guided_paths
+                        .in_set(PassSystems::Gather)
+                        .before(crate::camera_paths::splat_paths),
+                );
+            }
+        }),
         links: camera_path_links(),
     });
     let mut bounce = Phase::sharded("bounce", When::EveryPass, shards).with_begin(hand_out_samples(1));
@@ -167,7 +192,13 @@ fn plan(this: &Integrator, world: &mut World, run: &RunFile, features: SceneFeat
         bounce = bounce.with_end(select_unconverged_pixels);
     }
     phases.push(bounce);
-    let pass_end: crate::plan::PassEnd = if run.is_adaptive() {
+    if guided {
+        phases.push(Phase::once("guiding", When::EveryPass, guide::refine_guide));
+    }
+    let pass_end: crate::plan::PassEnd = if guided {
+        let training = world.resource::<Guide>().training_passes;
+        Box::new(move |done, target| Guide::pass_end(training, done, target))
+    } else if run.is_adaptive() {
         let min_spp = run.render.min_spp;
         Box::new(move |done, target| AdaptiveSampling::pass_end(min_spp, done, target))
     } else if features.learns_visibility {
@@ -217,6 +248,7 @@ pub fn camera_path_links() -> Vec<ShardLink> {
                 shard.remove_resource::<AdaptiveSquares>();
             },
         ),
+        ShardLink::share::<Guide>(),
         ShardLink::merge::<RenderStats>(RenderStats::absorb),
         ShardLink::merge::<crate::trace::TraceStatistics>(crate::trace::TraceStatistics::absorb),
     ]

@@ -75,6 +75,7 @@ impl RunFile {
         }
         self.progressive.check().map_err(|e| format!("progressive.{e}"))?;
         self.photons.check().map_err(|e| format!("photons.{e}"))?;
+        self.guiding.check().map_err(|e| format!("guiding.{e}"))?;
         if self.output.write_every == Some(0) {
             return Err("output.write_every is 0, must be at least 1 (or absent)".to_owned());
         }

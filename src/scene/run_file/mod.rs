@@ -2,12 +2,14 @@
 
 mod assembly;
 mod checks;
+mod guiding;
 mod kinds;
 mod sets;
 
 pub use checks::{
     DEFAULT_CHUNK, DEFAULT_MIN_SPP, MAX_CHUNK, MAX_HIT_POINTS_PER_PIXEL, MAX_MEMORY_BUDGET_MIB,
 };
+pub use guiding::GuidingSettings;
 pub use kinds::{FilterKind, IntegratorKind, LightSelection};
 pub use sets::SHORT_KEYS;
 
@@ -330,6 +332,8 @@ pub struct RunFile {
     pub frames: FrameSettings,
     /// The environment light.
     pub environment: super::environment::EnvironmentSettings,
+    /// Path guiding (`pt`).
+    pub guiding: GuidingSettings,
     /// Analytic spheres.
     #[serde(rename = "sphere")]
     pub spheres: Vec<SphereSpec>,
