@@ -823,7 +823,7 @@ def test_a_refused_call_leaves_the_session_as_if_it_had_never_come(scene_path):
         assert np.array_equal(session.image(), expected), f"{case}: the image differs from a session that never saw it"
 
 
-@pytest.mark.parametrize("integrator", ["pt", "lt", "bdpt", "vcm", "sppm"])
+@pytest.mark.parametrize("integrator", caustica.INTEGRATORS)
 def test_geometry_moved_beyond_reach_is_refused_by_every_integrator(integrator):
     """A move that takes a light 1e37 m up is refused by name (lt panicked in the BVH), and the
     session renders on as if it had not come."""
