@@ -11,7 +11,7 @@
 use super::aov::FirstSurface;
 use super::continuation::continue_along;
 use super::direct::sample_light_against;
-use super::{Arrival, CameraPath, EmissionWeight, PathLimits, ShadowSample, Vertex, VertexSampler};
+use super::{CameraPath, PathLimits, ShadowSample, Vertex, VertexSampler};
 use crate::geometry::Ray;
 use crate::geometry::bvh::Hit;
 use crate::guiding::{Leaf, SdTree};
@@ -48,36 +48,40 @@ pub fn guided_path_vertex<const NEE: bool>(
     guide: &SdTree,
     bsdf_share: f32,
 ) -> (bool, Option<ShadowSample>, Option<GuidedStep>) {
-    let arrival = Arrival {
-        emission: Some(if NEE { EmissionWeight::Mis } else { EmissionWeight::One }),
-        last_depth: limits.max_depth,
-    };
     let (mut light_sample, mut step) = (None, None);
-    let continues = arrival.arrive(scene, ray, hit, path, sampler, aov, |path, ray, v, u| {
-        let guided = is_guided(scene, v);
-        let leaf = guided.then(|| guide.leaf(v.si.p));
-        let mixture = Mixture::new(leaf, bsdf_share);
-        if NEE && !v.bsdf.is_delta() {
-            light_sample = sample_light_against(scene, v, path, ray.time, u, true, |wi, wi_world| {
-                mixture.pdf(v.bsdf.pdf(v.wo, wi), wi_world)
-            });
-        }
-        if path.depth >= limits.max_depth {
-            return false;
-        }
-        let Some(bs) = mixture.sample(v, u) else { return false };
-        let (wi_world, pdf, delta) = (v.frame.to_world(bs.wi), bs.pdf, bs.is_specular);
-        match continue_along(path, v, ray.time, u, limits, bs) {
-            Some(next) => {
-                if guided && !delta {
-                    step = Some(GuidedStep { p: v.si.p, wi: wi_world, pdf });
-                }
-                *ray = next;
-                true
+    let continues = super::path_vertex::arrival::<NEE>(limits).arrive(
+        scene,
+        ray,
+        hit,
+        path,
+        sampler,
+        aov,
+        |path, ray, v, u| {
+            let guided = is_guided(scene, v);
+            let leaf = guided.then(|| guide.leaf(v.si.p));
+            let mixture = Mixture::new(leaf, bsdf_share);
+            if NEE && !v.bsdf.is_delta() {
+                light_sample = sample_light_against(scene, v, path, ray.time, u, true, |wi, wi_world| {
+                    mixture.pdf(v.bsdf.pdf(v.wo, wi), wi_world)
+                });
             }
-            None => false,
-        }
-    });
+            if path.depth >= limits.max_depth {
+                return false;
+            }
+            let Some(bs) = mixture.sample(v, u) else { return false };
+            let (wi_world, pdf, delta) = (v.frame.to_world(bs.wi), bs.pdf, bs.is_specular);
+            match continue_along(path, v, ray.time, u, limits, bs) {
+                Some(next) => {
+                    if guided && !delta {
+                        step = Some(GuidedStep { p: v.si.p, wi: wi_world, pdf });
+                    }
+                    *ray = next;
+                    true
+                }
+                None => false,
+            }
+        },
+    );
     (continues, light_sample, step)
 }
 

@@ -22,12 +22,8 @@ pub fn path_vertex<const NEE: bool>(
     sampler: Sampler,
     aov: Option<&mut FirstSurface>,
 ) -> (bool, Option<ShadowSample>) {
-    let arrival = Arrival {
-        emission: Some(if NEE { EmissionWeight::Mis } else { EmissionWeight::One }),
-        last_depth: limits.max_depth,
-    };
     let mut light_sample = None;
-    let continues = arrival.arrive(scene, ray, hit, path, sampler, aov, |path, ray, v, u| {
+    let continues = arrival::<NEE>(limits).arrive(scene, ray, hit, path, sampler, aov, |path, ray, v, u| {
         if NEE && !v.bsdf.is_delta() {
             light_sample = sample_light(scene, v, path, ray.time, u, true);
         }
@@ -40,4 +36,14 @@ pub fn path_vertex<const NEE: bool>(
         }
     });
     (continues, light_sample)
+}
+
+/// How a path of `pt` (`NEE`: emission weighed by MIS against light sampling) or `pt-naive` arrives at
+/// a vertex, guided or not.
+#[inline]
+pub(super) fn arrival<const NEE: bool>(limits: PathLimits) -> Arrival {
+    Arrival {
+        emission: Some(if NEE { EmissionWeight::Mis } else { EmissionWeight::One }),
+        last_depth: limits.max_depth,
+    }
 }

@@ -217,12 +217,11 @@ mod tests {
 
     #[test]
     fn a_vertex_receives_what_the_path_gathered_after_it_over_its_throughput() {
-        let tree = SdTree::new(Vec3::splat(-1.0), Vec3::splat(1.0));
+        let mut tree = SdTree::new(Vec3::splat(-1.0), Vec3::splat(1.0));
         let mut guide = PathGuide::default();
         let step = GuidedStep { p: Vec3::ZERO, wi: Vec3::Z, pdf: 0.5 };
         guide.remember(step, Vec3::splat(0.25));
         guide.arrive(Vec3::splat(1.0));
-        let mut tree = tree;
         guide.record(&tree, Vec3::splat(3.0));
         assert_eq!(guide.count, 0, "forgotten once recorded");
         tree.refine(0);

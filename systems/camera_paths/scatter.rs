@@ -91,41 +91,10 @@ pub fn scatter_paths<const NEE: bool>(
     };
     for &row in &active {
         let i = row as usize;
-        // A guided render shades every vertex in the scalar kernel: the lanes know no guide.
-        if let Some(guide) = &guide {
-            let mut training = remembered.as_deref_mut().filter(|_| guide.training()).map(|r| &mut r[i]);
-            let aov = aovs.as_deref_mut().map(|a| &mut a[i].0);
-            let path = &mut states[i].0;
-            if let Some(remembered) = training.as_deref_mut() {
-                remembered.arrive(path.l);
-            }
-            let (continues, light_sample, step) = guided_path_vertex::<NEE>(
-                &scene,
-                config.limits,
-                &hits[i].0,
-                &mut rays[i].0,
-                path,
-                samplers[i].0,
-                aov,
-                &guide.tree,
-                guide.bsdf_share,
-            );
-            if let (Some(remembered), Some(step), true) = (training, step, continues) {
-                remembered.remember(step, path.beta);
-            }
-            if let Some(sample) = light_sample {
-                queue_shadow(row, sample, queues);
-            }
-            if continues {
-                next.push(row)
-            } else {
-                queues.finished.push(row)
-            }
-            continue;
-        }
         // Feature images record the first surface from the scalar vertex: a render that asks for
-        // them shades every vertex there.
+        // them shades every vertex there. A guided render does too: the lanes know no guide.
         if aovs.is_none()
+            && guide.is_none()
             && let Some((triangle, albedo)) =
                 takes_lanes(&scene, &lanes.albedo, &config, &hits[i].0, &states[i].0)
         {
@@ -138,15 +107,39 @@ pub fn scatter_paths<const NEE: bool>(
             continue;
         }
         let aov = aovs.as_deref_mut().map(|a| &mut a[i].0);
-        let (continues, light_sample) = path_vertex::<NEE>(
-            &scene,
-            config.limits,
-            &hits[i].0,
-            &mut rays[i].0,
-            &mut states[i].0,
-            samplers[i].0,
-            aov,
-        );
+        let (continues, light_sample) = match &guide {
+            None => path_vertex::<NEE>(
+                &scene,
+                config.limits,
+                &hits[i].0,
+                &mut rays[i].0,
+                &mut states[i].0,
+                samplers[i].0,
+                aov,
+            ),
+            Some(guide) => {
+                let mut training = remembered.as_deref_mut().filter(|_| guide.training()).map(|r| &mut r[i]);
+                let path = &mut states[i].0;
+                if let Some(remembered) = training.as_deref_mut() {
+                    remembered.arrive(path.l);
+                }
+                let (continues, light_sample, step) = guided_path_vertex::<NEE>(
+                    &scene,
+                    config.limits,
+                    &hits[i].0,
+                    &mut rays[i].0,
+                    path,
+                    samplers[i].0,
+                    aov,
+                    &guide.tree,
+                    guide.bsdf_share,
+                );
+                if let (Some(remembered), Some(step), true) = (training, step, continues) {
+                    remembered.remember(step, path.beta);
+                }
+                (continues, light_sample)
+            }
+        };
         if let Some(sample) = light_sample {
             queue_shadow(row, sample, queues);
         }
