@@ -27,6 +27,7 @@ mod cylindrical;
 mod fixed_point;
 mod quadtree;
 mod recording;
+mod selection;
 mod spatial;
 
 #[cfg(test)]
@@ -34,6 +35,7 @@ mod tests;
 
 pub use cylindrical::{INV_FOUR_PI, from_square, to_square};
 pub use quadtree::DirectionalDistribution;
+pub use selection::{CANDIDATE_SHARES, PRIOR_SHARE};
 pub use spatial::{Leaf, NodeCounts, SdTree};
 
 use quadtree::quadrant;
@@ -54,12 +56,20 @@ pub struct GuidingConfig {
     pub directional_threshold: f64,
     /// Deepest quadtree node (the root's quadrants are at depth 1); at most [`MAX_QUADTREE_DEPTH`].
     pub max_depth: u32,
+    /// The BSDF's share of a guided vertex's samples, the same everywhere; `None`: each leaf learns
+    /// its own ([`selection`]).
+    pub fixed_bsdf_share: Option<f32>,
 }
 
 impl Default for GuidingConfig {
-    /// The paper's: c = 12 000, ρ = 0.01, depth 20.
+    /// The paper's: c = 12 000, ρ = 0.01, depth 20; the BSDF's share learnt.
     fn default() -> Self {
-        Self { spatial_threshold: 12_000.0, directional_threshold: 0.01, max_depth: 20 }
+        Self {
+            spatial_threshold: 12_000.0,
+            directional_threshold: 0.01,
+            max_depth: 20,
+            fixed_bsdf_share: None,
+        }
     }
 }
 
@@ -80,6 +90,8 @@ impl GuidingConfig {
             spatial_threshold: c,
             directional_threshold: rho,
             max_depth: self.max_depth.clamp(1, MAX_QUADTREE_DEPTH),
+            // Never 0: the BSDF keeps every direction it can reach possible.
+            fixed_bsdf_share: self.fixed_bsdf_share.map(|a| if a > 0.0 { a.min(1.0) } else { PRIOR_SHARE }),
         }
     }
 }

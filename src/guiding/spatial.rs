@@ -6,6 +6,7 @@ use super::cylindrical::to_square;
 use super::fixed_point::to_fixed;
 use super::quadtree::DirectionalDistribution;
 use super::recording::RecordingTree;
+use super::selection::{PRIOR_SHARE, SelectionRecording};
 use crate::sampling::ONE_MINUS_EPSILON;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -24,6 +25,10 @@ struct LeafData {
     distribution: DirectionalDistribution,
     /// What paths record into during this iteration.
     recording: RecordingTree,
+    /// The BSDF's share of this iteration's samples ([`super::selection`]).
+    bsdf_share: f32,
+    /// What paths record towards the next share.
+    selection: SelectionRecording,
     /// Splits above it: its extent along axis a is 2^−⌊(depth + 2 − a) / 3⌋ of the cube's.
     depth: u32,
 }
@@ -51,6 +56,8 @@ pub struct NodeCounts {
     pub sampling: usize,
     /// Nodes of the quadtrees recorded into, over all leaves.
     pub recording: usize,
+    /// Leaves whose guide takes part: it learnt something and kept a share for it.
+    pub guiding: usize,
 }
 
 /// A spatial leaf, found once per path vertex: sample, evaluate and record there without walking the
@@ -87,6 +94,21 @@ impl<'a> Leaf<'a> {
     #[inline]
     pub fn pdf(&self, d: Vec3) -> f32 {
         self.data.distribution.pdf(d)
+    }
+
+    /// The BSDF's share of the samples here: the configured one, else what the leaf learnt (1 where
+    /// guiding does not pay, [`super::selection::PRIOR_SHARE`] before it knows).
+    #[inline]
+    pub fn bsdf_share(&self) -> f32 {
+        self.data.bsdf_share
+    }
+
+    /// Record, towards the leaf's next BSDF share, a sample drawn with the mixture's density `pdf`
+    /// whose BSDF and guide densities were `bsdf_pdf` and `guide_pdf` and which brought the pixel
+    /// `contribution` (luminance of everything the path gathered after the vertex).
+    #[inline]
+    pub fn record_selection(&self, contribution: f32, pdf: f32, bsdf_pdf: f32, guide_pdf: f32) {
+        self.data.selection.record(contribution, pdf, bsdf_pdf, guide_pdf);
     }
 
     /// Record the luminance of radiance arriving from `direction` (any non-zero length) divided by the
@@ -126,6 +148,8 @@ impl SdTree {
         let leaf = LeafData {
             distribution: DirectionalDistribution::default(),
             recording: RecordingTree::with_shape(&shape),
+            bsdf_share: config.fixed_bsdf_share.unwrap_or(PRIOR_SHARE),
+            selection: SelectionRecording::default(),
             depth: 0,
         };
         Self { origin, scale: 1.0 / side, nodes: vec![LEAF], leaves: vec![leaf], config }
@@ -195,12 +219,14 @@ impl SdTree {
     /// sampled, spatial leaves that recorded more than [`Self::spatial_threshold`] samples are split
     /// (each half assumed to have seen half, recursively, as in the paper; both start from the
     /// parent's distribution), and every leaf's recording quadtree is reshaped by the energy it saw
-    /// and emptied. A leaf that recorded no energy samples the uniform sphere next.
+    /// and emptied. A leaf that recorded no energy samples the uniform sphere next. Unless the share
+    /// is fixed, each leaf chooses its BSDF share from what it recorded ([`super::selection`]).
     ///
     /// Leaves are finished in parallel, each from its own integers alone; the new tree is then built
     /// depth first in the old one's order, so the result does not depend on the thread count.
     pub fn refine(&mut self, iteration: u32) {
-        let (rho, max_depth) = (self.config.directional_threshold, self.config.max_depth);
+        let (rho, max_depth, fixed) =
+            (self.config.directional_threshold, self.config.max_depth, self.config.fixed_bsdf_share);
         let finished: Vec<Finished> = self
             .leaves
             .par_iter()
@@ -214,6 +240,8 @@ impl SdTree {
                     ),
                     shape: RecordingTree::refined_shape(&recorded, rho, max_depth),
                     samples: recorded.samples,
+                    bsdf_share: fixed
+                        .unwrap_or_else(|| leaf.selection.choose(leaf.distribution.is_uniform())),
                 }
             })
             .collect();
@@ -237,11 +265,16 @@ impl SdTree {
             leaves: self.leaves.len(),
             sampling: self.leaves.iter().map(|l| l.distribution.node_count()).sum(),
             recording: self.leaves.iter().map(|l| l.recording.node_count()).sum(),
+            guiding: self
+                .leaves
+                .iter()
+                .filter(|l| l.bsdf_share < 1.0 && !l.distribution.is_uniform())
+                .count(),
         }
     }
 
     /// Bytes the tree holds: spatial nodes, leaves, and both quadtrees of each (4 bytes a spatial node,
-    /// 32 a sampling and 56 a recording quadtree node, 80 a leaf's own fields).
+    /// 32 a sampling and 56 a recording quadtree node, 184 a leaf's own fields).
     pub fn memory_bytes(&self) -> usize {
         self.nodes.len() * size_of::<u32>()
             + self.leaves.len() * size_of::<LeafData>()
@@ -267,6 +300,8 @@ impl SdTree {
         for leaf in &self.leaves {
             h.update(&leaf.depth.to_le_bytes());
             leaf.distribution.hash_into(&mut h);
+            h.update(&leaf.bsdf_share.to_bits().to_le_bytes());
+            leaf.selection.hash_into(&mut h);
             let recorded = leaf.recording.finish();
             h.update(&recorded.samples.to_le_bytes());
             recorded.sums.iter().flatten().for_each(|s| h.update(&s.to_le_bytes()));
@@ -276,11 +311,13 @@ impl SdTree {
     }
 }
 
-/// A leaf after its iteration: its new distribution, its next recording shape, its sample count.
+/// A leaf after its iteration: its new distribution, its next recording shape, its sample count,
+/// its next BSDF share.
 struct Finished {
     distribution: DirectionalDistribution,
     shape: Vec<[u16; 4]>,
     samples: u64,
+    bsdf_share: f32,
 }
 
 /// The new spatial tree being built from the old one and its finished leaves.
@@ -319,6 +356,8 @@ impl Rebuild<'_> {
             self.leaves.push(LeafData {
                 distribution: f.distribution.clone(),
                 recording: RecordingTree::with_shape(&f.shape),
+                bsdf_share: f.bsdf_share,
+                selection: SelectionRecording::default(),
                 depth,
             });
         }

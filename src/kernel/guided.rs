@@ -20,8 +20,9 @@ use crate::render_scene::RenderScene;
 use crate::sampling::Sampler;
 use glam::Vec3;
 
-/// The direction a guided vertex continued along, for training: where, which way (world), and the
-/// pdf it was drawn with (the mixture's, or the BSDF's where the guide took no part).
+/// The direction a guided vertex continued along, for training: where, which way (world), the pdf
+/// it was drawn with (the mixture's, or the BSDF's where the guide took no part), and the BSDF's and
+/// the guide's densities of it (for the leaf to learn its BSDF share).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GuidedStep {
     /// The vertex.
@@ -30,6 +31,10 @@ pub struct GuidedStep {
     pub wi: Vec3,
     /// Its solid-angle pdf.
     pub pdf: f32,
+    /// The BSDF's solid-angle pdf of it.
+    pub bsdf_pdf: f32,
+    /// The guide's solid-angle pdf of it.
+    pub guide_pdf: f32,
 }
 
 /// One vertex of `pt` (`NEE`) or `pt-naive` guided by `guide`: whether the path goes on (its next
@@ -46,7 +51,6 @@ pub fn guided_path_vertex<const NEE: bool>(
     sampler: Sampler,
     aov: Option<&mut FirstSurface>,
     guide: &SdTree,
-    bsdf_share: f32,
 ) -> (bool, Option<ShadowSample>, Option<GuidedStep>) {
     let (mut light_sample, mut step) = (None, None);
     let continues = super::path_vertex::arrival::<NEE>(limits).arrive(
@@ -59,7 +63,7 @@ pub fn guided_path_vertex<const NEE: bool>(
         |path, ray, v, u| {
             let guided = is_guided(scene, v);
             let leaf = guided.then(|| guide.leaf(v.si.p));
-            let mixture = Mixture::new(leaf, bsdf_share);
+            let mixture = Mixture::new(leaf);
             if NEE && !v.bsdf.is_delta() {
                 light_sample = sample_light_against(scene, v, path, ray.time, u, true, |wi, wi_world| {
                     mixture.pdf(v.bsdf.pdf(v.wo, wi), wi_world)
@@ -68,12 +72,13 @@ pub fn guided_path_vertex<const NEE: bool>(
             if path.depth >= limits.max_depth {
                 return false;
             }
-            let Some(bs) = mixture.sample(v, u) else { return false };
+            let Some((bs, bsdf_pdf)) = mixture.sample(v, u) else { return false };
             let (wi_world, pdf, delta) = (v.frame.to_world(bs.wi), bs.pdf, bs.is_specular);
             match continue_along(path, v, ray.time, u, limits, bs) {
                 Some(next) => {
-                    if guided && !delta {
-                        step = Some(GuidedStep { p: v.si.p, wi: wi_world, pdf });
+                    if let (Some(leaf), false) = (&leaf, delta) {
+                        let guide_pdf = leaf.pdf(wi_world);
+                        step = Some(GuidedStep { p: v.si.p, wi: wi_world, pdf, bsdf_pdf, guide_pdf });
                     }
                     *ray = next;
                     true
@@ -93,16 +98,17 @@ fn is_guided(scene: &RenderScene, v: &Vertex) -> bool {
 
 /// The one-sample mixture of the BSDF and a leaf's guide.
 struct Mixture<'a> {
-    /// The guide, where it takes part (a guided vertex whose leaf has learnt something).
+    /// The guide, where it takes part (a guided vertex whose leaf has learnt something and chose to
+    /// use it).
     leaf: Option<Leaf<'a>>,
     /// The BSDF's probability: 1 without a guide.
     bsdf_share: f32,
 }
 
 impl<'a> Mixture<'a> {
-    fn new(leaf: Option<Leaf<'a>>, bsdf_share: f32) -> Self {
-        match leaf.filter(|leaf| !leaf.distribution().is_uniform()) {
-            Some(leaf) => Self { leaf: Some(leaf), bsdf_share: bsdf_share.clamp(0.0, 1.0) },
+    fn new(leaf: Option<Leaf<'a>>) -> Self {
+        match leaf.filter(|leaf| !leaf.distribution().is_uniform() && leaf.bsdf_share() < 1.0) {
+            Some(leaf) => Self { leaf: Some(leaf), bsdf_share: leaf.bsdf_share().clamp(0.0, 1.0) },
             None => Self { leaf: None, bsdf_share: 1.0 },
         }
     }
@@ -117,35 +123,40 @@ impl<'a> Mixture<'a> {
     }
 
     /// A continuation from the mixture, as a BSDF sample whose pdf is the mixture's (a delta lobe's
-    /// discrete probability scaled by the BSDF's share: the guide never draws it).
+    /// discrete probability scaled by the BSDF's share: the guide never draws it), and the BSDF's
+    /// own pdf of it.
     #[inline]
-    fn sample(&self, v: &Vertex, u: &VertexSampler) -> Option<BsdfSample> {
+    fn sample(&self, v: &Vertex, u: &VertexSampler) -> Option<(BsdfSample, f32)> {
         let Some(leaf) = &self.leaf else {
-            return v.bsdf.sample_with(v.wo, || u.bsdf_lobe(), u.bsdf_direction(), TransportMode::Radiance);
+            let bs =
+                v.bsdf.sample_with(v.wo, || u.bsdf_lobe(), u.bsdf_direction(), TransportMode::Radiance)?;
+            return Some((bs, bs.pdf));
         };
         let pick = u.bsdf_lobe();
         if pick < self.bsdf_share {
             // The pick, stretched back over [0, 1), chooses the BSDF's lobe.
             let lobe = pick / self.bsdf_share;
             let mut bs = v.bsdf.sample_with(v.wo, || lobe, u.bsdf_direction(), TransportMode::Radiance)?;
+            let bsdf_pdf = bs.pdf;
             bs.pdf = if bs.is_specular {
                 self.bsdf_share * bs.pdf
             } else {
                 self.pdf(bs.pdf, v.frame.to_world(bs.wi))
             };
-            return Some(bs);
+            return Some((bs, bsdf_pdf));
         }
         let (wi_world, guide_pdf) = leaf.sample(u.bsdf_direction());
         let wi = v.frame.to_local(wi_world);
         let bsdf_pdf = v.bsdf.pdf(v.wo, wi);
-        Some(BsdfSample {
+        let bs = BsdfSample {
             wi,
             f: v.bsdf.eval(v.wo, wi, TransportMode::Radiance),
             pdf: self.bsdf_share * bsdf_pdf + (1.0 - self.bsdf_share) * guide_pdf,
             is_specular: false,
             is_transmission: wi.z * v.wo.z < 0.0,
             eta: 1.0,
-        })
+        };
+        Some((bs, bsdf_pdf))
     }
 }
 
@@ -160,7 +171,8 @@ mod tests {
     /// lose it).
     #[test]
     fn the_bsdf_share_keeps_every_direction_the_bsdf_reaches() {
-        let mut tree = SdTree::new(Vec3::splat(-1.0), Vec3::splat(1.0));
+        let config = crate::guiding::GuidingConfig { fixed_bsdf_share: Some(0.25), ..Default::default() };
+        let mut tree = SdTree::with_config(Vec3::splat(-1.0), Vec3::splat(1.0), config);
         let cone = Vec3::new(0.3, 0.2, 0.93).normalize();
         for iteration in 0..3 {
             for _ in 0..20_000 {
@@ -170,7 +182,7 @@ mod tests {
         }
         let leaf = tree.leaf(Vec3::ZERO);
         assert!(!leaf.distribution().is_uniform());
-        let mixture = Mixture::new(Some(leaf), 0.25);
+        let mixture = Mixture::new(Some(leaf));
         let frame = Frame::from_z(Vec3::Z);
         let lambert = crate::materials::Bsdf::lambert(Vec3::splat(0.5));
         let wo = Vec3::Z;
@@ -195,7 +207,7 @@ mod tests {
     #[test]
     fn an_untrained_leaf_leaves_the_bsdf_alone() {
         let tree = SdTree::new(Vec3::splat(-1.0), Vec3::splat(1.0));
-        let mixture = Mixture::new(Some(tree.leaf(Vec3::ZERO)), 0.5);
+        let mixture = Mixture::new(Some(tree.leaf(Vec3::ZERO)));
         assert!(mixture.leaf.is_none() && mixture.bsdf_share == 1.0);
         assert_eq!(mixture.pdf(0.3, Vec3::Z), 0.3);
     }

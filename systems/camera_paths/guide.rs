@@ -26,8 +26,6 @@ pub const REMEMBERED_VERTICES: usize = 6;
 pub struct Guide {
     /// The SD-tree: sampled by every shard, recorded into during training passes.
     pub tree: Arc<SdTree>,
-    /// The BSDF's share of a guided vertex's continuations.
-    pub bsdf_share: f32,
     /// Training passes in all.
     pub training_passes: u32,
     /// Training passes done (the tree has been refined this often).
@@ -40,6 +38,18 @@ impl Guide {
     /// Whether the running pass records into the tree.
     pub fn training(&self) -> bool {
         self.refined < self.training_passes
+    }
+
+    /// Whether the guide takes part at the vertex where `ray` lands by `hit`: its leaf has learnt
+    /// something and kept a share for it (where it did not, the vertex may take the lanes).
+    #[inline]
+    pub fn takes_part(
+        &self,
+        ray: &caustica_core::geometry::Ray,
+        hit: &caustica_core::geometry::bvh::Hit,
+    ) -> bool {
+        let leaf = self.tree.leaf(ray.o + ray.d * hit.t);
+        leaf.bsdf_share() < 1.0 && !leaf.distribution().is_uniform()
     }
 
     /// Where the pass that starts at `done` samples per pixel ends, of `target`: training pass k
@@ -69,11 +79,11 @@ pub fn begin(world: &mut World, run: &caustica_core::scene::RunFile) -> bool {
     let config = caustica_core::guiding::GuidingConfig {
         spatial_threshold: settings.spatial_threshold,
         directional_threshold: settings.directional_threshold,
+        fixed_bsdf_share: settings.bsdf_fraction,
         ..Default::default()
     };
     world.insert_resource(Guide {
         tree: Arc::new(SdTree::with_config(min, max, config)),
-        bsdf_share: settings.bsdf_fraction,
         training_passes,
         refined: 0,
         refine_seconds: 0.0,
@@ -87,10 +97,13 @@ struct RememberedVertex {
     p: Vec3,
     wi: Vec3,
     pdf: f32,
+    bsdf_pdf: f32,
+    guide_pdf: f32,
     /// The path's throughput after the continuation (radiance gathered later, divided by it, is
     /// what arrived along `wi`).
     beta: Vec3,
-    /// Radiance the path had gathered when it reached its next vertex, light sampled here included.
+    /// Radiance the path had gathered when it reached its next vertex: light sampled here included,
+    /// and, where light sampling (NEE) covers it, the light emitted there too (`arrive`).
     before: Vec3,
 }
 
@@ -104,7 +117,10 @@ pub struct PathGuide {
 }
 
 impl PathGuide {
-    /// The path reached its next vertex having gathered `l`, before anything found there.
+    /// The path reached its next vertex having gathered `l`. With light sampling, call it once the
+    /// light emitted there is counted: that light is light sampling's to find, and a guide that
+    /// learnt it would spend its samples where MIS then gives them little weight. Without, call it
+    /// before: the guide is then the only way to find the lights.
     #[inline]
     pub fn arrive(&mut self, l: Vec3) {
         if self.awaiting {
@@ -117,21 +133,26 @@ impl PathGuide {
     #[inline]
     pub fn remember(&mut self, step: GuidedStep, beta: Vec3) {
         if (self.count as usize) < REMEMBERED_VERTICES {
-            let (p, wi, pdf) = (step.p, step.wi, step.pdf);
-            self.vertices[self.count as usize] = RememberedVertex { p, wi, pdf, beta, before: Vec3::ZERO };
+            let GuidedStep { p, wi, pdf, bsdf_pdf, guide_pdf } = step;
+            self.vertices[self.count as usize] =
+                RememberedVertex { p, wi, pdf, bsdf_pdf, guide_pdf, beta, before: Vec3::ZERO };
             self.count += 1;
             self.awaiting = true;
         }
     }
 
-    /// The path ended with radiance `l`: record what each remembered vertex received, and forget.
+    /// The path ended with radiance `l`: record what each remembered vertex received (the light
+    /// that arrived along its continuation, for its leaf's distribution; what that brought the
+    /// pixel, for its leaf's BSDF share), and forget.
     pub fn record(&mut self, tree: &SdTree, l: Vec3) {
         let settled = self.count as usize - usize::from(self.awaiting);
         if l.is_finite() {
             for v in &self.vertices[..settled] {
                 let arrived = (l - v.before).max(Vec3::ZERO);
                 let incident = Vec3::select(v.beta.cmpgt(Vec3::ZERO), arrived / v.beta, Vec3::ZERO);
-                tree.record(v.p, v.wi, luminance(incident) / v.pdf);
+                let leaf = tree.leaf(v.p);
+                leaf.record(v.wi, luminance(incident) / v.pdf);
+                leaf.record_selection(luminance(arrived), v.pdf, v.bsdf_pdf, v.guide_pdf);
             }
         }
         *self = Self::default();
@@ -172,8 +193,9 @@ pub fn refine_guide(mut guide: ResMut<Guide>) {
     tree.refine(iteration);
     let counts = tree.node_counts();
     tracing::info!(
-        "path guiding: training pass {iteration} refined: {} leaves, {} sampling nodes, {} KiB",
+        "path guiding: training pass {iteration} refined: {} leaves ({} guiding), {} sampling nodes, {} KiB",
         counts.leaves,
+        counts.guiding,
         counts.sampling,
         tree.memory_bytes() >> 10
     );
@@ -206,6 +228,7 @@ pub fn learnt_at_pixel(world: &World, x: u32, y: u32) -> Option<(Vec3, caustica_
 #[cfg(test)]
 mod tests {
     use super::*;
+    use caustica_core::guiding::INV_FOUR_PI;
 
     #[test]
     fn training_passes_double_and_the_rest_renders_at_once() {
@@ -219,7 +242,7 @@ mod tests {
     fn a_vertex_receives_what_the_path_gathered_after_it_over_its_throughput() {
         let mut tree = SdTree::new(Vec3::splat(-1.0), Vec3::splat(1.0));
         let mut guide = PathGuide::default();
-        let step = GuidedStep { p: Vec3::ZERO, wi: Vec3::Z, pdf: 0.5 };
+        let step = GuidedStep { p: Vec3::ZERO, wi: Vec3::Z, pdf: 0.5, bsdf_pdf: 0.5, guide_pdf: INV_FOUR_PI };
         guide.remember(step, Vec3::splat(0.25));
         guide.arrive(Vec3::splat(1.0));
         guide.record(&tree, Vec3::splat(3.0));
@@ -234,7 +257,8 @@ mod tests {
     fn a_vertex_still_waiting_for_its_next_one_is_not_recorded() {
         let tree = SdTree::new(Vec3::splat(-1.0), Vec3::splat(1.0));
         let mut guide = PathGuide::default();
-        guide.remember(GuidedStep { p: Vec3::ZERO, wi: Vec3::Z, pdf: 0.5 }, Vec3::ONE);
+        let step = GuidedStep { p: Vec3::ZERO, wi: Vec3::Z, pdf: 0.5, bsdf_pdf: 0.5, guide_pdf: INV_FOUR_PI };
+        guide.remember(step, Vec3::ONE);
         let before = tree.fingerprint();
         guide.record(&tree, Vec3::splat(3.0));
         assert_eq!(tree.fingerprint(), before);

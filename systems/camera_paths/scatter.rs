@@ -92,9 +92,12 @@ pub fn scatter_paths<const NEE: bool>(
     for &row in &active {
         let i = row as usize;
         // Feature images record the first surface from the scalar vertex: a render that asks for
-        // them shades every vertex there. A guided render does too: the lanes know no guide.
+        // them shades every vertex there. A guided render does too where its guide takes part (the
+        // lanes know no guide), and while it trains.
         if aovs.is_none()
-            && guide.is_none()
+            && guide
+                .as_ref()
+                .is_none_or(|guide| !guide.training() && !guide.takes_part(&rays[i].0, &hits[i].0))
             && let Some((triangle, albedo)) =
                 takes_lanes(&scene, &lanes.albedo, &config, &hits[i].0, &states[i].0)
         {
@@ -120,7 +123,7 @@ pub fn scatter_paths<const NEE: bool>(
             Some(guide) => {
                 let mut training = remembered.as_deref_mut().filter(|_| guide.training()).map(|r| &mut r[i]);
                 let path = &mut states[i].0;
-                if let Some(remembered) = training.as_deref_mut() {
+                if let Some(remembered) = training.as_deref_mut().filter(|_| !NEE) {
                     remembered.arrive(path.l);
                 }
                 let (continues, light_sample, step) = guided_path_vertex::<NEE>(
@@ -132,10 +135,15 @@ pub fn scatter_paths<const NEE: bool>(
                     samplers[i].0,
                     aov,
                     &guide.tree,
-                    guide.bsdf_share,
                 );
-                if let (Some(remembered), Some(step), true) = (training, step, continues) {
-                    remembered.remember(step, path.beta);
+                if let Some(remembered) = training {
+                    if NEE {
+                        // The light emitted here is now in `l`; light sampled here is not yet.
+                        remembered.arrive(path.l);
+                    }
+                    if let (Some(step), true) = (step, continues) {
+                        remembered.remember(step, path.beta);
+                    }
                 }
                 (continues, light_sample)
             }

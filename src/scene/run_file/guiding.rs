@@ -12,10 +12,12 @@ pub struct GuidingSettings {
     /// sampling by what the passes before it learnt, as many as fit (none given: a quarter of
     /// `render.spp`). Their samples count in the image: each is an unbiased estimate.
     pub training_spp: Option<u32>,
-    /// The BSDF's share of the continuations at a guided vertex (the guide takes the rest). It must be
-    /// above 0: the BSDF keeps every direction it can reach possible, so a guide that never learnt of
-    /// some light cannot bias the image.
-    pub bsdf_fraction: f32,
+    /// The BSDF's share of the continuations at a guided vertex (the guide takes the rest), the same
+    /// everywhere. None given: each region of space learns its own from what its samples brought
+    /// (`guiding::selection`), 1 where guiding does not pay. It must be above 0: the BSDF keeps every
+    /// direction it can reach possible, so a guide that never learnt of some light cannot bias the
+    /// image.
+    pub bsdf_fraction: Option<f32>,
     /// c: a region of space is split once it recorded more than c·√(2^k) path vertices in training
     /// pass k (Müller et al. 2017: 12 000).
     pub spatial_threshold: f64,
@@ -29,7 +31,7 @@ impl Default for GuidingSettings {
         Self {
             enabled: false,
             training_spp: None,
-            bsdf_fraction: 0.5,
+            bsdf_fraction: None,
             spatial_threshold: 12_000.0,
             directional_threshold: 0.01,
         }
@@ -39,11 +41,12 @@ impl Default for GuidingSettings {
 impl GuidingSettings {
     /// Which setting is out of range, if any (named as in the run file, without the table).
     pub fn check(&self) -> Result<(), String> {
-        if !(self.bsdf_fraction > 0.0 && self.bsdf_fraction <= 1.0) {
+        if let Some(fraction) = self.bsdf_fraction
+            && !(fraction > 0.0 && fraction <= 1.0)
+        {
             return Err(format!(
-                "bsdf_fraction is {}, must be in (0, 1]: with no BSDF share, light the guide never saw \
-                 would be lost",
-                self.bsdf_fraction
+                "bsdf_fraction is {fraction}, must be in (0, 1]: with no BSDF share, light the guide never \
+                 saw would be lost"
             ));
         }
         if !(self.spatial_threshold >= 1.0 && self.spatial_threshold.is_finite()) {
@@ -85,8 +88,9 @@ mod tests {
 
     #[test]
     fn a_guide_that_could_lose_light_is_refused() {
-        let fraction = |bsdf_fraction| GuidingSettings { bsdf_fraction, ..Default::default() }.check();
+        let fraction = |f| GuidingSettings { bsdf_fraction: Some(f), ..Default::default() }.check();
         assert!(fraction(0.0).is_err() && fraction(f32::NAN).is_err() && fraction(1.5).is_err());
         assert!(fraction(0.5).is_ok() && fraction(1.0).is_ok());
+        assert!(GuidingSettings::default().check().is_ok(), "learnt");
     }
 }
