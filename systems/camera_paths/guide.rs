@@ -17,6 +17,8 @@ use caustica_core::kernel::guided::GuidedStep;
 use caustica_core::lights::light::luminance;
 use glam::Vec3;
 use std::sync::Arc;
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::time::Instant;
 
 /// Guided vertices a path remembers while training: the first ones, which see most of the light.
 pub const REMEMBERED_VERTICES: usize = 6;
@@ -26,18 +28,39 @@ pub const REMEMBERED_VERTICES: usize = 6;
 pub struct Guide {
     /// The SD-tree: sampled by every shard, recorded into during training passes.
     pub tree: Arc<SdTree>,
-    /// Training passes in all.
-    pub training_passes: u32,
+    /// Training passes in all: fixed by the samples per pixel, or cut short by a time limit, so the
+    /// plan's pass sizes read it as it stands.
+    pub training_passes: Arc<AtomicU32>,
     /// Training passes done (the tree has been refined this often).
     pub refined: u32,
     /// Seconds spent refining.
     pub refine_seconds: f64,
+    /// With a time limit: training ends before the pass that would end after this many seconds of it
+    /// (each pass takes about twice the one before).
+    pub training_seconds: Option<f64>,
+    /// When training began.
+    pub started: Instant,
+    /// Seconds from then to the end of the last training pass.
+    pub training_took: f64,
+    /// The run's memory budget: a refinement that grows the tree past a quarter of it ends training.
+    pub budget_bytes: u64,
 }
+
+/// The share of a time limit spent training, as of the samples per pixel by default.
+pub const TRAINING_SHARE_OF_TIME: f64 = 0.25;
+
+/// The share of the run's memory budget the tree may grow to.
+pub const TREE_SHARE_OF_BUDGET: u64 = 4;
 
 impl Guide {
     /// Whether the running pass records into the tree.
     pub fn training(&self) -> bool {
-        self.refined < self.training_passes
+        self.refined < self.training_passes()
+    }
+
+    /// Training passes in all, as it stands.
+    pub fn training_passes(&self) -> u32 {
+        self.training_passes.load(Ordering::Relaxed)
     }
 
     /// Whether the guide takes part at the vertex where `ray` lands by `hit`: its leaf has learnt
@@ -84,9 +107,18 @@ pub fn begin(world: &mut World, run: &caustica_core::scene::RunFile) -> bool {
     };
     world.insert_resource(Guide {
         tree: Arc::new(SdTree::with_config(min, max, config)),
-        training_passes,
+        training_passes: Arc::new(AtomicU32::new(training_passes)),
         refined: 0,
         refine_seconds: 0.0,
+        // An explicit training budget is in samples; the default follows a time limit if there is one.
+        training_seconds: run
+            .render
+            .time_limit
+            .filter(|_| settings.training_spp.is_none())
+            .map(|limit| limit * TRAINING_SHARE_OF_TIME),
+        started: Instant::now(),
+        training_took: 0.0,
+        budget_bytes: run.memory_budget_bytes(),
     });
     true
 }
@@ -201,6 +233,47 @@ pub fn refine_guide(mut guide: ResMut<Guide>) {
     );
     guide.refined += 1;
     guide.refine_seconds += start.elapsed().as_secs_f64();
+    let last_pass = guide.started.elapsed().as_secs_f64() - guide.training_took;
+    guide.training_took = guide.started.elapsed().as_secs_f64();
+    if let Some(budget) = guide.training_seconds
+        && guide.training()
+        && guide.training_took + 2.0 * last_pass > budget
+    {
+        tracing::info!(
+            "path guiding: training ends after {} passes, its share of the time limit spent",
+            guide.refined
+        );
+        guide.training_passes.store(guide.refined, Ordering::Relaxed);
+    }
+    let bytes = guide.tree.memory_bytes();
+    if guide.training() && bytes as u64 > guide.budget_bytes / TREE_SHARE_OF_BUDGET {
+        tracing::warn!(
+            "path guiding: the tree holds {} MiB, over a quarter of the memory budget; training ends after {} passes",
+            bytes >> 20,
+            guide.refined
+        );
+        guide.training_passes.store(guide.refined, Ordering::Relaxed);
+    }
+}
+
+/// The report's line on the guide: training passes and samples, the tree's size and memory against
+/// the budget, and the time spent refining it.
+pub fn describe(guide: &Guide) -> String {
+    let counts = guide.tree.node_counts();
+    let trained_spp = (1u64 << guide.refined.min(63)) - 1;
+    format!(
+        "{} training passes ({trained_spp} spp); tree of {} regions ({} guiding, the rest sampling the BSDF \
+         alone), {} directional nodes, {:.1} MiB of the {} MiB budget; training took {:.2} s, {:.3} s of it \
+         refining",
+        guide.refined,
+        counts.leaves,
+        counts.guiding,
+        counts.sampling,
+        guide.tree.memory_bytes() as f64 / (1u64 << 20) as f64,
+        guide.budget_bytes >> 20,
+        guide.training_took,
+        guide.refine_seconds
+    )
 }
 
 /// What the guide learnt at the first surface the centre of pixel (`x`, `y`) sees: the point, and the

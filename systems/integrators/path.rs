@@ -196,8 +196,10 @@ fn plan(this: &Integrator, world: &mut World, run: &RunFile, features: SceneFeat
         phases.push(Phase::once("guiding", When::EveryPass, guide::refine_guide));
     }
     let pass_end: crate::plan::PassEnd = if guided {
-        let training = world.resource::<Guide>().training_passes;
-        Box::new(move |done, target| Guide::pass_end(training, done, target))
+        let training = world.resource::<Guide>().training_passes.clone();
+        Box::new(move |done, target| {
+            Guide::pass_end(training.load(std::sync::atomic::Ordering::Relaxed), done, target)
+        })
     } else if run.is_adaptive() {
         let min_spp = run.render.min_spp;
         Box::new(move |done, target| AdaptiveSampling::pass_end(min_spp, done, target))
@@ -207,7 +209,15 @@ fn plan(this: &Integrator, world: &mut World, run: &RunFile, features: SceneFeat
     } else {
         Plan::all_at_once()
     };
-    Ok(Plan { phases, pass_end, image: film_image, report: |_, _| {}, reset: |_| {} })
+    let report: fn(&World, &mut crate::report::Report) = if guided { report_guide } else { |_, _| {} };
+    Ok(Plan { phases, pass_end, image: film_image, report, reset: |_| {} })
+}
+
+/// The guide's line in the report.
+fn report_guide(world: &World, report: &mut crate::report::Report) {
+    if let Some(guide) = world.get_resource::<Guide>() {
+        report.notes.push(("guiding", guide::describe(guide)));
+    }
 }
 
 /// Point, spot and sun lights are Dirac deltas: a BSDF-sampled ray never finds them, so without
