@@ -290,8 +290,8 @@ fn write_guide_image(renderer: &Renderer, x: u32, y: u32, output: &Path) {
         output.file_stem().map_or("render".into(), |s| s.to_string_lossy())
     ));
     match caustica::camera_paths::guide::learnt_at_pixel(&renderer.world, x, y) {
-        Some((p, image)) => match output::write_image(&image, &path, 0.0) {
-            Ok(()) => outln!("guide       at {p} (pixel {x},{y}): {}", path.display()),
+        Some((p, share, image)) => match output::write_image(&image, &path, 0.0) {
+            Ok(()) => outln!("guide       at {p} (pixel {x},{y}), BSDF share {share}: {}", path.display()),
             Err(e) => tracing::warn!("--guiding-debug: {e}"),
         },
         None => tracing::warn!(

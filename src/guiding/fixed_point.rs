@@ -32,8 +32,10 @@ pub fn to_fixed(value: f32) -> Option<u128> {
     if !(value >= 0.0 && value.is_finite()) {
         return None;
     }
-    let scaled = value.min(MAX_SAMPLE) as f64 * (FRACTION_BITS as f64).exp2();
-    Some((scaled + 0.5) as u128)
+    let scaled = value.min(MAX_SAMPLE) as f64 * (FRACTION_BITS as f64).exp2() + 0.5;
+    // f64 → u128 is a library call; below 2^64 (all but the largest samples) u64 is one instruction
+    // and the same integer.
+    Some(if scaled < 18_446_744_073_709_551_616.0 { scaled as u64 as u128 } else { scaled as u128 })
 }
 
 /// A fixed-point sum as a float (rounded to the nearest f64; exact for sums below 2^53 quanta).

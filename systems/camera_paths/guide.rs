@@ -33,6 +33,9 @@ pub struct Guide {
     pub training_passes: Arc<AtomicU32>,
     /// Training passes done (the tree has been refined this often).
     pub refined: u32,
+    /// Some region's guide takes part in sampling: false, and once training ends the render is the
+    /// unguided one.
+    pub sampling: bool,
     /// Seconds spent refining.
     pub refine_seconds: f64,
     /// With a time limit: training ends before the pass that would end after this many seconds of it
@@ -109,6 +112,7 @@ pub fn begin(world: &mut World, run: &caustica_core::scene::RunFile) -> bool {
         tree: Arc::new(SdTree::with_config(min, max, config)),
         training_passes: Arc::new(AtomicU32::new(training_passes)),
         refined: 0,
+        sampling: false,
         refine_seconds: 0.0,
         // An explicit training budget is in samples; the default follows a time limit if there is one.
         training_seconds: run
@@ -232,6 +236,7 @@ pub fn refine_guide(mut guide: ResMut<Guide>) {
         tree.memory_bytes() >> 10
     );
     guide.refined += 1;
+    guide.sampling = counts.guiding > 0;
     guide.refine_seconds += start.elapsed().as_secs_f64();
     let last_pass = guide.started.elapsed().as_secs_f64() - guide.training_took;
     guide.training_took = guide.started.elapsed().as_secs_f64();
@@ -276,11 +281,11 @@ pub fn describe(guide: &Guide) -> String {
     )
 }
 
-/// What the guide learnt at the first surface the centre of pixel (`x`, `y`) sees: the point, and the
-/// distribution there as an image of the sphere (φ across, cos θ down, +z at the top; each pixel the
+/// What the guide learnt at the first surface the centre of pixel (`x`, `y`) sees: the point, the
+/// BSDF's share of the samples there, and the distribution as an image of the sphere (φ across, cos θ down, +z at the top; each pixel the
 /// density at its centre, so a uniform leaf is 1/4π everywhere). None without a guide, for a pixel
 /// off the film, or where the pixel sees nothing.
-pub fn learnt_at_pixel(world: &World, x: u32, y: u32) -> Option<(Vec3, caustica_core::film::Image)> {
+pub fn learnt_at_pixel(world: &World, x: u32, y: u32) -> Option<(Vec3, f32, caustica_core::film::Image)> {
     let guide = world.get_resource::<Guide>()?;
     let camera = &world.resource::<crate::resources::CameraResource>().0;
     if x >= camera.width || y >= camera.height {
@@ -295,7 +300,7 @@ pub fn learnt_at_pixel(world: &World, x: u32, y: u32) -> Option<(Vec3, caustica_
     let p = ray.o + ray.d * hit.t;
     let (width, height) = (256, 128);
     let pixels = guide.tree.directional_image(p, width, height).into_iter().map(Vec3::splat).collect();
-    Some((p, caustica_core::film::Image { width, height, pixels }))
+    Some((p, guide.tree.leaf(p).bsdf_share(), caustica_core::film::Image { width, height, pixels }))
 }
 
 #[cfg(test)]

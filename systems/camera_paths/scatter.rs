@@ -10,7 +10,7 @@ use crate::resources::{RenderConfig, SceneResource};
 use bevy_ecs::prelude::*;
 use caustica_core::geometry::Ray;
 use caustica_core::geometry::bvh::{NO_LIGHT, PlainTriangle};
-use caustica_core::kernel::guided::guided_path_vertex;
+use caustica_core::kernel::guided::{GuidedStep, guided_path_vertex};
 use caustica_core::kernel::lanes::{DiffuseOutcome, DiffuseVertex, diffuse_vertices, plain_lambert};
 use caustica_core::kernel::path_vertex::path_vertex;
 use caustica_core::kernel::{CameraPath, ShadowSample, VertexSampler};
@@ -60,6 +60,8 @@ pub fn scatter_paths<const NEE: bool>(
     if queues.active.is_empty() {
         return;
     }
+    // A guide that trains no more and guides nowhere leaves the render as it would be without one.
+    let guide = guide.filter(|guide| guide.training() || guide.sampling);
     let Ok(mut tables) = paths.contiguous_iter_mut() else { return };
     let Some((hits, samplers, mut rays, mut states, mut shadows, mut learning, mut aovs, mut remembered)) =
         tables.next()
@@ -93,11 +95,9 @@ pub fn scatter_paths<const NEE: bool>(
         let i = row as usize;
         // Feature images record the first surface from the scalar vertex: a render that asks for
         // them shades every vertex there. A guided render does too where its guide takes part (the
-        // lanes know no guide), and while it trains.
+        // lanes know no guide; while training, they report the steps they took).
         if aovs.is_none()
-            && guide
-                .as_ref()
-                .is_none_or(|guide| !guide.training() && !guide.takes_part(&rays[i].0, &hits[i].0))
+            && guide.as_ref().is_none_or(|guide| !guide.takes_part(&rays[i].0, &hits[i].0))
             && let Some((triangle, albedo)) =
                 takes_lanes(&scene, &lanes.albedo, &config, &hits[i].0, &states[i].0)
         {
@@ -164,11 +164,21 @@ pub fn scatter_paths<const NEE: bool>(
             &mut lanes.rays,
             &mut lanes.outcomes,
         );
+        let training = guide.as_ref().filter(|guide| guide.training());
         for (k, &row) in lanes.rows.iter().enumerate() {
             let i = row as usize;
             states[i].0 = lanes.paths[k];
             rays[i].0 = lanes.rays[k];
             let outcome = lanes.outcomes[k];
+            if let (Some(guide), Some(remembered)) = (training, remembered.as_deref_mut()) {
+                // A lane's vertex emits nothing and its light sample is not yet counted, so the
+                // radiance gathered now is what its previous vertex waits for.
+                let (remembered, path) = (&mut remembered[i], &states[i].0);
+                remembered.arrive(path.l);
+                if outcome.continues {
+                    remembered.remember(lane_step(&guide.tree, &lanes.vertices[k], rays[i].0.d), path.beta);
+                }
+            }
             if let Some(sample) = outcome.light_sample {
                 queue_shadow(row, sample, queues);
             }
@@ -178,6 +188,20 @@ pub fn scatter_paths<const NEE: bool>(
     active.clear();
     queues.active = next;
     queues.next = active;
+}
+
+/// The step a lane's Lambertian vertex took along `wi`, for training: the lanes sample the cosine
+/// lobe about the shading normal, so its pdf is the BSDF's.
+fn lane_step(tree: &caustica_core::guiding::SdTree, v: &DiffuseVertex, wi: Vec3) -> GuidedStep {
+    let p = v.ray.o + v.ray.d * v.hit.t;
+    let [a, b, c] = v.triangle.p;
+    let n = match v.triangle.normals {
+        Some([na, nb, nc]) => na * (1.0 - v.hit.b1 - v.hit.b2) + nb * v.hit.b1 + nc * v.hit.b2,
+        None => (b - a).cross(c - a),
+    }
+    .normalize_or_zero();
+    let pdf = n.dot(wi).abs() * std::f32::consts::FRAC_1_PI;
+    GuidedStep { p, wi, pdf, bsdf_pdf: pdf, guide_pdf: tree.leaf(p).pdf(wi) }
 }
 
 /// The triangle and albedo of the vertex where `hit` lands, if it takes the lanes: a plain triangle
