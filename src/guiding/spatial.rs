@@ -274,7 +274,7 @@ impl SdTree {
     }
 
     /// Bytes the tree holds: spatial nodes, leaves, and both quadtrees of each (4 bytes a spatial node,
-    /// 32 a sampling and 56 a recording quadtree node, 148 a leaf's own fields).
+    /// 32 a sampling and 56 a recording quadtree node, 152 a leaf's own fields).
     pub fn memory_bytes(&self) -> usize {
         self.nodes.len() * size_of::<u32>()
             + self.leaves.len() * size_of::<LeafData>()

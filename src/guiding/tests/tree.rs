@@ -204,7 +204,7 @@ fn memory_is_what_the_nodes_hold() {
     let c = tree.node_counts();
     assert_eq!(
         tree.memory_bytes(),
-        4 * c.spatial + 148 * c.leaves + 32 * c.sampling + 56 * c.recording,
+        4 * c.spatial + 152 * c.leaves + 32 * c.sampling + 56 * c.recording,
         "{c:?}"
     );
 }
