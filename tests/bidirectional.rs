@@ -50,16 +50,7 @@ fn furnace_mean_is_two(kind: IntegratorKind) {
     run.render.integrator = kind;
     run.render.spp = 64;
     let image = common::render(scene, &run);
-    let values: Vec<f64> = image.pixels.iter().map(|p| p.x as f64).collect();
-    let n = values.len() as f64;
-    let mean = values.iter().sum::<f64>() / n;
-    let variance = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
-    let standard_error = (variance / n).sqrt();
-    eprintln!("furnace: {mean} ± {standard_error}");
-    assert!(
-        (mean - 2.0).abs() < 4.4 * standard_error.max(1e-4),
-        "furnace radiance {mean} ± {standard_error}, expected 2"
-    );
+    common::assert_mean_radiance(&image, 2.0, &format!("{kind:?} in the furnace"));
 }
 
 /// A point light, a spot and a sun over rough and diffuse surfaces: delta lights have no s = 0

@@ -77,16 +77,7 @@ fn guided_path_tracing_in_the_furnace_sees_the_exact_radiance() {
         run.film.width = Some(48);
         run.film.height = Some(48);
         let image = common::render(scene, &run);
-        let values: Vec<f64> = image.pixels.iter().map(|p| p.x as f64).collect();
-        let n = values.len() as f64;
-        let mean = values.iter().sum::<f64>() / n;
-        let variance = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
-        let standard_error = (variance / n).sqrt();
-        eprintln!("{kind:?} furnace: {mean} ± {standard_error}");
-        assert!(
-            (mean - 2.0).abs() < 4.4 * standard_error.max(1e-4),
-            "{kind:?}: furnace radiance {mean} ± {standard_error}, expected 2"
-        );
+        common::assert_mean_radiance(&image, 2.0, &format!("guided {kind:?} in the furnace"));
     }
 }
 

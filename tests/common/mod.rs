@@ -167,3 +167,19 @@ pub fn assert_blocks_match(image: &caustica::film::Image, reference: &caustica::
     assert!(worst < 4.4 && chi2 < 44.3, "block z-scores {z:.1?}: max |z| {worst:.1}, Σz² {chi2:.1}");
     assert!(mean.abs() < 4.4 * standard_error, "mean difference {mean} ± {standard_error}");
 }
+
+/// The mean of `image`'s red channel over its pixels is `expected` within 4.4 standard errors of the
+/// mean (floored at 1e-4, for an estimator that happens to have no variance): a furnace's exact
+/// radiance, seen by `what`.
+pub fn assert_mean_radiance(image: &caustica::film::Image, expected: f64, what: &str) {
+    let values: Vec<f64> = image.pixels.iter().map(|p| p.x as f64).collect();
+    let n = values.len() as f64;
+    let mean = values.iter().sum::<f64>() / n;
+    let variance = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    let standard_error = (variance / n).sqrt();
+    eprintln!("{what}: {mean} ± {standard_error}");
+    assert!(
+        (mean - expected).abs() < 4.4 * standard_error.max(1e-4),
+        "{what}: radiance {mean} ± {standard_error}, expected {expected}"
+    );
+}
