@@ -285,6 +285,36 @@ impl SdTree {
                 .sum::<usize>()
     }
 
+    /// The smallest box around every region whose guide takes part in sampling (it learnt something
+    /// and kept a share for it), grown by a millionth of the cube's side so that a point on a face
+    /// tests inside; `None` if no region guides. Outside it, a vertex need not find its region.
+    pub fn guiding_bounds(&self) -> Option<(Vec3, Vec3)> {
+        let side = 1.0 / self.scale;
+        let mut bounds: Option<(Vec3, Vec3)> = None;
+        // Depth first: (node, its cell's lowest corner and size in units of the cube, depth).
+        let mut stack = vec![(0usize, Vec3::ZERO, Vec3::ONE, 0u32)];
+        while let Some((node, lo, size, depth)) = stack.pop() {
+            let n = self.nodes[node];
+            if n & LEAF != 0 {
+                let leaf = &self.leaves[(n & !LEAF) as usize];
+                if leaf.bsdf_share < 1.0 && !leaf.distribution.is_uniform() {
+                    let (a, b) = (self.origin + lo * side, self.origin + (lo + size) * side);
+                    bounds = Some(bounds.map_or((a, b), |(l, h)| (l.min(a), h.max(b))));
+                }
+                continue;
+            }
+            let axis = (depth % 3) as usize;
+            let mut half = size;
+            half[axis] *= 0.5;
+            let mut upper = lo;
+            upper[axis] += half[axis];
+            stack.push((n as usize, lo, half, depth + 1));
+            stack.push((n as usize + 1, upper, half, depth + 1));
+        }
+        let margin = Vec3::splat(side * 1e-6);
+        bounds.map(|(l, h)| (l - margin, h + margin))
+    }
+
     /// The sampled density per steradian at `p` as an image (see [`DirectionalDistribution::image`]).
     pub fn directional_image(&self, p: Vec3, width: u32, height: u32) -> Vec<f32> {
         self.leaf(p).distribution().image(width, height)

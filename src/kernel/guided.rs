@@ -33,7 +33,7 @@ pub struct GuidedStep {
     pub pdf: f32,
     /// The BSDF's solid-angle pdf of it.
     pub bsdf_pdf: f32,
-    /// The guide's solid-angle pdf of it.
+    /// The guide's solid-angle pdf of it; NaN: not looked up (the recording looks it up if needed).
     pub guide_pdf: f32,
 }
 

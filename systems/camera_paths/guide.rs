@@ -36,6 +36,9 @@ pub struct Guide {
     /// Some region's guide takes part in sampling: false, and once training ends the render is the
     /// unguided one.
     pub sampling: bool,
+    /// The box around the regions that guide ([`SdTree::guiding_bounds`]): outside it no vertex
+    /// looks its region up.
+    pub guiding_box: (Vec3, Vec3),
     /// Seconds spent refining.
     pub refine_seconds: f64,
     /// With a time limit: training ends before the pass that would end after this many seconds of it
@@ -74,7 +77,12 @@ impl Guide {
         ray: &caustica_core::geometry::Ray,
         hit: &caustica_core::geometry::bvh::Hit,
     ) -> bool {
-        let leaf = self.tree.leaf(ray.o + ray.d * hit.t);
+        let p = ray.o + ray.d * hit.t;
+        let (lo, hi) = self.guiding_box;
+        if !(p.cmpge(lo).all() && p.cmple(hi).all()) {
+            return false;
+        }
+        let leaf = self.tree.leaf(p);
         leaf.bsdf_share() < 1.0 && !leaf.distribution().is_uniform()
     }
 
@@ -113,6 +121,7 @@ pub fn begin(world: &mut World, run: &caustica_core::scene::RunFile) -> bool {
         training_passes: Arc::new(AtomicU32::new(training_passes)),
         refined: 0,
         sampling: false,
+        guiding_box: (Vec3::INFINITY, Vec3::NEG_INFINITY),
         refine_seconds: 0.0,
         // An explicit training budget is in samples; the default follows a time limit if there is one.
         training_seconds: run
@@ -188,7 +197,12 @@ impl PathGuide {
                 let incident = Vec3::select(v.beta.cmpgt(Vec3::ZERO), arrived / v.beta, Vec3::ZERO);
                 let leaf = tree.leaf(v.p);
                 leaf.record(v.wi, luminance(incident) / v.pdf);
-                leaf.record_selection(luminance(arrived), v.pdf, v.bsdf_pdf, v.guide_pdf);
+                let contribution = luminance(arrived);
+                if contribution > 0.0 {
+                    // A lane's step leaves the guide's pdf to here: most steps bring nothing.
+                    let guide_pdf = if v.guide_pdf.is_nan() { leaf.pdf(v.wi) } else { v.guide_pdf };
+                    leaf.record_selection(contribution, v.pdf, v.bsdf_pdf, guide_pdf);
+                }
             }
         }
         *self = Self::default();
@@ -228,6 +242,7 @@ pub fn refine_guide(mut guide: ResMut<Guide>) {
     };
     tree.refine(iteration);
     let counts = tree.node_counts();
+    let bounds = tree.guiding_bounds();
     tracing::info!(
         "path guiding: training pass {iteration} refined: {} leaves ({} guiding), {} sampling nodes, {} KiB",
         counts.leaves,
@@ -237,6 +252,7 @@ pub fn refine_guide(mut guide: ResMut<Guide>) {
     );
     guide.refined += 1;
     guide.sampling = counts.guiding > 0;
+    guide.guiding_box = bounds.unwrap_or((Vec3::INFINITY, Vec3::NEG_INFINITY));
     guide.refine_seconds += start.elapsed().as_secs_f64();
     let last_pass = guide.started.elapsed().as_secs_f64() - guide.training_took;
     guide.training_took = guide.started.elapsed().as_secs_f64();

@@ -164,19 +164,19 @@ pub fn scatter_paths<const NEE: bool>(
             &mut lanes.rays,
             &mut lanes.outcomes,
         );
-        let training = guide.as_ref().filter(|guide| guide.training());
+        let training = guide.as_ref().is_some_and(|guide| guide.training());
         for (k, &row) in lanes.rows.iter().enumerate() {
             let i = row as usize;
             states[i].0 = lanes.paths[k];
             rays[i].0 = lanes.rays[k];
             let outcome = lanes.outcomes[k];
-            if let (Some(guide), Some(remembered)) = (training, remembered.as_deref_mut()) {
+            if let (true, Some(remembered)) = (training, remembered.as_deref_mut()) {
                 // A lane's vertex emits nothing and its light sample is not yet counted, so the
                 // radiance gathered now is what its previous vertex waits for.
                 let (remembered, path) = (&mut remembered[i], &states[i].0);
                 remembered.arrive(path.l);
                 if outcome.continues {
-                    remembered.remember(lane_step(&guide.tree, &lanes.vertices[k], rays[i].0.d), path.beta);
+                    remembered.remember(lane_step(&lanes.vertices[k], rays[i].0.d), path.beta);
                 }
             }
             if let Some(sample) = outcome.light_sample {
@@ -191,8 +191,9 @@ pub fn scatter_paths<const NEE: bool>(
 }
 
 /// The step a lane's Lambertian vertex took along `wi`, for training: the lanes sample the cosine
-/// lobe about the shading normal, so its pdf is the BSDF's.
-fn lane_step(tree: &caustica_core::guiding::SdTree, v: &DiffuseVertex, wi: Vec3) -> GuidedStep {
+/// lobe about the shading normal, so its pdf is the BSDF's. The guide's pdf is left NaN, for the
+/// recording to look up if the step brought any light.
+fn lane_step(v: &DiffuseVertex, wi: Vec3) -> GuidedStep {
     let p = v.ray.o + v.ray.d * v.hit.t;
     let [a, b, c] = v.triangle.p;
     let n = match v.triangle.normals {
@@ -201,7 +202,7 @@ fn lane_step(tree: &caustica_core::guiding::SdTree, v: &DiffuseVertex, wi: Vec3)
     }
     .normalize_or_zero();
     let pdf = n.dot(wi).abs() * std::f32::consts::FRAC_1_PI;
-    GuidedStep { p, wi, pdf, bsdf_pdf: pdf, guide_pdf: tree.leaf(p).pdf(wi) }
+    GuidedStep { p, wi, pdf, bsdf_pdf: pdf, guide_pdf: f32::NAN }
 }
 
 /// The triangle and albedo of the vertex where `hit` lands, if it takes the lanes: a plain triangle

@@ -208,3 +208,25 @@ fn memory_is_what_the_nodes_hold() {
         "{c:?}"
     );
 }
+
+/// Light recorded only in the corner [0, ¼)³ of a tree split into cells of ¼ or less: after a
+/// second pass (split cells start from their parent's distribution), only that corner's cells
+/// guide, and the bounds are the corner; before any light, there are none.
+#[test]
+fn the_guiding_bounds_are_the_regions_that_guide() {
+    let config =
+        GuidingConfig { spatial_threshold: 100.0, fixed_bsdf_share: Some(0.5), ..Default::default() };
+    let mut tree = SdTree::with_config(Vec3::ZERO, Vec3::ONE, config);
+    assert_eq!(tree.guiding_bounds(), None, "nothing learnt");
+    for iteration in 0..2 {
+        for i in 0..4000 {
+            let t = (i as f32 + 0.5) / 4000.0;
+            let p = Vec3::new(t, (t * 7.0).fract(), (t * 13.0).fract());
+            tree.record(p, Vec3::Z, if p.max_element() < 0.25 { 1.0 } else { 0.0 });
+        }
+        tree.refine(iteration);
+    }
+    assert!(tree.node_counts().leaves >= 64);
+    let (lo, hi) = tree.guiding_bounds().expect("the corner guides");
+    assert!(lo.abs_diff_eq(Vec3::ZERO, 1e-5) && hi.abs_diff_eq(Vec3::splat(0.25), 1e-5), "{lo} {hi}");
+}
