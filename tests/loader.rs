@@ -1530,3 +1530,20 @@ fn a_run_files_gltf_that_is_a_device_is_refused() {
     let message = caustica::scene::load(&run).unwrap_err().to_string();
     assert!(message.contains("/dev/zero") && message.contains("not a regular file"), "{message}");
 }
+
+/// KHR_materials_clearcoat's factors are in [0, 1]; past it the coat would reflect more than it
+/// receives. Refused at load, naming the material and the factor.
+#[test]
+fn clearcoat_factors_outside_zero_to_one_are_refused_naming_the_material() {
+    for (factor, value) in [("clearcoat", 1.5f32), ("clearcoat roughness", -0.25)] {
+        let mut scene = caustica::test_scenes::furnace(0.5, 1.0);
+        let shading = &mut scene.materials[0].shading;
+        if factor == "clearcoat" {
+            shading.clearcoat = value
+        } else {
+            shading.clearcoat_roughness = value
+        }
+        let error = validate(&mut scene, Path::new("coat.gltf")).expect_err("out of range").to_string();
+        assert!(error.contains(&format!("{factor} is {value}")) && error.contains("furnace"), "{error}");
+    }
+}

@@ -27,7 +27,7 @@ mod cylindrical;
 mod fixed_point;
 mod quadtree;
 mod recording;
-mod selection;
+pub mod selection;
 mod spatial;
 
 #[cfg(test)]

@@ -289,6 +289,8 @@ fn check_material(m: &MaterialDesc, textures: usize) -> Result<(), String> {
     unit("roughness", shading.roughness)?;
     unit("transmission", shading.transmission)?;
     unit("specular", shading.specular)?;
+    unit("clearcoat", shading.clearcoat)?;
+    unit("clearcoat roughness", shading.clearcoat_roughness)?;
     non_negative("specular colour", shading.specular_color)?;
     non_negative("emission", m.emission)?;
     unit("base colour alpha", m.alpha)?;

@@ -116,7 +116,7 @@ pub struct PilotPaths {
 
 /// Paths the pilot traces: the means it gives are within a few percent (each path's count of hits
 /// is a few at most).
-const PILOT_PATHS: u32 = 4096;
+pub const PILOT_PATHS: u32 = 4096;
 
 impl PilotPaths {
     /// Trace [`PILOT_PATHS`] photons of `scene` as a global map's pass would, with the run's limits,

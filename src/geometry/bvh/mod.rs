@@ -115,7 +115,7 @@ pub struct PrimitiveSet {
 pub struct Hit {
     /// Distance along the ray (`f32::INFINITY` for a miss).
     pub t: f32,
-    /// Primitive id (see [`Geometry::info`]).
+    /// Primitive id (see [`Geometry::primitive`]).
     pub prim: u32,
     /// Barycentric weight of the second vertex (triangles).
     pub b1: f32,

@@ -10,7 +10,7 @@
 //! stays scalar inside: the choice of a light and the point on it (`Lights::sample`, per lane).
 //!
 //! A vertex takes the lanes when [`plain_lambert`] says its material is a Lambertian without
-//! textures, maps, coats or volume, its triangle is [`Geometry::plain_triangle`] (no motion, no
+//! textures, maps, coats or volume, its triangle is [`crate::geometry::bvh::Geometry::plain_triangle`] (no motion, no
 //! vertex colours) and not an emitter, its path is in air, and it is not the path's last depth;
 //! everything else goes through the scalar kernel.
 
