@@ -138,6 +138,26 @@ fn parts_and_checkpoints_of_a_guided_render_are_refused_with_the_reason() {
     assert!(!output.status.success() && stderr.contains("path guiding"), "{stderr}");
 }
 
+/// A render of one sample per pixel has none to train with: it renders unguided, with a warning, so
+/// a checkpoint (refused for a guided render) is taken.
+#[test]
+fn a_render_too_short_to_train_renders_unguided_and_may_checkpoint() {
+    let dir = tempfile::tempdir().unwrap();
+    let checkpoint = dir.path().join("c.exr");
+    let output = Command::new(env!("CARGO_BIN_EXE_caustica"))
+        .arg("render")
+        .arg(common::data("cornell-spheres.gltf"))
+        .args(["--width", "32", "--height", "32", "--spp", "1", "--guiding", "--quiet", "--checkpoint"])
+        .arg(&checkpoint)
+        .arg("-o")
+        .arg(dir.path().join("o.exr"))
+        .output()
+        .expect("caustica runs");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stderr}");
+    assert!(stderr.contains("none to train with"), "{stderr}");
+}
+
 #[test]
 fn guiding_is_refused_by_the_integrators_that_do_not_take_it() {
     let dir = tempfile::tempdir().unwrap();

@@ -26,7 +26,7 @@ impl Renderer {
                     .into(),
             );
         }
-        if self.run.guiding.enabled {
+        if self.run.is_guided() {
             return Some(
                 "path guiding's learnt distribution is not in a checkpoint: render guided renders without one"
                     .into(),

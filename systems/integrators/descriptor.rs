@@ -174,7 +174,7 @@ impl Integrator {
                 names(|i| i.film_is_the_state)
             ));
         }
-        if run.guiding.enabled {
+        if run.is_guided() {
             return Some(
                 "path guiding learns from the render's first passes, which a later share does not have: \
                  render guided renders unsplit"

@@ -56,7 +56,7 @@ const PATH_TRACER: Integrator = Integrator {
     camera_samples_per_unit: one_sample_per_unit,
     memory: |_, pixels, run, _| chunked_paths(pixels, run),
     check: |_, run| {
-        if run.guiding.enabled && run.is_adaptive() {
+        if run.is_guided() && run.is_adaptive() {
             return Err(caustica_core::error::Error::Setting {
                 name: "guiding.enabled".into(),
                 problem: "path guiding's training passes and adaptive sampling's passes cannot both set the \
@@ -116,7 +116,7 @@ pub(super) fn chunked_paths(pixels: u64, run: &RunFile) -> MemoryNeed {
     if run.render.light_selection == caustica_core::scene::LightSelection::Visibility {
         components.push(size_of::<ShadowLearning>());
     }
-    if run.guiding.enabled {
+    if run.is_guided() {
         components.push(size_of::<guide::PathGuide>());
     }
     // The queues: a row in at most two of them, each a u32, and scatter's spare; the lanes' scratch.

@@ -130,6 +130,12 @@ impl RunFile {
         self.render.noise_threshold > 0.0
     }
 
+    /// Whether path guiding takes part: asked for, with samples to train (a render of one sample per
+    /// pixel has none, and renders unguided with a warning).
+    pub fn is_guided(&self) -> bool {
+        self.guiding.enabled && self.guiding.training_passes(self.render.spp) > 0
+    }
+
     /// What is wrong with the adaptive-sampling settings, if anything.
     fn check_adaptive_sampling(&self) -> Result<(), String> {
         let render = &self.render;
