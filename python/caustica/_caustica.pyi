@@ -29,7 +29,9 @@ class RenderResult:
     @property
     def stats(self) -> dict[str, Any]:
         """integrator, unit ("spp" or "passes"), done, target, seed, seconds, samples, rays,
-        shadow_rays, nan_samples, stopped_by (None, "interrupted" or "timelimit")."""
+        shadow_rays, nan_samples, stopped_by (None, "interrupted" or "timelimit"), and notes: the
+        integrator's own lines of the command's summary by label (``notes["guiding"]``: path
+        guiding's training passes, tree and memory)."""
 
 class Session:
     """A render a host advances a few units at a time. One call at a time: a call from a second

@@ -36,6 +36,12 @@ pub(crate) fn stats<'py>(py: Python<'py>, report: &caustica::Report) -> PyResult
         d.set_item("pixels_converged", adaptive.estimate.converged)?;
         d.set_item("estimated_relmse", adaptive.estimate.relmse)?;
     }
+    // The integrator's own lines of the command's summary (the guide's, bdpt's subpaths), by label.
+    let notes = PyDict::new(py);
+    for (label, text) in &report.notes {
+        notes.set_item(*label, text)?;
+    }
+    d.set_item("notes", notes)?;
     Ok(d)
 }
 

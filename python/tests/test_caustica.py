@@ -47,6 +47,15 @@ def test_a_render_is_a_float32_image_of_the_asked_size_with_its_stats():
     assert stats["nan_samples"] == 0 and stats["stopped_by"] is None
 
 
+def test_a_guided_render_reports_its_training_in_the_stats():
+    result = caustica.load(BOX, spp=8, seed=1, **SMALL, **{"guiding.enabled": True}).render()
+    assert np.isfinite(result.color).all() and result.color.mean() > 0.01
+    guiding = result.stats["notes"]["guiding"]
+    assert guiding.startswith("1 training pass (1 spp)"), guiding
+    assert "MiB of the" in guiding, guiding
+    assert "guiding" not in caustica.load(BOX, spp=2, **SMALL).render().stats["notes"]
+
+
 @pytest.mark.parametrize("integrator, flag", [("pt", "--spp"), ("sppm", "--passes")])
 def test_the_same_pixels_as_the_command_line(tmp_path, integrator, flag):
     count = 4

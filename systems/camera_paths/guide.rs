@@ -283,10 +283,11 @@ pub fn describe(guide: &Guide) -> String {
     let counts = guide.tree.node_counts();
     let trained_spp = (1u64 << guide.refined.min(63)) - 1;
     format!(
-        "{} training passes ({trained_spp} spp); tree of {} regions ({} guiding, the rest sampling the BSDF \
+        "{} training pass{} ({trained_spp} spp); tree of {} regions ({} guiding, the rest sampling the BSDF \
          alone), {} directional nodes, {:.1} MiB of the {} MiB budget; training took {:.2} s, {:.3} s of it \
          refining",
         guide.refined,
+        if guide.refined == 1 { "" } else { "es" },
         counts.leaves,
         counts.guiding,
         counts.sampling,
