@@ -103,12 +103,15 @@ impl<'a> Leaf<'a> {
         self.data.bsdf_share
     }
 
-    /// Record, towards the leaf's next BSDF share, a sample drawn with the mixture's density `pdf`
-    /// whose BSDF and guide densities were `bsdf_pdf` and `guide_pdf` and which brought the pixel
-    /// `contribution` (luminance of everything the path gathered after the vertex).
+    /// Record, towards the leaf's next BSDF share, a sample towards `direction` drawn with the
+    /// mixture's density `pdf`, whose BSDF density was `bsdf_pdf` and which brought the pixel
+    /// `contribution` (luminance of everything the path gathered after the vertex). The guide's
+    /// density is looked up here, and only for a sample that brought something: most bring nothing.
     #[inline]
-    pub fn record_selection(&self, contribution: f32, pdf: f32, bsdf_pdf: f32, guide_pdf: f32) {
-        self.data.selection.record(contribution, pdf, bsdf_pdf, guide_pdf);
+    pub fn record_selection(&self, direction: Vec3, contribution: f32, pdf: f32, bsdf_pdf: f32) {
+        if contribution > 0.0 {
+            self.data.selection.record(contribution, pdf, bsdf_pdf, self.pdf(direction));
+        }
     }
 
     /// Record the luminance of radiance arriving from `direction` (any non-zero length) divided by the

@@ -21,8 +21,8 @@ use crate::sampling::Sampler;
 use glam::Vec3;
 
 /// The direction a guided vertex continued along, for training: where, which way (world), the pdf
-/// it was drawn with (the mixture's, or the BSDF's where the guide took no part), and the BSDF's and
-/// the guide's densities of it (for the leaf to learn its BSDF share).
+/// it was drawn with (the mixture's, or the BSDF's where the guide took no part), and the BSDF's
+/// density of it (for the leaf to learn its BSDF share).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GuidedStep {
     /// The vertex.
@@ -33,8 +33,6 @@ pub struct GuidedStep {
     pub pdf: f32,
     /// The BSDF's solid-angle pdf of it.
     pub bsdf_pdf: f32,
-    /// The guide's solid-angle pdf of it; NaN: not looked up (the recording looks it up if needed).
-    pub guide_pdf: f32,
 }
 
 /// One vertex of `pt` (`NEE`) or `pt-naive` guided by `guide`: whether the path goes on (its next
@@ -76,9 +74,8 @@ pub fn guided_path_vertex<const NEE: bool>(
             let (wi_world, pdf, delta) = (v.frame.to_world(bs.wi), bs.pdf, bs.is_specular);
             match continue_along(path, v, ray.time, u, limits, bs) {
                 Some(next) => {
-                    if let (Some(leaf), false) = (&leaf, delta) {
-                        let guide_pdf = leaf.pdf(wi_world);
-                        step = Some(GuidedStep { p: v.si.p, wi: wi_world, pdf, bsdf_pdf, guide_pdf });
+                    if guided && !delta {
+                        step = Some(GuidedStep { p: v.si.p, wi: wi_world, pdf, bsdf_pdf });
                     }
                     *ray = next;
                     true

@@ -143,7 +143,6 @@ struct RememberedVertex {
     wi: Vec3,
     pdf: f32,
     bsdf_pdf: f32,
-    guide_pdf: f32,
     /// The path's throughput after the continuation (radiance gathered later, divided by it, is
     /// what arrived along `wi`).
     beta: Vec3,
@@ -178,9 +177,9 @@ impl PathGuide {
     #[inline]
     pub fn remember(&mut self, step: GuidedStep, beta: Vec3) {
         if (self.count as usize) < REMEMBERED_VERTICES {
-            let GuidedStep { p, wi, pdf, bsdf_pdf, guide_pdf } = step;
+            let GuidedStep { p, wi, pdf, bsdf_pdf } = step;
             self.vertices[self.count as usize] =
-                RememberedVertex { p, wi, pdf, bsdf_pdf, guide_pdf, beta, before: Vec3::ZERO };
+                RememberedVertex { p, wi, pdf, bsdf_pdf, beta, before: Vec3::ZERO };
             self.count += 1;
             self.awaiting = true;
         }
@@ -197,12 +196,7 @@ impl PathGuide {
                 let incident = Vec3::select(v.beta.cmpgt(Vec3::ZERO), arrived / v.beta, Vec3::ZERO);
                 let leaf = tree.leaf(v.p);
                 leaf.record(v.wi, luminance(incident) / v.pdf);
-                let contribution = luminance(arrived);
-                if contribution > 0.0 {
-                    // A lane's step leaves the guide's pdf to here: most steps bring nothing.
-                    let guide_pdf = if v.guide_pdf.is_nan() { leaf.pdf(v.wi) } else { v.guide_pdf };
-                    leaf.record_selection(contribution, v.pdf, v.bsdf_pdf, guide_pdf);
-                }
+                leaf.record_selection(v.wi, luminance(arrived), v.pdf, v.bsdf_pdf);
             }
         }
         *self = Self::default();
@@ -323,7 +317,6 @@ pub fn learnt_at_pixel(world: &World, x: u32, y: u32) -> Option<(Vec3, f32, caus
 #[cfg(test)]
 mod tests {
     use super::*;
-    use caustica_core::guiding::INV_FOUR_PI;
 
     #[test]
     fn training_passes_double_and_the_rest_renders_at_once() {
@@ -337,7 +330,7 @@ mod tests {
     fn a_vertex_receives_what_the_path_gathered_after_it_over_its_throughput() {
         let mut tree = SdTree::new(Vec3::splat(-1.0), Vec3::splat(1.0));
         let mut guide = PathGuide::default();
-        let step = GuidedStep { p: Vec3::ZERO, wi: Vec3::Z, pdf: 0.5, bsdf_pdf: 0.5, guide_pdf: INV_FOUR_PI };
+        let step = GuidedStep { p: Vec3::ZERO, wi: Vec3::Z, pdf: 0.5, bsdf_pdf: 0.5 };
         guide.remember(step, Vec3::splat(0.25));
         guide.arrive(Vec3::splat(1.0));
         guide.record(&tree, Vec3::splat(3.0));
@@ -352,7 +345,7 @@ mod tests {
     fn a_vertex_still_waiting_for_its_next_one_is_not_recorded() {
         let tree = SdTree::new(Vec3::splat(-1.0), Vec3::splat(1.0));
         let mut guide = PathGuide::default();
-        let step = GuidedStep { p: Vec3::ZERO, wi: Vec3::Z, pdf: 0.5, bsdf_pdf: 0.5, guide_pdf: INV_FOUR_PI };
+        let step = GuidedStep { p: Vec3::ZERO, wi: Vec3::Z, pdf: 0.5, bsdf_pdf: 0.5 };
         guide.remember(step, Vec3::ONE);
         let before = tree.fingerprint();
         guide.record(&tree, Vec3::splat(3.0));

@@ -191,8 +191,7 @@ pub fn scatter_paths<const NEE: bool>(
 }
 
 /// The step a lane's Lambertian vertex took along `wi`, for training: the lanes sample the cosine
-/// lobe about the shading normal, so its pdf is the BSDF's. The guide's pdf is left NaN, for the
-/// recording to look up if the step brought any light.
+/// lobe about the shading normal, so its pdf is the BSDF's.
 fn lane_step(v: &DiffuseVertex, wi: Vec3) -> GuidedStep {
     let p = v.ray.o + v.ray.d * v.hit.t;
     let [a, b, c] = v.triangle.p;
@@ -202,7 +201,7 @@ fn lane_step(v: &DiffuseVertex, wi: Vec3) -> GuidedStep {
     }
     .normalize_or_zero();
     let pdf = n.dot(wi).abs() * std::f32::consts::FRAC_1_PI;
-    GuidedStep { p, wi, pdf, bsdf_pdf: pdf, guide_pdf: f32::NAN }
+    GuidedStep { p, wi, pdf, bsdf_pdf: pdf }
 }
 
 /// The triangle and albedo of the vertex where `hit` lands, if it takes the lanes: a plain triangle
