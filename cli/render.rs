@@ -248,6 +248,9 @@ pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>, start: Instant
         if let Some(mut statistics) = renderer.world.get_resource_mut::<TraceStatistics>() {
             outln!("trace counters (BVH8: nodes = inner nodes, leaves = packs of 8 triangles or a sphere)");
             outln!("{}", profile.trace_table(&statistics.totals()));
+            if let Some(line) = lanes_line(&statistics.vertex_totals()) {
+                outln!("{line}");
+            }
         }
     }
     if let Some(reference) = &reference {
@@ -281,6 +284,20 @@ pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>, start: Instant
         return Err(e);
     }
     Ok(report.stopped_by != Some(StopReason::Interrupted))
+}
+
+/// The profile's line on camera vertices: the share each lane class shaded, and the scalar kernel's.
+fn lanes_line(totals: &caustica::trace::VertexTotals) -> Option<String> {
+    use caustica::kernel::lanes::LaneClass;
+    let all: u64 = totals.iter().sum();
+    if all == 0 {
+        return None;
+    }
+    let share = |n: u64| 100.0 * n as f64 / all as f64;
+    let lanes = all - totals[LaneClass::Scalar.index()];
+    let classes: Vec<String> =
+        LaneClass::ALL.iter().map(|c| format!("{} {:.1}%", c.name(), share(totals[c.index()]))).collect();
+    Some(format!("camera vertices {all}: {:.1}% in lanes ({})", share(lanes), classes.join(", ")))
 }
 
 /// `--guiding-debug X,Y`: what the guide learnt where pixel X,Y looks, beside `output`.

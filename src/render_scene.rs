@@ -2,6 +2,7 @@
 //! materials and textures, with the one place where a hit's material becomes BSDF parameters.
 
 use crate::geometry::{Geometry, SurfaceHit};
+use crate::kernel::lanes::LaneMaterials;
 use crate::lights::{LightShape, Lights};
 use crate::materials::{Bsdf, ShadingParams};
 use crate::scene::environment::EnvironmentDesc;
@@ -19,6 +20,8 @@ pub struct RenderScene {
     pub materials: Vec<MaterialDesc>,
     /// Textures by index.
     pub textures: Vec<Texture>,
+    /// Which lanes shade each material (`kernel::lanes`).
+    pub lanes: LaneMaterials,
 }
 
 /// How the BVHs follow meshes that moved between frames ([`RenderScene::update`]).
@@ -63,7 +66,8 @@ impl RenderScene {
     pub fn build_dynamic(scene: &Scene, light_selection: LightSelection, dynamic: &[bool]) -> Self {
         let mut geometry = Geometry::build_dynamic(scene, dynamic);
         let lights = scene_lights(&mut geometry, scene, light_selection);
-        Self { geometry, lights, materials: scene.materials.clone(), textures: scene.textures.clone() }
+        let lanes = LaneMaterials::new(&scene.materials);
+        Self { geometry, lights, materials: scene.materials.clone(), textures: scene.textures.clone(), lanes }
     }
 
     /// As [`RenderScene::build`], taking the materials and textures instead of copying them.
@@ -77,7 +81,8 @@ impl RenderScene {
         let lights = scene_lights(&mut geometry, &scene, light_selection);
         let (materials, textures) =
             (std::mem::take(&mut scene.materials), std::mem::take(&mut scene.textures));
-        Self { geometry, lights, materials, textures }
+        let lanes = LaneMaterials::new(&materials);
+        Self { geometry, lights, materials, textures, lanes }
     }
 
     /// Follow a frame of `scene` (the scene this was built from, its meshes `changed` moved, its
@@ -112,6 +117,17 @@ impl RenderScene {
             own_lights(&mut self.geometry, scene, light_selection)
         };
         SceneUpdate { geometry_seconds, lights_seconds: start.elapsed().as_secs_f64(), whole_build: !kept }
+    }
+
+    /// Ask for the texels that [`RenderScene::shading_params`] and
+    /// [`RenderScene::shading_normal`] will read at a hit, ahead of the lookups.
+    #[inline]
+    pub fn prefetch_textures(&self, hit: &SurfaceHit) {
+        let m = &self.materials[hit.material as usize];
+        let textures = [&m.base_color_texture, &m.metallic_roughness_texture, &m.normal_texture];
+        for t in textures.into_iter().flatten() {
+            t.prefetch(&self.textures, hit.uv[(t.tex_coord as usize).min(1)]);
+        }
     }
 
     /// Resolve the material at a hit: textures looked up, vertex colour applied.

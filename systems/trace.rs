@@ -101,7 +101,12 @@ pub struct TraceStatistics {
     paths: Parallel<TraversalTotals>,
     shadow: Parallel<TraversalTotals>,
     photons: Parallel<TraversalTotals>,
+    /// Camera vertices shaded, by lane class (`kernel::lanes::LaneClass`, the scalar kernel last).
+    vertices: Parallel<VertexTotals>,
 }
+
+/// Camera vertices shaded by each lane class (the scalar kernel's last), summed over a render.
+pub type VertexTotals = [u64; caustica_core::kernel::lanes::CLASSES];
 
 impl TraceStatistics {
     /// Run a camera-path query, counting its ray and the BVH work it took.
@@ -122,8 +127,21 @@ impl TraceStatistics {
         self.count(&self.photons, query)
     }
 
+    /// Count camera vertices by class (`counts[class]`).
+    #[inline]
+    pub fn count_vertices(&self, count: impl FnOnce(&mut VertexTotals)) {
+        self.vertices.scope(count);
+    }
+
+    /// Camera vertices shaded by each class so far.
+    pub fn vertex_totals(&mut self) -> VertexTotals {
+        self.vertices.iter_mut().fold(VertexTotals::default(), |a, b| std::array::from_fn(|k| a[k] + b[k]))
+    }
+
     /// Add what another (a shard's) counted.
     pub fn absorb(&mut self, mut other: TraceStatistics) {
+        let vertices = other.vertex_totals();
+        self.vertices.scope(|t| *t = std::array::from_fn(|k| t[k] + vertices[k]));
         for (mine, theirs) in [
             (&self.paths, &mut other.paths),
             (&self.shadow, &mut other.shadow),

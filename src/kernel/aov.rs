@@ -48,13 +48,25 @@ impl FirstSurface {
         if self.found {
             return;
         }
-        self.travelled += t;
         if v.bsdf.is_delta() {
+            self.travelled += t;
             return;
         }
+        self.reached_surface(t, v.bsdf.albedo_hint(), v.n_side(), beta);
+    }
+
+    /// The path reached a non-specular surface `t` along its last ray, whose BSDF's albedo estimate
+    /// is `albedo` and whose shading normal on the side seen is `normal`, carrying `beta`: record
+    /// it, unless a surface was found before.
+    #[inline]
+    pub fn reached_surface(&mut self, t: f32, albedo: Vec3, normal: Vec3, beta: Vec3) {
+        if self.found {
+            return;
+        }
+        self.travelled += t;
         self.sample = AovSample {
-            albedo: (beta * v.bsdf.albedo_hint()).clamp(Vec3::ZERO, Vec3::ONE),
-            normal: v.n_side(),
+            albedo: (beta * albedo).clamp(Vec3::ZERO, Vec3::ONE),
+            normal,
             depth: self.travelled * self.view_cos,
         };
         self.found = true;

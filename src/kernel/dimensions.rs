@@ -55,6 +55,9 @@ pub struct VertexSampler {
 }
 
 impl VertexSampler {
+    /// Numbers that are all zero (a placeholder for an unused lane).
+    pub const EMPTY: Self = Self { u: [0.0; 8] };
+
     /// The numbers of the vertex at `depth` of the path that `sampler` (its pixel and sample) drives.
     #[inline]
     pub fn new(sampler: Sampler, depth: u32) -> Self {

@@ -172,7 +172,7 @@ impl Lights {
 
     /// Pick a light index for a shading point and its probability.
     #[inline]
-    fn select(&self, p_ref: Vec3, n_ref: Vec3, u_select: f32) -> Option<(u32, f32)> {
+    pub fn select(&self, p_ref: Vec3, n_ref: Vec3, u_select: f32) -> Option<(u32, f32)> {
         let Some(tree) = &self.tree else {
             return self.selector.sample(u_select);
         };
@@ -208,7 +208,7 @@ impl Lights {
     /// A point on light `index`, chosen with probability `pmf`, as seen from `p_ref` (normal
     /// `n_ref`): its pdf per unit solid angle with the choice's probability in it.
     #[inline]
-    fn sample_chosen(
+    pub fn sample_chosen(
         &self,
         index: u32,
         pmf: f32,

@@ -5,6 +5,7 @@
 
 pub mod chi2;
 pub mod distribution;
+pub mod lane_math;
 pub mod net;
 pub mod rng;
 pub mod sobol;

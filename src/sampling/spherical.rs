@@ -1,8 +1,10 @@
 //! Sampling a triangle by the solid angle it subtends (Arvo 1995, "Stratified sampling of spherical
 //! triangles", in the form of pbrt-v4's `SampleSphericalTriangle`): every direction towards the
 //! triangle equally likely, so a lamp close to the point it lights is sampled without the 1/r²
-//! spikes of area sampling.
+//! spikes of area sampling. Its sines, arcsines and arctangents are `lane_math`'s, which lanes
+//! (`kernel::lanes`) compute to the same bits.
 
+use super::lane_math::{asin, atan2, sin_cos};
 use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
@@ -24,7 +26,7 @@ pub const MAX_SPHERICAL_SOLID_ANGLE: f32 = 6.22;
 /// Strackee 1983): exact to rounding for thin triangles, where the angle-sum formula cancels.
 #[inline]
 pub fn spherical_triangle_area(a: Vec3, b: Vec3, c: Vec3) -> f32 {
-    (2.0 * a.dot(b.cross(c)).atan2(1.0 + a.dot(b) + a.dot(c) + b.dot(c))).abs()
+    (2.0 * atan2(a.dot(b.cross(c)), 1.0 + a.dot(b) + a.dot(c) + b.dot(c))).abs()
 }
 
 /// Triangle `v` as the spherical triangle it projects to on the unit sphere around `p`: its corner
@@ -88,8 +90,8 @@ impl SphericalTriangle {
         let Angles { alpha, beta, gamma, .. } = self.angles()?;
         // The sub-triangle a, b, c' whose area is the fraction u.x of the whole: its angle sum.
         let sub_area_pi = PI + u.x * (alpha + beta + gamma - PI);
-        let (sin_alpha, cos_alpha) = alpha.sin_cos();
-        let (sin_ap, cos_ap) = sub_area_pi.sin_cos();
+        let (sin_alpha, cos_alpha) = sin_cos(alpha);
+        let (sin_ap, cos_ap) = sin_cos(sub_area_pi);
         let sin_phi = sin_ap * cos_alpha - cos_ap * sin_alpha;
         let cos_phi = cos_ap * cos_alpha + sin_ap * sin_alpha;
         let k1 = cos_phi + cos_alpha;
@@ -169,9 +171,9 @@ fn orthogonal(v: Vec3, w: Vec3) -> Vec3 {
 #[inline]
 fn angle_between(a: Vec3, b: Vec3) -> f32 {
     if a.dot(b) < 0.0 {
-        PI - 2.0 * ((a + b).length() / 2.0).min(1.0).asin()
+        PI - 2.0 * asin(((a + b).length() / 2.0).min(1.0))
     } else {
-        2.0 * ((b - a).length() / 2.0).min(1.0).asin()
+        2.0 * asin(((b - a).length() / 2.0).min(1.0))
     }
 }
 

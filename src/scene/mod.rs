@@ -162,11 +162,22 @@ impl TextureRef {
     /// The texel at `uv` (of the set this reference reads), its transform applied.
     #[inline]
     pub fn lookup(&self, textures: &[Texture], uv: Vec2) -> Vec4 {
-        let uv = match self.transform {
+        textures[self.texture as usize].sample(self.transformed(uv))
+    }
+
+    /// Ask for the texels [`TextureRef::lookup`] will read at `uv` ([`Texture::prefetch`]).
+    #[inline]
+    pub fn prefetch(&self, textures: &[Texture], uv: Vec2) {
+        textures[self.texture as usize].prefetch(self.transformed(uv));
+    }
+
+    /// `uv` through the reference's KHR_texture_transform.
+    #[inline]
+    fn transformed(&self, uv: Vec2) -> Vec2 {
+        match self.transform {
             Some([x, y, o]) => x * uv.x + y * uv.y + o,
             None => uv,
-        };
-        textures[self.texture as usize].sample(uv)
+        }
     }
 }
 
@@ -286,9 +297,35 @@ pub struct Texture {
 
 impl Texture {
     /// Bilinear lookup at `uv` with the texture's wrap modes.
+    #[inline]
     pub fn sample(&self, uv: Vec2) -> Vec4 {
-        if self.texels.is_empty() {
+        let Some(Footprint { rows: (row0, row1), columns: (x0, x1), weights: (fx, fy) }) = self.footprint(uv)
+        else {
             return Vec4::ONE;
+        };
+        let texel = |row: usize, column: usize| self.texels[row + column];
+        let top = texel(row0, x0).lerp(texel(row0, x1), fx);
+        let bottom = texel(row1, x0).lerp(texel(row1, x1), fx);
+        top.lerp(bottom, fy)
+    }
+
+    /// Ask for the texels [`Texture::sample`] will read at `uv`: a lookup in a large texture waits
+    /// on memory, and lanes ask for a group's texels before any of them is needed, so that the
+    /// waits overlap.
+    #[inline]
+    pub fn prefetch(&self, uv: Vec2) {
+        if let Some(Footprint { rows: (row0, row1), columns: (x0, _), .. }) = self.footprint(uv) {
+            crate::geometry::wide_bvh::prefetch_line(&self.texels[row0 + x0]);
+            crate::geometry::wide_bvh::prefetch_line(&self.texels[row1 + x0]);
+        }
+    }
+
+    /// The first texel of the two rows a lookup at `uv` reads, its two columns, and the weights
+    /// between them; `None` for an empty texture.
+    #[inline]
+    fn footprint(&self, uv: Vec2) -> Option<Footprint> {
+        if self.texels.is_empty() {
+            return None;
         }
         // An infinite or NaN coordinate (from broken UVs or transforms) has no position in the texture:
         // read it as 0 rather than interpolate with a NaN weight.
@@ -297,18 +334,37 @@ impl Texture {
         let y = uv.y * self.height as f32 - 0.5;
         let (x0, y0) = (x.floor(), y.floor());
         let (fx, fy) = (x - x0, y - y0);
-        let texel = |ix: i64, iy: i64| {
-            let cx = wrap_index(ix, self.width, self.wrap_s);
-            let cy = wrap_index(iy, self.height, self.wrap_t);
-            self.texels[cy * self.width as usize + cx]
-        };
         // Past ±2^40 texels a float has no sub-texel precision left; clamping there keeps the
         // neighbour's index (ix + 1) from overflowing for huge or infinite uv (NaN becomes 0).
         const FAR: f32 = (1u64 << 40) as f32;
         let (ix, iy) = (x0.clamp(-FAR, FAR) as i64, y0.clamp(-FAR, FAR) as i64);
-        let top = texel(ix, iy).lerp(texel(ix + 1, iy), fx);
-        let bottom = texel(ix, iy + 1).lerp(texel(ix + 1, iy + 1), fx);
-        top.lerp(bottom, fy)
+        // Each of the four texels' columns and rows wrapped once: a wrap is an integer division
+        // (most of a lookup when it was done per texel), and inside the texture none is needed.
+        let columns = wrap_pair(ix, self.width, self.wrap_s);
+        let (y0, y1) = wrap_pair(iy, self.height, self.wrap_t);
+        Some(Footprint {
+            rows: (y0 * self.width as usize, y1 * self.width as usize),
+            columns,
+            weights: (fx, fy),
+        })
+    }
+}
+
+/// The four texels a bilinear lookup reads: the first texel of its two rows, its two columns, and
+/// the weights between them.
+struct Footprint {
+    rows: (usize, usize),
+    columns: (usize, usize),
+    weights: (f32, f32),
+}
+
+/// The wrapped indices of `i` and `i + 1` along an axis of `n` texels.
+#[inline]
+fn wrap_pair(i: i64, n: u32, wrap: Wrap) -> (usize, usize) {
+    if i >= 0 && i + 1 < n as i64 {
+        (i as usize, i as usize + 1)
+    } else {
+        (wrap_index(i, n, wrap), wrap_index(i + 1, n, wrap))
     }
 }
 

@@ -104,7 +104,8 @@ fn memory(_: &Integrator, pixels: u64, run: &RunFile, pilot: &PilotPaths) -> Mem
         rows * light_subpath_row_bytes() + crate::shards::workers() as u64 * crate::shards::SHARD_WORLD_BYTES;
     // Where each subpath's vertices start, and each kept vertex with its subpath's index.
     let kept = subpaths_per_pass(pixels, run) * size_of::<u32>() as u64
-        + kept_vertices_per_pass(pixels, run, pilot) * (size_of::<LightVertex>() + size_of::<u32>()) as u64;
+        + kept_vertices_per_pass(pixels, run, pilot) * (size_of::<LightVertex>() + size_of::<u32>()) as u64
+        + kept_glossy_per_pass(pixels, run, pilot) * size_of::<caustica_core::materials::Bsdf>() as u64;
     MemoryNeed {
         bytes: paths.bytes + camera + subpaths + kept,
         what: format!("a {pixels}-pixel film, its paths, light subpaths and their kept vertices"),
@@ -138,6 +139,11 @@ fn subpaths_per_pass(pixels: u64, run: &RunFile) -> u64 {
 pub(super) fn kept_vertices_per_pass(pixels: u64, run: &RunFile, pilot: &PilotPaths) -> u64 {
     // A subpath keeps a vertex at each non-delta surface it meets: what a pilot of them found.
     (subpaths_per_pass(pixels, run) as f64 * pilot.diffuse_hits).ceil() as u64
+}
+
+/// Of those, the ones whose BSDF is not Lambert's (kept whole in the pass's table of BSDFs).
+fn kept_glossy_per_pass(pixels: u64, run: &RunFile, pilot: &PilotPaths) -> u64 {
+    (subpaths_per_pass(pixels, run) as f64 * pilot.glossy_hits).ceil() as u64
 }
 
 fn plan(_: &Integrator, world: &mut World, run: &RunFile, features: SceneFeatures) -> Result<Plan> {

@@ -112,6 +112,9 @@ pub struct PilotPaths {
     pub indirect_hits: f64,
     /// Its first non-delta hit after delta ones only: the caustic map's photons.
     pub caustic_hits: f64,
+    /// Those of `diffuse_hits` whose BSDF is not Lambert's: a kept light vertex's BSDF then goes
+    /// into the pass's table of BSDFs.
+    pub glossy_hits: f64,
 }
 
 /// Paths the pilot traces: the means it gives are within a few percent (each path's count of hits
@@ -140,6 +143,13 @@ impl PilotPaths {
                 let bounce = scatter_photon(scene, &settings, &mut path, &ray, &hit, &sampler);
                 if bounce.deposit.is_some() {
                     hits.diffuse_hits += 1.0;
+                    let si = scene.geometry.surface_hit(&ray, &hit);
+                    if caustica_core::materials::Bsdf::new(&scene.shading_params(&si))
+                        .lambert_albedo()
+                        .is_none()
+                    {
+                        hits.glossy_hits += 1.0;
+                    }
                     if depth > 0 && specular_only {
                         hits.caustic_hits += 1.0;
                     } else if depth > 0 {
@@ -157,6 +167,7 @@ impl PilotPaths {
             diffuse_hits: hits.diffuse_hits / n,
             indirect_hits: hits.indirect_hits / n,
             caustic_hits: hits.caustic_hits / n,
+            glossy_hits: hits.glossy_hits / n,
         }
     }
 }

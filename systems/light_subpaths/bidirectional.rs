@@ -186,11 +186,7 @@ pub fn scatter_bidirectional_subpaths(
 
 /// Spawn `rows` light subpaths of bdpt or vcm into a shard's World: `lt`'s chunk and two columns.
 pub fn spawn_bidirectional_chunk(world: &mut World, rows: u32) {
-    super::spawn_chunk(world, rows);
-    let entities: Vec<Entity> = world.query_filtered::<Entity, With<SubpathRay>>().iter(world).collect();
-    for entity in entities {
-        world.entity_mut(entity).insert((SubpathOrigin::default(), SubpathSums::default()));
-    }
+    super::spawn_chunk_with(world, rows, (SubpathOrigin::default(), SubpathSums::default()));
     // A bounce keeps at most a vertex a row: the round ends within one of the limit, and the
     // tables never grow past what is reserved here.
     let limit = (KEPT_ROWS_IN_A_ROUND - 1) * rows as usize;

@@ -231,6 +231,16 @@ pub struct SubpathCounts {
 
 /// Spawn `rows` light subpaths into a shard's World, all in one table, with their queues.
 pub fn spawn_chunk(world: &mut World, rows: u32) {
+    spawn_chunk_with(world, rows, ());
+}
+
+/// [`spawn_chunk`] with `extra` on every row too: the rows are born in their one table, which a
+/// later insert would move them out of, leaving the first table's room behind.
+pub fn spawn_chunk_with<B>(world: &mut World, rows: u32, extra: B)
+where
+    B: Bundle + Clone,
+    <B as bevy_ecs::bundle::DynamicBundle>::Effect: bevy_ecs::bundle::NoBundleEffect,
+{
     world.spawn_batch((0..rows).map(|_| {
         (
             SubpathRay::default(),
@@ -238,6 +248,7 @@ pub fn spawn_chunk(world: &mut World, rows: u32) {
             SubpathPower::default(),
             SubpathSampler::default(),
             SubpathConnection::default(),
+            extra.clone(),
         )
     }));
     world.insert_resource(SubpathQueues::new(rows));

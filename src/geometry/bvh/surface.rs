@@ -45,6 +45,11 @@ pub struct PlainTriangle {
     pub light: u32,
 }
 
+impl PlainTriangle {
+    /// A placeholder (a degenerate triangle at the origin).
+    pub const EMPTY: Self = Self { p: [Vec3::ZERO; 3], normals: None, material: 0, light: super::NO_LIGHT };
+}
+
 /// Vertex attributes of a mesh, kept for shading.
 #[derive(Clone, Debug, Default)]
 pub(super) struct MeshShading {
@@ -97,6 +102,22 @@ impl Geometry {
         }
         let normals = mesh.normals.as_ref().map(|n| mesh.indices[info.index as usize].map(|v| n[v as usize]));
         Some(PlainTriangle { p, normals, material: info.material, light: info.light })
+    }
+
+    /// The material and light of triangle `prim` when lanes can shade it
+    /// ([`Geometry::plain_triangle`] would return it): `None` for spheres, primitives that move
+    /// over the shutter and meshes with vertex colours. One load of the primitive's cold data.
+    #[inline]
+    pub fn lane_material(&self, prim: u32) -> Option<(u32, u32)> {
+        if prim & SET_BITS == MOVING_BIT {
+            return None;
+        }
+        let (set, i) = self.set_of(prim);
+        let info = &set.info[i];
+        if info.kind != super::PrimitiveKind::Triangle || self.meshes[info.object as usize].colors.is_some() {
+            return None;
+        }
+        Some((info.material, info.light))
     }
 
     /// Surface data at a hit.

@@ -1,12 +1,18 @@
-//! The lanes against the scalar kernel, path by path and bit for bit.
+//! The lanes against the scalar kernel, path by path and bit for bit: every class, through the
+//! columns they read in a render.
 
 use super::*;
+use crate::geometry::Ray;
+use crate::geometry::bvh::Hit;
+use crate::kernel::aov::FirstSurface;
 use crate::kernel::path_vertex::path_vertex;
+use crate::kernel::{CameraPath, PathLimits, ShadowSample};
 use crate::render_scene::RenderScene;
 use crate::sampling::warp::uniform_sphere;
 use crate::sampling::{Sampler, SamplerKind};
-use crate::scene::{LightSelection, Scene};
+use crate::scene::{LightSelection, Scene, Texture, TextureRef};
 use crate::test_scenes::{diffuse, quad, uv_sphere};
+use glam::{Vec3, Vec4};
 
 /// A room (the inside of a sphere with interpolated normals, and a flat floor without) around a
 /// ball with normals, lit by two emitting quads: every kind of triangle lanes shade, and the
@@ -32,23 +38,64 @@ fn room() -> Scene {
     }
 }
 
-/// Vertices of random rays from inside the room, with random path states, that lanes take.
-fn vertices(scene: &RenderScene, kind: SamplerKind, n: u32) -> Vec<(DiffuseVertex, CameraPath, Sampler)> {
-    let albedo: Vec<Option<Vec3>> = scene.materials.iter().map(plain_lambert).collect();
-    let mut out = Vec::new();
-    for i in 0..n * 4 {
+/// Columns as a render holds them, and what the lanes reported of each row.
+#[derive(Clone, Default)]
+struct TestColumns {
+    rays: Vec<Ray>,
+    hits: Vec<Hit>,
+    paths: Vec<CameraPath>,
+    samplers: Vec<Sampler>,
+    features: Option<Vec<FirstSurface>>,
+    done: Vec<Option<(bool, Option<ShadowSample>)>>,
+    /// Rows the lanes handed back to the scalar kernel.
+    handed_back: Vec<u32>,
+}
+
+impl CameraColumns for TestColumns {
+    fn ray(&mut self, row: u32) -> &mut Ray {
+        &mut self.rays[row as usize]
+    }
+    fn hit(&self, row: u32) -> &Hit {
+        &self.hits[row as usize]
+    }
+    fn path(&mut self, row: u32) -> &mut CameraPath {
+        &mut self.paths[row as usize]
+    }
+    fn sampler(&self, row: u32) -> Sampler {
+        self.samplers[row as usize]
+    }
+    fn vertex_done(&mut self, row: u32, continues: bool, light_sample: Option<ShadowSample>) {
+        assert!(self.done[row as usize].is_none(), "row {row} shaded twice");
+        self.done[row as usize] = Some((continues, light_sample));
+    }
+    fn scalar_vertex(&mut self, row: u32) {
+        self.handed_back.push(row);
+    }
+    fn records_features(&self) -> bool {
+        self.features.is_some()
+    }
+    fn reached(&mut self, row: u32, t: f32, albedo: Vec3, normal: Vec3, beta: Vec3) {
+        if let Some(f) = &mut self.features {
+            f[row as usize].reached_surface(t, albedo, normal, beta);
+        }
+    }
+}
+
+/// Rows of random rays from inside the room, with random path states, whose vertices `class`
+/// takes.
+fn rows_of(
+    scene: &RenderScene,
+    limits: PathLimits,
+    class: LaneClass,
+    kind: SamplerKind,
+    n: u32,
+) -> TestColumns {
+    let mut c = TestColumns::default();
+    for i in 0..n * 8 {
         let s = Sampler::new(11, i, 0);
         let o = (Vec3::new(s.get1d(0), s.get1d(1), s.get1d(2)) - 0.5) * 1.2;
         let ray = Ray { o, d: uniform_sphere(s.get2d(3)), t_max: f32::INFINITY, time: 0.0 };
         let hit = scene.geometry.intersect(&ray);
-        if !hit.is_hit() {
-            continue;
-        }
-        let Some(triangle) = scene.geometry.plain_triangle(hit.prim) else { continue };
-        let Some(albedo) = albedo[triangle.material as usize] else { continue };
-        if triangle.light != crate::geometry::bvh::NO_LIGHT {
-            continue;
-        }
         let depth = (s.get1d(5) * 9.0) as u32;
         let path = CameraPath {
             beta: Vec3::new(s.get1d(6), s.get1d(7), s.get1d(8)) * 2.0,
@@ -61,14 +108,19 @@ fn vertices(scene: &RenderScene, kind: SamplerKind, n: u32) -> Vec<(DiffuseVerte
             specular_bounce: s.get1d(14) < 0.2,
             ..CameraPath::START
         };
-        let sampler = Sampler::of(kind, 3, i % 97, i / 97);
-        let u = VertexSampler::new(sampler, depth);
-        out.push((DiffuseVertex { ray, hit, triangle, albedo, u }, path, sampler));
-        if out.len() == n as usize {
+        if classify(scene, limits, &hit, &path) != class {
+            continue;
+        }
+        c.rays.push(ray);
+        c.hits.push(hit);
+        c.paths.push(path);
+        c.samplers.push(Sampler::of(kind, 3, i % 97, i / 97));
+        if c.rays.len() == n as usize {
             break;
         }
     }
-    out
+    c.done = vec![None; c.rays.len()];
+    c
 }
 
 fn path_bits(p: &CameraPath) -> Vec<u32> {
@@ -97,63 +149,186 @@ fn sample_bits(s: &Option<ShadowSample>) -> Option<Vec<u32>> {
     })
 }
 
+/// Shade rows of `class` in lanes and by the scalar kernel, and hold every field to the scalar
+/// kernel's bits. Returns how many went on, took a light sample and ended.
 fn agree<const NEE: bool>(
     scene: &RenderScene,
     limits: PathLimits,
+    class: LaneClass,
     kind: SamplerKind,
-) -> (usize, usize, usize) {
-    let inputs = vertices(scene, kind, 3000);
-    assert!(inputs.len() > 2000, "only {} vertices", inputs.len());
-    let vertices: Vec<DiffuseVertex> = inputs.iter().map(|(v, _, _)| *v).collect();
-    let mut paths: Vec<CameraPath> = inputs.iter().map(|(_, p, _)| *p).collect();
-    let mut rays: Vec<Ray> = vertices.iter().map(|v| v.ray).collect();
-    let mut outcomes = vec![DiffuseOutcome::default(); vertices.len()];
+    features: bool,
+    shade: impl Fn(&RenderScene, PathLimits, &[u32], &mut TestColumns),
+) -> (usize, usize, usize, usize) {
+    let mut lanes = rows_of(scene, limits, class, kind, 3000);
+    assert!(lanes.rays.len() > 2000, "only {} vertices of {class:?}", lanes.rays.len());
+    if features {
+        lanes.features = Some(vec![FirstSurface::start(Vec3::X, Vec3::X); lanes.rays.len()]);
+    }
+    let scalar = lanes.clone();
     // An odd count: the last group has unused lanes.
-    let n = vertices.len() - 3;
-    diffuse_vertices::<NEE>(
-        scene,
-        limits,
-        &vertices[..n],
-        &mut paths[..n],
-        &mut rays[..n],
-        &mut outcomes[..n],
-    );
+    let n = lanes.rays.len() - 3;
+    let rows: Vec<u32> = (0..n as u32).collect();
+    shade(scene, limits, &rows, &mut lanes);
     let (mut continued, mut sampled, mut killed) = (0, 0, 0);
-    for (i, (v, path, sampler)) in inputs.iter().take(n).enumerate() {
-        let (mut path, mut ray) = (*path, v.ray);
-        let (continues, light_sample) =
-            path_vertex::<NEE>(scene, limits, &v.hit, &mut ray, &mut path, *sampler, None);
-        assert_eq!(outcomes[i].continues, continues, "vertex {i}: whether the path goes on");
-        assert_eq!(
-            sample_bits(&outcomes[i].light_sample),
-            sample_bits(&light_sample),
-            "vertex {i}: light sample"
-        );
-        assert_eq!(path_bits(&paths[i]), path_bits(&path), "vertex {i}: the path");
-        assert_eq!(ray_bits(&rays[i]), ray_bits(&ray), "vertex {i}: the next ray");
+    for i in 0..n {
+        let scalar_kernel = |c: &TestColumns| {
+            let (mut path, mut ray) = (c.paths[i], c.rays[i]);
+            let mut feature = c.features.as_ref().map(|f| f[i]);
+            let (continues, light_sample) = path_vertex::<NEE>(
+                scene,
+                limits,
+                &c.hits[i],
+                &mut ray,
+                &mut path,
+                c.samplers[i],
+                feature.as_mut(),
+            );
+            (continues, light_sample, path, ray, feature)
+        };
+        let (continues, light_sample, path, ray, feature) = scalar_kernel(&scalar);
+        if lanes.handed_back.contains(&(i as u32)) {
+            assert!(lanes.done[i].is_none(), "row {i} handed back and shaded");
+            let (c, s, p, r, f) = scalar_kernel(&lanes);
+            lanes.done[i] = Some((c, s));
+            (lanes.paths[i], lanes.rays[i]) = (p, r);
+            if let (Some(features), Some(f)) = (&mut lanes.features, f) {
+                features[i] = f;
+            }
+        }
+        let (lane_continues, lane_sample) = lanes.done[i].expect("every row is shaded");
+        assert_eq!(lane_continues, continues, "vertex {i}: whether the path goes on");
+        assert_eq!(sample_bits(&lane_sample), sample_bits(&light_sample), "vertex {i}: light sample");
+        assert_eq!(path_bits(&lanes.paths[i]), path_bits(&path), "vertex {i}: the path");
+        assert_eq!(ray_bits(&lanes.rays[i]), ray_bits(&ray), "vertex {i}: the next ray");
+        if let (Some(lane), Some(scalar)) = (lanes.features.as_ref().map(|f| f[i]), feature) {
+            assert_eq!(lane, scalar, "vertex {i}: the feature images' first surface");
+        }
         continued += continues as usize;
         sampled += light_sample.is_some() as usize;
         killed += !continues as usize;
     }
-    (continued, sampled, killed)
+    assert!(lanes.done[n..].iter().all(Option::is_none), "rows beyond the queue were shaded");
+    assert!(lanes.handed_back.len() * 10 < n, "{} of {n} rows handed back", lanes.handed_back.len());
+    (continued, sampled, killed, lanes.handed_back.len())
 }
 
 /// Every field a vertex writes (whether the path goes on, its next ray, its throughput, radiance
-/// and MIS state, the light sample's segment, contribution, light and normal) is the scalar
-/// kernel's, bit for bit, for `pt` and `pt-naive`, both samplers, power and tree selection, with
-/// Russian roulette and a depth limit in play.
-#[test]
-fn lanes_shade_as_the_scalar_kernel_does_bit_for_bit() {
+/// and MIS state, the light sample's segment, contribution, light and normal, the feature images'
+/// first surface) is the scalar kernel's, bit for bit, for `pt` and `pt-naive`, both samplers,
+/// power and tree selection, with Russian roulette and a depth limit in play.
+fn agree_everywhere(scene: &Scene, class: LaneClass) -> usize {
+    let mut handed_back = 0;
     for selection in [LightSelection::Power, LightSelection::Tree] {
-        let scene = RenderScene::build(&room(), selection);
+        let scene = RenderScene::build(scene, selection);
         for kind in [SamplerKind::Sobol, SamplerKind::Independent] {
             let limits = PathLimits { max_depth: 9, rr_depth: 2 };
-            let (continued, sampled, ended) = agree::<true>(&scene, limits, kind);
+            let shade = |s: &RenderScene, l, rows: &[u32], c: &mut TestColumns| {
+                shade_class::<true, _>(s, l, class, rows, c)
+            };
+            let (continued, sampled, ended, back) = agree::<true>(&scene, limits, class, kind, false, shade);
             assert!(
-                continued > 500 && sampled > 500 && ended > 50,
-                "{continued} {sampled} {ended}: too few of each"
+                continued > 500 && sampled > 300 && ended > 50,
+                "{class:?}: {continued} {sampled} {ended}: too few of each"
             );
-            agree::<false>(&scene, PathLimits { max_depth: u32::MAX, rr_depth: 5 }, kind);
+            let limits = PathLimits { max_depth: u32::MAX, rr_depth: 5 };
+            let shade = |s: &RenderScene, l, rows: &[u32], c: &mut TestColumns| {
+                shade_class::<false, _>(s, l, class, rows, c)
+            };
+            handed_back += back + agree::<false>(&scene, limits, class, kind, true, shade).3;
         }
     }
+    handed_back
+}
+
+#[test]
+fn lambert_lanes_shade_as_the_scalar_kernel_does_bit_for_bit() {
+    assert_eq!(agree_everywhere(&room(), LaneClass::Lambert), 0, "a plain Lambertian is never handed back");
+}
+
+/// The metallic-roughness mixture, untextured on the walls and the ball and textured on the floor
+/// (base colour, metallic-roughness and a normal map): its rows whose roughness texel makes a
+/// mirror are handed back to the scalar kernel, and there are some.
+#[test]
+fn metal_rough_lanes_shade_as_the_scalar_kernel_does_bit_for_bit() {
+    assert!(agree_everywhere(&glossy_room(), LaneClass::MetalRough) > 0, "no textured mirror texel was met");
+}
+
+/// A textured Lambertian with a normal map whose tangents are mirrored (w = −1).
+#[test]
+fn textured_lambert_lanes_shade_as_the_scalar_kernel_does_bit_for_bit() {
+    assert_eq!(agree_everywhere(&glossy_room(), LaneClass::Lambert), 0);
+}
+
+/// [`room`] with the metallic-roughness mixture: rough metal and plastic walls, a gold ball, a
+/// floor textured in base colour, metallic-roughness and normal, and a table top that is a
+/// textured Lambertian with a normal map on mirrored tangents.
+fn glossy_room() -> Scene {
+    let mut scene = room();
+    let s = |i: u32, d: u32| Sampler::new(21, i, 0).get1d(d);
+    let texture = |name: &str, texel: &dyn Fn(u32) -> Vec4| Texture {
+        name: name.into(),
+        width: 8,
+        height: 8,
+        texels: (0..64).map(texel).collect(),
+        ..Texture::default()
+    };
+    scene.textures = vec![
+        texture("colour", &|i| Vec4::new(s(i, 0), s(i, 1), s(i, 2), 1.0)),
+        // Roughness in G down to a mirror, metallic in B.
+        texture("metallic-roughness", &|i| Vec4::new(1.0, s(i, 3) * s(i, 3), s(i, 4), 1.0)),
+        texture("normal", &|i| Vec4::new(s(i, 5), s(i, 6), 0.6 + 0.4 * s(i, 7), 1.0)),
+    ];
+    let texture_ref = |texture| Some(TextureRef { texture, tex_coord: 0, transform: None });
+    let m = &mut scene.materials;
+    m[0].shading.metallic = 0.3;
+    m[0].shading.roughness = 0.5;
+    m[0].shading.specular = 1.0;
+    m[0].shading.specular_color = Vec3::new(0.8, 1.0, 0.9);
+    m[1].shading.metallic = 0.8;
+    m[1].shading.roughness = 0.9;
+    m[1].shading.specular = 0.7;
+    m[1].base_color_texture = texture_ref(0);
+    m[1].metallic_roughness_texture = texture_ref(1);
+    m[1].normal_texture = texture_ref(2);
+    m[1].normal_scale = 0.8;
+    m[2].shading.metallic = 1.0;
+    m[2].shading.roughness = 0.35;
+    m[2].shading.base_color = Vec3::new(1.0, 0.78, 0.34);
+    let mut table = diffuse("table", Vec3::new(0.6, 0.9, 0.7), Vec3::ZERO);
+    table.base_color_texture = texture_ref(0);
+    table.normal_texture = texture_ref(2);
+    table.normal_scale = 1.0;
+    m.push(table);
+    scene.meshes[1].tangents = Some(vec![Vec4::new(1.0, 0.0, 0.0, 1.0); 4]);
+    let mut table = quad("table", 0.3, 0.4, true, 5);
+    table.tangents = Some(vec![Vec4::new(1.0, 0.0, 0.0, -1.0); 4]);
+    scene.meshes.push(table);
+    scene
+}
+
+/// The class table: a Lambertian without textures takes the lanes, an emitter's hits and misses
+/// do not.
+#[test]
+fn hits_on_emitters_and_misses_are_the_scalar_kernels() {
+    let scene = RenderScene::build(&room(), LightSelection::Power);
+    let limits = PathLimits { max_depth: 9, rr_depth: 5 };
+    assert_eq!(classify(&scene, limits, &Hit::MISS, &CameraPath::START), LaneClass::Scalar);
+    let (mut lamp, mut wall) = (0, 0);
+    for i in 0..2000 {
+        let s = Sampler::new(5, i, 0);
+        let ray = Ray { o: Vec3::ZERO, d: uniform_sphere(s.get2d(0)), t_max: f32::INFINITY, time: 0.0 };
+        let hit = scene.geometry.intersect(&ray);
+        let material = scene.geometry.surface_hit(&ray, &hit).material;
+        let class = classify(&scene, limits, &hit, &CameraPath::START);
+        if material >= 3 {
+            assert_eq!(class, LaneClass::Scalar, "an emitter's hit");
+            lamp += 1;
+        } else {
+            assert_eq!(class, LaneClass::Lambert, "material {material}");
+            wall += 1;
+        }
+        let last = CameraPath { depth: 9, ..CameraPath::START };
+        assert_eq!(classify(&scene, limits, &hit, &last), LaneClass::Scalar, "the last depth");
+    }
+    assert!(lamp > 10 && wall > 1000, "{lamp} {wall}");
 }

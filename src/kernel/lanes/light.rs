@@ -1,0 +1,133 @@
+//! Next-event estimation in lanes (`direct::sample_light` with MIS): a light for each lane, a point
+//! on it (in lanes for still triangles, `triangle_light.rs`; one by one for the other lights), then the BSDF towards it, the power heuristic against the class's own pdf, the
+//! contribution and the shadow segment.
+
+use super::surface::Surface;
+use super::triangle_light::TriangleLanes;
+use super::v3::{Mask, MaskBits, V3, max_element, select};
+use super::{Group, Lanes, WIDTH, power_heuristic};
+use crate::geometry::Ray;
+use crate::geometry::offset::SHADOW_EPSILON;
+use crate::kernel::ShadowSample;
+use crate::lights::{Light, LightSample, LightShape};
+use crate::render_scene::RenderScene;
+use glam::Vec3;
+
+/// The vertices a group samples lights from.
+pub struct LightQuery<'a> {
+    /// Their surfaces.
+    pub surface: &'a Surface,
+    /// Their paths and random numbers.
+    pub group: &'a Group,
+    /// The group's lanes in use.
+    pub count: usize,
+}
+
+/// Each lane's light sample: `f(wi)` is the BSDF times |cos| towards local direction `wi`, `pdf(wi)`
+/// the density with which the class's own sampling would have chosen it (MIS).
+#[inline(never)]
+pub fn sample_lights(
+    scene: &RenderScene,
+    query: &LightQuery,
+    f: impl Fn(V3) -> V3,
+    pdf: impl Fn(V3) -> Lanes,
+) -> [Option<ShadowSample>; WIDTH] {
+    let (s, g) = (query.surface, query.group);
+    let (p, n_side, times) = (s.p.lanes(), s.n_side.lanes(), g.time.to_array());
+    let lights = &scene.lights;
+    // Each lane's light and the probability of its choice; per lane, as selection reads what
+    // differs per lane (a tree's nodes, a distribution's steps).
+    let mut chosen = [None; WIDTH];
+    let mut triangles: [Option<&Light>; WIDTH] = [None; WIDTH];
+    let (mut in_lanes, mut one_by_one) = (0u32, 0u32);
+    for i in 0..query.count {
+        chosen[i] = lights.select(p[i], n_side[i], g.u[i].light_select());
+        let Some((index, _)) = chosen[i] else { continue };
+        match lights.lights.get(index as usize) {
+            Some(l) if matches!(l.shape, LightShape::Triangle { .. }) && l.motion == Vec3::ZERO => {
+                triangles[i] = Some(l);
+                in_lanes |= 1 << i;
+            }
+            _ => one_by_one |= 1 << i,
+        }
+    }
+    let (mut light_p, mut le, mut light_pdf) = (V3::splat(1.0), V3::splat(1.0), Lanes::ONE);
+    let (mut delta, mut valid) = (Mask::ZERO, Mask::ZERO);
+    if one_by_one != 0 {
+        // The other lights (spheres, punctual lights, the environment, moving triangles).
+        let scalar: [Option<LightSample>; WIDTH] = std::array::from_fn(|i| {
+            let (index, pmf) = chosen[i].filter(|_| one_by_one >> i & 1 == 1)?;
+            let (_, mut ls) =
+                lights.sample_chosen(index, pmf, p[i], n_side[i], times[i], g.u[i].light_point())?;
+            ls.le *= scene.emissive_texel(index, ls.p, times[i]);
+            Some(ls)
+        });
+        let from_scalar =
+            |f: &dyn Fn(&LightSample) -> Vec3| V3::gather(|i| scalar[i].as_ref().map_or(Vec3::ONE, f));
+        light_p = from_scalar(&|ls| ls.p);
+        le = from_scalar(&|ls| ls.le);
+        light_pdf = Lanes::new(std::array::from_fn(|i| scalar[i].as_ref().map_or(1.0, |ls| ls.pdf)));
+        delta = Mask::from_fn(|i| scalar[i].as_ref().is_some_and(|ls| ls.delta));
+        valid = Mask::from_fn(|i| scalar[i].is_some());
+    }
+    if in_lanes != 0 {
+        let first = triangles[in_lanes.trailing_zeros() as usize].expect("a lane's triangle");
+        let in_lanes_mask = Mask::from_fn(|i| in_lanes >> i & 1 == 1);
+        let triangles: [&Light; WIDTH] = std::array::from_fn(|i| triangles[i].unwrap_or(first));
+        let sampled = TriangleLanes::new(&triangles, g.time);
+        let u = [
+            Lanes::new(std::array::from_fn(|i| g.u[i].light_point().x)),
+            Lanes::new(std::array::from_fn(|i| g.u[i].light_point().y)),
+        ];
+        let one_by_one = |i: usize| {
+            let ls = triangles[i].sample(p[i], n_side[i], times[i], g.u[i].light_point())?;
+            Some((ls.p, ls.pdf))
+        };
+        let (point, pdf, drawn) = sampled.sample(s.p, s.n_side, u, one_by_one);
+        let pmf = Lanes::new(std::array::from_fn(|i| chosen[i].map_or(1.0, |(_, pmf)| pmf)));
+        // An emissive texture multiplies the radiance where the point landed (a gather a lane).
+        let textured = (0..WIDTH).filter(|&i| in_lanes >> i & 1 == 1 && triangles[i].texture.is_some());
+        let textured = textured.fold(0u32, |bits, i| bits | 1 << i);
+        let radiance = if textured == 0 {
+            sampled.le
+        } else {
+            let (point, le) = (point.lanes(), sampled.le.lanes());
+            V3::gather(|i| match chosen[i] {
+                Some((index, _)) if textured >> i & 1 == 1 => {
+                    le[i] * scene.emissive_texel(index, point[i], times[i])
+                }
+                _ => le[i],
+            })
+        };
+        light_p = V3::select(in_lanes_mask, point, light_p);
+        le = V3::select(in_lanes_mask, radiance, le);
+        light_pdf = select(in_lanes_mask, pdf * pmf, light_pdf);
+        valid = select(in_lanes_mask, drawn, valid);
+    }
+    let own = Mask::from_fn(|i| chosen[i].is_some_and(|(index, _)| index == g.own_light[i]));
+    let valid = valid & !own;
+    let lights_of = |i: usize| chosen[i].map(|(index, _)| index);
+
+    let wi_world = (light_p - s.p).normalize();
+    let wi = s.frame.to_local(wi_world);
+    let crosses = s.crosses_inconsistently(wi_world, wi);
+    let f = f(wi);
+    let lit = max_element(f).simd_gt(Lanes::ZERO) & light_pdf.simd_gt(Lanes::ZERO);
+    let weight = power_heuristic(light_pdf, pdf(wi));
+    let weighted = (g.beta * f * le).scale(weight / light_pdf);
+    let unweighted = (g.beta * f * le).scale_div(light_pdf);
+    let contribution = V3::select(delta, unweighted, weighted);
+    let origin = s.ray_origin(wi_world);
+    let to_light = light_p - origin;
+    let keep = (valid & !crosses & lit).bits();
+    let (origin, to_light, contribution) = (origin.lanes(), to_light.lanes(), contribution.lanes());
+    std::array::from_fn(|i| {
+        let light = lights_of(i)?;
+        (keep >> i & 1 == 1).then(|| ShadowSample {
+            ray: Ray { o: origin[i], d: to_light[i], t_max: 1.0 - SHADOW_EPSILON, time: times[i] },
+            contribution: contribution[i],
+            light,
+            normal: n_side[i],
+        })
+    })
+}
