@@ -71,8 +71,9 @@ impl PackRay {
     #[inline]
     pub fn new(o: Vec3, d: Vec3) -> Self {
         let sheared = ShearedRay::new(d);
-        let kz = sheared.axis();
-        let k = [(kz + 1) % 3, (kz + 2) % 3, kz];
+        // The cyclic permutation that puts axis kz last, from a table (a remainder by 3 is a division).
+        const PERMUTATIONS: [[usize; 3]; 3] = [[1, 2, 0], [2, 0, 1], [0, 1, 2]];
+        let k = PERMUTATIONS[sheared.axis()];
         let (sx, sy, sz) = sheared.shear();
         Self {
             o: [PackLanes::splat(o.x), PackLanes::splat(o.y), PackLanes::splat(o.z)],
@@ -180,6 +181,52 @@ impl PackTest {
         }
     }
 
+    /// The nearest candidate lane's hit, if any: [`PackTest::finish_lanes`] then
+    /// [`PackHits::nearest`], without storing every lane's distance and barycentrics.
+    #[inline(always)]
+    fn finish_nearest(&self, candidates: u32, t_max: f32) -> Option<(usize, f32, f32, f32)> {
+        let [e0, e1, e2] = self.e;
+        let [[p0x, p0y, p0z], [p1x, p1y, p1z], [p2x, p2y, p2z]] = self.p;
+        let inv_det = PackLanes::ONE / self.det;
+        let t = self.t_scaled * inv_det;
+        let max3 = |a: PackLanes, b: PackLanes, c: PackLanes| a.abs().fast_max(b.abs().fast_max(c.abs()));
+        let max_zt = max3(p0z, p1z, p2z);
+        let delta_z = PackLanes::splat(gamma(3)) * max_zt;
+        let max_xt = max3(p0x, p1x, p2x);
+        let max_yt = max3(p0y, p1y, p2y);
+        let delta_x = PackLanes::splat(gamma(5)) * (max_xt + max_zt);
+        let delta_y = PackLanes::splat(gamma(5)) * (max_yt + max_zt);
+        let delta_e = PackLanes::splat(2.0)
+            * (PackLanes::splat(gamma(2)) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+        let max_e = max3(e0, e1, e2);
+        let delta_t = PackLanes::splat(3.0)
+            * (PackLanes::splat(gamma(3)) * max_e * max_zt + delta_e * max_zt + delta_z * max_e)
+            * inv_det.abs();
+        let miss = t.simd_le(delta_t) | !t.simd_lt(PackLanes::splat(t_max));
+        let hits = candidates & !miss.to_bitmask();
+        if hits == 0 {
+            return None;
+        }
+        let ts = t.as_array();
+        // The nearest, the lowest lane among equals (as `PackHits::nearest`).
+        let lane = if hits & (hits - 1) == 0 {
+            hits.trailing_zeros() as usize
+        } else {
+            let mut rest = hits & (hits - 1);
+            let mut best = hits.trailing_zeros() as usize;
+            while rest != 0 {
+                let i = rest.trailing_zeros() as usize;
+                rest &= rest - 1;
+                if ts[i] < ts[best] {
+                    best = i;
+                }
+            }
+            best
+        };
+        let inv = inv_det.as_array()[lane];
+        Some((lane, ts[lane], e1.as_array()[lane] * inv, e2.as_array()[lane] * inv))
+    }
+
     /// Whether lane `i` hits: [`PackTest::finish_lanes`] for one lane, in the scalar test's order of
     /// operations, so that it decides as the lanes do.
     #[inline(always)]
@@ -264,6 +311,23 @@ pub fn intersect_pack(
         redo_in_scalar(pack, ray, origins, t_max, fallback, &mut hits);
     }
     hits
+}
+
+/// The nearest hit among the triangles of a still `pack` (the ray's own origin in every lane)
+/// before `t_max`: its lane, distance and barycentrics; what [`intersect_pack`] then
+/// [`PackHits::nearest`] report, without their arrays.
+#[inline(always)]
+pub fn nearest_in_pack(pack: &TrianglePack, ray: &PackRay, t_max: f32) -> Option<(usize, f32, f32, f32)> {
+    let (candidates, fallback, test) = test_pack(pack, ray, &ray.o, t_max)?;
+    if fallback != 0 {
+        let mut hits = if candidates != 0 { test.finish_lanes(candidates, t_max) } else { PackHits::NONE };
+        redo_in_scalar(pack, ray, None, t_max, fallback, &mut hits);
+        return hits.nearest().map(|i| (i, hits.t[i], hits.b1[i], hits.b2[i]));
+    }
+    if candidates == 0 {
+        return None;
+    }
+    test.finish_nearest(candidates, t_max)
 }
 
 /// Whether any triangle of `pack` blocks `ray` (origin `o` per lane) before `t_max`, for shadow

@@ -23,7 +23,7 @@ pub use surface::{PlainTriangle, SurfaceHit};
 use super::Ray;
 use super::alpha::{Cutouts, NO_CUTOUT};
 use super::triangle_pack::{LANES, PackLanes, TrianglePack};
-use super::wide_bvh::{TraceCounts, WideBvh};
+use super::wide_bvh::{Counts, TraceCounts, Uncounted, WideBvh};
 use crate::scene::Scene;
 use build::{MeshesOf, SETS, SetBuilder, binary_trees, push_mesh, set_of};
 use glam::Vec3;
@@ -337,12 +337,17 @@ impl Geometry {
     /// Closest hit along the ray.
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Hit {
-        self.intersect_counted(ray, &mut TraceCounts::default())
+        self.intersect_with(ray, &mut Uncounted)
     }
 
     /// Closest hit along the ray, counting the nodes and leaves visited into `counts`.
     #[inline]
     pub fn intersect_counted(&self, ray: &Ray, counts: &mut TraceCounts) -> Hit {
+        self.intersect_with(ray, counts)
+    }
+
+    #[inline(always)]
+    fn intersect_with(&self, ray: &Ray, counts: &mut impl Counts) -> Hit {
         let mut hit = Hit { t: ray.t_max, ..Hit::MISS };
         let rays = QueryRay::new(ray);
         intersect_set(&self.static_set, &self.cutouts, ray, &rays, 0, &mut hit, counts);
@@ -358,12 +363,17 @@ impl Geometry {
     /// Whether anything blocks the ray before `t_max` (any-hit query for shadow rays).
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
-        self.occluded_counted(ray, &mut TraceCounts::default())
+        self.occluded_with(ray, &mut Uncounted)
     }
 
     /// [`Geometry::occluded`], counting the nodes and leaves visited into `counts`.
     #[inline]
     pub fn occluded_counted(&self, ray: &Ray, counts: &mut TraceCounts) -> bool {
+        self.occluded_with(ray, counts)
+    }
+
+    #[inline(always)]
+    fn occluded_with(&self, ray: &Ray, counts: &mut impl Counts) -> bool {
         let rays = QueryRay::new(ray);
         occluded_set(&self.static_set, &self.cutouts, ray, &rays, 0, counts)
             || self

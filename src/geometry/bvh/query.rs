@@ -5,8 +5,10 @@ use super::{Hit, PrimitiveSet, PrimitiveShape};
 use crate::geometry::Ray;
 use crate::geometry::alpha::{Cutouts, NO_CUTOUT};
 use crate::geometry::sphere::intersect_sphere;
-use crate::geometry::triangle_pack::{PackHits, PackLanes, PackRay, intersect_pack, pack_blocks};
-use crate::geometry::wide_bvh::{BoxRay, TraceCounts};
+use crate::geometry::triangle_pack::{
+    PackHits, PackLanes, PackRay, intersect_pack, nearest_in_pack, pack_blocks,
+};
+use crate::geometry::wide_bvh::{BoxRay, Counts};
 use glam::Vec3;
 
 /// A ray prepared once for the box tests and the triangle packs of every set.
@@ -63,7 +65,40 @@ pub(super) fn intersect_set(
     rays: &QueryRay,
     id_bits: u32,
     hit: &mut Hit,
-    counts: &mut TraceCounts,
+    counts: &mut impl Counts,
+) {
+    let has_cutouts = !set.cutout.is_empty();
+    if !has_cutouts && set.pack_motion.is_empty() {
+        // Still, opaque triangles: each pack's nearest hit, the distances not stored.
+        hit.t = set.triangles.closest(&rays.boxes, hit.t, counts, |first, count, mut t_max| {
+            for p in first as usize..(first + count) as usize {
+                let (pack, prims) = &set.packs[p];
+                if let Some((i, t, b1, b2)) = nearest_in_pack(pack, &rays.packs, t_max) {
+                    t_max = t;
+                    *hit = Hit { t, prim: prims[i] | id_bits, b1, b2 };
+                }
+            }
+            t_max
+        });
+    } else {
+        intersect_triangles(set, cutouts, ray, rays, id_bits, hit, counts);
+    }
+    if set.sphere_prims.is_empty() {
+        return;
+    }
+    intersect_spheres(set, ray, rays, id_bits, hit, counts);
+}
+
+/// The triangles of a set that moves or has cut-outs: every hit lane, nearest first, until one is
+/// not cut out.
+fn intersect_triangles(
+    set: &PrimitiveSet,
+    cutouts: &Cutouts,
+    ray: &Ray,
+    rays: &QueryRay,
+    id_bits: u32,
+    hit: &mut Hit,
+    counts: &mut impl Counts,
 ) {
     let has_cutouts = !set.cutout.is_empty();
     hit.t = set.triangles.closest(&rays.boxes, hit.t, counts, |first, count, mut t_max| {
@@ -84,9 +119,17 @@ pub(super) fn intersect_set(
         }
         t_max
     });
-    if set.sphere_prims.is_empty() {
-        return;
-    }
+}
+
+/// The spheres of a set.
+fn intersect_spheres(
+    set: &PrimitiveSet,
+    ray: &Ray,
+    rays: &QueryRay,
+    id_bits: u32,
+    hit: &mut Hit,
+    counts: &mut impl Counts,
+) {
     hit.t = set.spheres.closest(&rays.boxes, hit.t, counts, |first, count, mut t_max| {
         for &prim in &set.sphere_prims[first as usize..(first + count) as usize] {
             let PrimitiveShape::Sphere(c, r) = set.shapes[prim as usize] else { continue };
@@ -108,7 +151,7 @@ pub(super) fn occluded_set(
     ray: &Ray,
     rays: &QueryRay,
     id_bits: u32,
-    counts: &mut TraceCounts,
+    counts: &mut impl Counts,
 ) -> bool {
     let has_cutouts = !set.cutout.is_empty();
     let t_max = ray.t_max;

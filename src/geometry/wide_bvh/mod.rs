@@ -150,6 +150,39 @@ pub struct TraceCounts {
     pub leaves: u32,
 }
 
+/// What a traversal counts as it goes: [`TraceCounts`] for the profile, [`Uncounted`] otherwise
+/// (a render without `--profile` pays nothing for the counters).
+pub trait Counts {
+    /// An inner node's boxes were tested.
+    fn node(&mut self);
+    /// A leaf was handed over.
+    fn leaf(&mut self);
+}
+
+impl Counts for TraceCounts {
+    #[inline(always)]
+    fn node(&mut self) {
+        self.nodes += 1;
+    }
+
+    #[inline(always)]
+    fn leaf(&mut self) {
+        self.leaves += 1;
+    }
+}
+
+/// Counts nothing.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Uncounted;
+
+impl Counts for Uncounted {
+    #[inline(always)]
+    fn node(&mut self) {}
+
+    #[inline(always)]
+    fn leaf(&mut self) {}
+}
+
 /// A four-wide BVH; its leaves are ranges of items the builder's caller made.
 #[derive(Clone, Debug, Default)]
 pub struct WideBvh {

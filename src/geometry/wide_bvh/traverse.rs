@@ -2,8 +2,7 @@
 //! the tree (an array on the stack for all but the deepest trees), their nodes prefetched as pushed.
 
 use super::{
-    BoxRay, DEEP_STACK, LEAF, Node, SHALLOW_STACK, StackSize, TINY_STACK, TraceCounts, WIDTH, WideBvh,
-    leaf_range,
+    BoxRay, Counts, DEEP_STACK, LEAF, Node, SHALLOW_STACK, StackSize, TINY_STACK, WIDTH, WideBvh, leaf_range,
 };
 
 impl WideBvh {
@@ -14,7 +13,7 @@ impl WideBvh {
         &self,
         ray: &BoxRay,
         t_max: f32,
-        counts: &mut TraceCounts,
+        counts: &mut impl Counts,
         leaf: impl FnMut(u32, u32, f32) -> f32,
     ) -> f32 {
         if self.nodes.is_empty() {
@@ -41,7 +40,7 @@ impl WideBvh {
         &self,
         ray: &BoxRay,
         t_max: f32,
-        counts: &mut TraceCounts,
+        counts: &mut impl Counts,
         leaf: impl FnMut(u32, u32) -> bool,
     ) -> bool {
         if self.nodes.is_empty() {
@@ -139,7 +138,7 @@ fn closest_with(
     bvh: &WideBvh,
     ray: &BoxRay,
     mut t_max: f32,
-    counts: &mut TraceCounts,
+    counts: &mut impl Counts,
     stack: &mut impl Stack,
     mut leaf: impl FnMut(u32, u32, f32) -> f32,
 ) -> f32 {
@@ -147,7 +146,7 @@ fn closest_with(
     loop {
         if child & LEAF == 0 {
             let node = &bvh.nodes[child as usize];
-            counts.nodes += 1;
+            counts.node();
             let (mask, near) = node.intersect(ray, t_max);
             if mask != 0 {
                 if mask & (mask - 1) == 0 {
@@ -168,7 +167,7 @@ fn closest_with(
                 continue;
             }
         } else {
-            counts.leaves += 1;
+            counts.leaf();
             let (first, count) = leaf_range(child);
             t_max = leaf(first, count, t_max);
         }
@@ -190,7 +189,7 @@ fn any_with(
     bvh: &WideBvh,
     ray: &BoxRay,
     t_max: f32,
-    counts: &mut TraceCounts,
+    counts: &mut impl Counts,
     stack: &mut impl Stack,
     mut leaf: impl FnMut(u32, u32) -> bool,
 ) -> bool {
@@ -198,7 +197,7 @@ fn any_with(
     loop {
         if child & LEAF == 0 {
             let node = &bvh.nodes[child as usize];
-            counts.nodes += 1;
+            counts.node();
             let (mut mask, _) = node.intersect(ray, t_max);
             if mask != 0 {
                 prefetch_children(bvh, node, mask);
@@ -213,7 +212,7 @@ fn any_with(
                 continue;
             }
         } else {
-            counts.leaves += 1;
+            counts.leaf();
             let (first, count) = leaf_range(child);
             if leaf(first, count) {
                 return true;
