@@ -104,6 +104,17 @@ impl Geometry {
         Some(PlainTriangle { p, normals, material: info.material, light: info.light })
     }
 
+    /// Ask for what [`Geometry::plain_triangle`] reads of primitive `prim` (its shape and cold
+    /// data), ahead of reading it: lanes ask for a group's before they read any.
+    #[inline]
+    pub fn prefetch_primitive(&self, prim: u32) {
+        let (set, i) = self.set_of(prim);
+        if let (Some(shape), Some(info)) = (set.shapes.get(i), set.info.get(i)) {
+            crate::geometry::wide_bvh::prefetch_line(shape);
+            crate::geometry::wide_bvh::prefetch_line(info);
+        }
+    }
+
     /// The material and light of triangle `prim` when lanes can shade it
     /// ([`Geometry::plain_triangle`] would return it): `None` for spheres, primitives that move
     /// over the shutter and meshes with vertex colours. One load of the primitive's cold data.

@@ -40,8 +40,16 @@ pub fn sample_lights(
     let mut chosen = [None; WIDTH];
     let mut triangles: [Option<&Light>; WIDTH] = [None; WIDTH];
     let (mut in_lanes, mut one_by_one) = (0u32, 0u32);
+    // The lights chosen, asked for before any is read: a scene of many emitting triangles (a
+    // lamp's mesh) reads them from memory, and the lanes' waits then overlap.
     for i in 0..query.count {
         chosen[i] = lights.select(p[i], n_side[i], g.u[i].light_select());
+        if let Some(light) = chosen[i].and_then(|(index, _)| lights.lights.get(index as usize)) {
+            crate::geometry::wide_bvh::prefetch_line(&light.shape);
+            crate::geometry::wide_bvh::prefetch_line(&light.motion);
+        }
+    }
+    for i in 0..query.count {
         let Some((index, _)) = chosen[i] else { continue };
         match lights.lights.get(index as usize) {
             Some(l) if matches!(l.shape, LightShape::Triangle { .. }) && l.motion == Vec3::ZERO => {

@@ -107,6 +107,9 @@ fn shade_rows<const NEE: bool, M: LaneMaterial, C: CameraColumns>(
     for batch in rows.chunks(WIDTH) {
         // Each row's triangle, and textured rows' surfaces with their texels asked for, so that
         // the lookups' waits on memory overlap instead of following one another.
+        for &row in batch {
+            scene.geometry.prefetch_primitive(columns.hit(row).prim);
+        }
         for (i, &row) in batch.iter().enumerate() {
             let hit = *columns.hit(row);
             triangles[i] = scene.geometry.plain_triangle(hit.prim).expect("a lane class's triangle");
