@@ -253,24 +253,33 @@ fn decode(
     };
     // Float images are linear already; only integer encodings carry the sRGB curve.
     let srgb = srgb && bytes < 4;
+    // An 8-bit channel has 256 values: their linear values once, not a power per texel (a 2048²
+    // texture's decode was a third of loading it). Alpha is linear whatever the colour's encoding.
+    let linear8: [f32; 256] = std::array::from_fn(|v| f32::from(v as u8) / 255.0);
+    let colour8: [f32; 256] =
+        std::array::from_fn(|v| if srgb { srgb_to_linear(linear8[v]) } else { linear8[v] });
     let mut texels = Vec::new();
     texels.try_reserve_exact(image.pixels.len() / (channels * bytes))?;
     texels.extend(image.pixels.chunks_exact(channels * bytes).map(|px| {
-        let c = |i: usize| {
+        let raw = |i: usize| {
             let b = &px[i * bytes..];
             match bytes {
-                1 => f32::from(b[0]) / 255.0,
+                1 => linear8[b[0] as usize],
                 2 => f32::from(u16::from_ne_bytes([b[0], b[1]])) / 65535.0,
                 _ => f32::from_ne_bytes([b[0], b[1], b[2], b[3]]),
             }
         };
-        let (rgb, alpha) = match channels {
-            1 => (Vec3::splat(c(0)), 1.0),
-            2 => (Vec3::splat(c(0)), c(1)),
-            3 => (Vec3::new(c(0), c(1), c(2)), 1.0),
-            _ => (Vec3::new(c(0), c(1), c(2)), c(3)),
+        let colour = |i: usize| match (bytes, srgb) {
+            (1, _) => colour8[px[i] as usize],
+            (_, true) => srgb_to_linear(raw(i)),
+            _ => raw(i),
         };
-        let rgb = if srgb { rgb.map(srgb_to_linear) } else { rgb };
+        let (rgb, alpha) = match channels {
+            1 => (Vec3::splat(colour(0)), 1.0),
+            2 => (Vec3::splat(colour(0)), raw(1)),
+            3 => (Vec3::new(colour(0), colour(1), colour(2)), 1.0),
+            _ => (Vec3::new(colour(0), colour(1), colour(2)), raw(3)),
+        };
         rgb.extend(alpha)
     }));
     Ok(texels)
