@@ -223,9 +223,9 @@ fn box_textured_decodes_its_texture_with_repeat_wrap() {
     assert_eq!(scene.textures.len(), 1);
     let texture = &scene.textures[0];
     assert_eq!((texture.width, texture.height), (256, 256));
-    assert_eq!(texture.texels.len(), 256 * 256);
+    assert_eq!(texture.len(), 256 * 256);
     assert_eq!((texture.wrap_s, texture.wrap_t), (Wrap::Repeat, Wrap::Repeat));
-    assert!(texture.texels.iter().all(|t| t.is_finite() && t.min_element() >= 0.0 && t.max_element() <= 1.0));
+    assert!(texture.texels().all(|t| t.is_finite() && t.min_element() >= 0.0 && t.max_element() <= 1.0));
     let mesh = &scene.meshes[0];
     let material = &scene.materials[mesh.material as usize];
     let reference = material.base_color_texture.expect("base colour texture");
@@ -257,8 +257,8 @@ fn texture_used_as_colour_and_as_data_is_decoded_twice() {
     let material = &scene.materials[0];
     let color = material.base_color_texture.expect("base colour texture");
     let data = material.metallic_roughness_texture.expect("metallic-roughness texture");
-    let srgb = scene.textures[color.texture as usize].texels[0];
-    let linear = scene.textures[data.texture as usize].texels[0];
+    let srgb = scene.textures[color.texture as usize].texel(0);
+    let linear = scene.textures[data.texture as usize].texel(0);
     assert!((srgb.x - 0.2158605).abs() < 1e-4, "sRGB 128 decodes to 0.2159, got {srgb}");
     assert!((linear.x - 128.0 / 255.0).abs() < 1e-6, "data stays linear, got {linear}");
     assert_eq!((srgb.y, srgb.z, srgb.w), (srgb.x, srgb.x, 1.0), "grey replicates, alpha 1");
@@ -1181,11 +1181,11 @@ fn sampler_wrap_modes_are_read_per_axis_and_honoured_by_sample() {
     for texture in textures {
         for (coordinate, expected) in [1.75, -0.25].into_iter().zip(wrapped(texture.wrap_s)) {
             let got = texture.sample(Vec2::new(coordinate, 0.25));
-            assert_eq!(got, texture.texels[expected], "wrap_s {:?} at u = {coordinate}", texture.wrap_s);
+            assert_eq!(got, texture.texel(expected), "wrap_s {:?} at u = {coordinate}", texture.wrap_s);
         }
         for (coordinate, expected) in [1.75, -0.25].into_iter().zip(wrapped(texture.wrap_t)) {
             let got = texture.sample(Vec2::new(0.25, coordinate));
-            assert_eq!(got, texture.texels[2 * expected], "wrap_t {:?} at v = {coordinate}", texture.wrap_t);
+            assert_eq!(got, texture.texel(2 * expected), "wrap_t {:?} at v = {coordinate}", texture.wrap_t);
         }
     }
 }
@@ -1215,12 +1215,15 @@ fn embedded_and_external_png_and_jpeg_images_are_decoded_and_a_missing_one_is_na
         &scene.textures[scene.materials[material].base_color_texture.expect("t").texture as usize]
     };
     let (embedded, png, jpeg) = (texture(0), texture(1), texture(2));
-    assert_eq!(embedded.texels, vec![glam::Vec4::new(0.0, 1.0, 0.0, 1.0)]);
+    assert_eq!(embedded.texels().collect::<Vec<_>>(), vec![glam::Vec4::new(0.0, 1.0, 0.0, 1.0)]);
     assert_eq!((png.name.as_str(), png.width, png.height), ("checker.png", 2, 1));
-    assert_eq!(png.texels, vec![glam::Vec4::new(1.0, 0.0, 0.0, 1.0), glam::Vec4::new(0.0, 0.0, 1.0, 1.0)]);
+    assert_eq!(
+        png.texels().collect::<Vec<_>>(),
+        vec![glam::Vec4::new(1.0, 0.0, 0.0, 1.0), glam::Vec4::new(0.0, 0.0, 1.0, 1.0)]
+    );
     assert_eq!((jpeg.name.as_str(), jpeg.width, jpeg.height), ("flat.jpg", 8, 8));
     let expected = Vec3::new(200.0, 100.0, 50.0).map(|c| srgb_to_linear(c / 255.0));
-    for texel in &jpeg.texels {
+    for texel in jpeg.texels() {
         // JPEG is lossy; a flat colour survives to within a few levels.
         assert!((texel.truncate() - expected).abs().max_element() < 0.02, "{texel} vs {expected}");
     }
@@ -1251,7 +1254,7 @@ fn image_in_a_buffer_view_is_decoded_and_one_outside_its_buffer_is_rejected() {
     let dir = temp_dir("image-view");
     let text = mesh_gltf(&bin, &views(png.len()), &unit_triangle_accessor(0, 0), primitives, rest);
     let scene = load_gltf(&write(&dir, "view.gltf", &text)).expect("image in a bufferView loads");
-    assert_eq!(scene.textures[0].texels, vec![glam::Vec4::new(0.0, 0.0, 1.0, 1.0)]);
+    assert_eq!(scene.textures[0].texels().collect::<Vec<_>>(), vec![glam::Vec4::new(0.0, 0.0, 1.0, 1.0)]);
 
     let text = mesh_gltf(&bin, &views(png.len() + 100), &unit_triangle_accessor(0, 0), primitives, rest);
     let path = write(&dir, "past-the-end.gltf", &text);
@@ -1415,17 +1418,17 @@ fn skins_and_morph_targets_are_warned_about_once_each_naming_them() {
     assert_eq!(z, vec![0.5, 0.5, 0.0]);
 }
 
-/// Textures are counted against the budget as linear texels (16 bytes each) before they are made:
-/// BoxTextured's 256² image is 1 MiB of them, refused under a 512 KiB budget naming the texture
-/// and the budget, loaded under 2 MiB.
+/// Textures are counted against the budget by what they hold (an 8-bit image 4 bytes a texel)
+/// before they are made: BoxTextured's 256² image is 256 KiB, refused under a 192 KiB budget
+/// naming the texture and the budget (both rounded up to MiB), loaded under 2 MiB.
 #[test]
 fn textures_are_counted_against_the_budget_before_they_are_decoded() {
-    let error = load_gltf_within(&sample("BoxTextured.gltf"), None, 512 << 10).expect_err("over the budget");
+    let error = load_gltf_within(&sample("BoxTextured.gltf"), None, 192 << 10).expect_err("over the budget");
     let message = error.to_string();
     assert!(message.contains("texture #0") && message.contains("its 256x256 texels need 1 MiB"), "{message}");
     assert!(message.contains("over the memory budget of 1 MiB"), "{message}");
     let scene = load_gltf_within(&sample("BoxTextured.gltf"), None, 2 << 20).expect("within the budget");
-    assert_eq!(scene.textures[0].texels.len(), 256 * 256);
+    assert_eq!(scene.textures[0].len(), 256 * 256);
 }
 
 /// A `weights` channel on a file without morph targets drives nothing: it is ignored with a warning

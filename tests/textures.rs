@@ -25,6 +25,8 @@ fn checker_lamp() -> Scene {
         texels: texels.collect(),
         wrap_s: Wrap::ClampToEdge,
         wrap_t: Wrap::ClampToEdge,
+        bytes: Vec::new(),
+        srgb: false,
     };
     let mut lamp_material = diffuse("lamp", Vec3::ZERO, Vec3::splat(4.0));
     lamp_material.double_sided = false;
@@ -128,6 +130,8 @@ fn screened_lamp(screen: Option<MaterialDesc>) -> Scene {
             texels: texels.collect(),
             wrap_s: Wrap::ClampToEdge,
             wrap_t: Wrap::ClampToEdge,
+            bytes: Vec::new(),
+            srgb: false,
         }],
         camera: Some(CameraDesc {
             name: "above".into(),
@@ -238,6 +242,8 @@ fn normal_mapped_plane(texel: Option<Vec3>) -> Scene {
             texels: vec![texel.extend(1.0)],
             wrap_s: Wrap::Repeat,
             wrap_t: Wrap::Repeat,
+            bytes: Vec::new(),
+            srgb: false,
         });
         material.normal_texture = Some(TextureRef { texture: 0, tex_coord: 0, transform: None });
     }
@@ -320,6 +326,8 @@ fn a_steep_normal_map_leaves_no_black_spots() {
             texels,
             wrap_s: Wrap::Repeat,
             wrap_t: Wrap::Repeat,
+            bytes: Vec::new(),
+            srgb: false,
         }];
         scene.materials[0].normal_texture = Some(TextureRef { texture: 0, tex_coord: 0, transform: None });
         scene.materials[0].shading.base_color = Vec3::splat(0.8);
@@ -371,6 +379,8 @@ fn clearcoat_textures_are_read_and_scale_their_factors() {
         texels: vec![Vec4::new(0.25, 0.5, 0.0, 1.0)],
         wrap_s: Wrap::Repeat,
         wrap_t: Wrap::Repeat,
+        bytes: Vec::new(),
+        srgb: false,
     };
     let scene = Scene {
         meshes: vec![quad("plane", 0.0, 1.0, true, 0)],

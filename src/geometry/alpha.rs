@@ -57,7 +57,7 @@ impl Cutouts {
                 AlphaMode::Blend => None,
             };
             let texture = m.base_color_texture.filter(|t| {
-                scene.textures.get(t.texture as usize).is_some_and(|tex| tex.texels.iter().any(|v| v.w < 1.0))
+                scene.textures.get(t.texture as usize).is_some_and(|tex| tex.texels().any(|v| v.w < 1.0))
             });
             let always_opaque = texture.is_none()
                 && match cutoff {

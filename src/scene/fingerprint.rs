@@ -67,7 +67,7 @@ pub fn fingerprint(scene: &Scene, run: &RunFile) -> String {
             texture.name, texture.width, texture.height, texture.wrap_s, texture.wrap_t
         );
         floats(&mut header.bytes().map(|b| f32::from_bits(b as u32)));
-        floats(&mut texture.texels.iter().flat_map(|t| t.to_array()));
+        floats(&mut texture.texels().flat_map(|t| t.to_array()));
     }
     format!("{:032x}", hasher.digest128())
 }

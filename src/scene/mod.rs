@@ -278,7 +278,8 @@ pub enum Wrap {
     MirroredRepeat,
 }
 
-/// A decoded texture in linear RGBA floats, row 0 at the top (uv (0,0) is the top-left corner, as in glTF).
+/// A texture, row 0 at the top (uv (0,0) is the top-left corner, as in glTF), read as linear RGBA
+/// floats ([`Texture::texel`]).
 #[derive(Clone, Debug, Default)]
 pub struct Texture {
     /// Name or URI for messages.
@@ -287,15 +288,57 @@ pub struct Texture {
     pub width: u32,
     /// Height in texels.
     pub height: u32,
-    /// Linear RGBA texels, row-major.
+    /// Linear RGBA texels, row-major: a float or 16-bit image's (empty for an 8-bit one's, whose
+    /// texels are `bytes`).
     pub texels: Vec<Vec4>,
+    /// An 8-bit image's RGBA texels as the file stores them, row-major, decoded when read: a
+    /// quarter of the floats' memory, so a cache line holds sixteen texels, not four (a textured
+    /// render waits on texel memory more than on anything else).
+    pub bytes: Vec<[u8; 4]>,
+    /// Whether the colour channels of `bytes` carry the sRGB curve (alpha never does).
+    pub srgb: bool,
     /// Wrap mode along u.
     pub wrap_s: Wrap,
     /// Wrap mode along v.
     pub wrap_t: Wrap,
 }
 
+/// The linear value of each 8-bit channel value: `v / 255`.
+static LINEAR8: std::sync::LazyLock<[f32; 256]> =
+    std::sync::LazyLock::new(|| std::array::from_fn(|v| f32::from(v as u8) / 255.0));
+/// The linear value of each 8-bit sRGB-encoded value.
+static SRGB8: std::sync::LazyLock<[f32; 256]> =
+    std::sync::LazyLock::new(|| std::array::from_fn(|v| gltf::srgb_to_linear(LINEAR8[v])));
+
 impl Texture {
+    /// Texels in all.
+    #[inline]
+    pub fn len(&self) -> usize {
+        if self.bytes.is_empty() { self.texels.len() } else { self.bytes.len() }
+    }
+
+    /// Whether it has no texels.
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Texel `i` (row-major) as linear RGBA.
+    #[inline]
+    pub fn texel(&self, i: usize) -> Vec4 {
+        if self.bytes.is_empty() {
+            return self.texels[i];
+        }
+        let [r, g, b, a] = self.bytes[i];
+        let colour: &[f32; 256] = if self.srgb { &SRGB8 } else { &LINEAR8 };
+        Vec4::new(colour[r as usize], colour[g as usize], colour[b as usize], LINEAR8[a as usize])
+    }
+
+    /// Every texel, row-major, as linear RGBA.
+    pub fn texels(&self) -> impl Iterator<Item = Vec4> + '_ {
+        (0..self.len()).map(|i| self.texel(i))
+    }
+
     /// Bilinear lookup at `uv` with the texture's wrap modes.
     #[inline]
     pub fn sample(&self, uv: Vec2) -> Vec4 {
@@ -303,7 +346,7 @@ impl Texture {
         else {
             return Vec4::ONE;
         };
-        let texel = |row: usize, column: usize| self.texels[row + column];
+        let texel = |row: usize, column: usize| self.texel(row + column);
         let top = texel(row0, x0).lerp(texel(row0, x1), fx);
         let bottom = texel(row1, x0).lerp(texel(row1, x1), fx);
         top.lerp(bottom, fy)
@@ -315,8 +358,13 @@ impl Texture {
     #[inline]
     pub fn prefetch(&self, uv: Vec2) {
         if let Some(Footprint { rows: (row0, row1), columns: (x0, _), .. }) = self.footprint(uv) {
-            crate::geometry::wide_bvh::prefetch_line(&self.texels[row0 + x0]);
-            crate::geometry::wide_bvh::prefetch_line(&self.texels[row1 + x0]);
+            if self.bytes.is_empty() {
+                crate::geometry::wide_bvh::prefetch_line(&self.texels[row0 + x0]);
+                crate::geometry::wide_bvh::prefetch_line(&self.texels[row1 + x0]);
+            } else {
+                crate::geometry::wide_bvh::prefetch_line(&self.bytes[row0 + x0]);
+                crate::geometry::wide_bvh::prefetch_line(&self.bytes[row1 + x0]);
+            }
         }
     }
 
@@ -324,7 +372,7 @@ impl Texture {
     /// between them; `None` for an empty texture.
     #[inline]
     fn footprint(&self, uv: Vec2) -> Option<Footprint> {
-        if self.texels.is_empty() {
+        if self.is_empty() {
             return None;
         }
         // An infinite or NaN coordinate (from broken UVs or transforms) has no position in the texture:

@@ -109,10 +109,10 @@ pub fn validate(scene: &mut Scene, path: &Path) -> Result<ValidationSummary> {
     for (i, texture) in scene.textures.iter().enumerate() {
         if texture.width == 0
             || texture.height == 0
-            || texture.texels.len() != texture.width as usize * texture.height as usize
+            || texture.len() != texture.width as usize * texture.height as usize
+            || !(texture.texels.is_empty() || texture.bytes.is_empty())
         {
-            let problem =
-                format!("has {} texels for {}x{}", texture.texels.len(), texture.width, texture.height);
+            let problem = format!("has {} texels for {}x{}", texture.len(), texture.width, texture.height);
             return Err(invalid(mesh_file, &format!("texture '{}' (#{i})", texture.name), problem));
         }
     }

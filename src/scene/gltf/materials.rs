@@ -180,16 +180,24 @@ impl Loader<'_> {
             })
             .unwrap_or_else(|| format!("texture #{}", texture.index()));
         let sampler = texture.sampler();
-        // Linear texels are 16 bytes, four times an 8-bit image's: counted against the budget
-        // before they are made, and made fallibly.
+        // An 8-bit image's texels are kept as its bytes (4 a texel), a deeper one's as linear
+        // floats (16): counted against the budget before they are made, and made fallibly.
         let object = || label("texture", texture.name(), texture.index());
-        let bytes = u64::from(data.width) * u64::from(data.height) * size_of::<Vec4>() as u64;
+        let eight_bit = matches!(
+            data.format,
+            gltf::image::Format::R8
+                | gltf::image::Format::R8G8
+                | gltf::image::Format::R8G8B8
+                | gltf::image::Format::R8G8B8A8
+        );
+        let texel_bytes = if eight_bit { size_of::<[u8; 4]>() } else { size_of::<Vec4>() };
+        let bytes = u64::from(data.width) * u64::from(data.height) * texel_bytes as u64;
         self.texture_bytes += bytes;
         if self.texture_bytes > self.budget {
             return Err(self.invalid(
                 object(),
                 format!(
-                    "its {}x{} texels need {} MiB as linear colour, {} MiB with the textures before it, over \
+                    "its {}x{} texels need {} MiB, {} MiB with the textures before it, over \
                      the memory budget of {} MiB (--memory-budget-mib)",
                     data.width,
                     data.height,
@@ -203,11 +211,17 @@ impl Loader<'_> {
             let what = format!("the {}x{} texels of {}", data.width, data.height, object());
             crate::error::Error::OutOfMemory { what, bytes, budget: self.budget }
         })?;
+        let (texels, bytes) = match texels {
+            Texels::Bytes(bytes) => (Vec::new(), bytes),
+            Texels::Floats(texels) => (texels, Vec::new()),
+        };
         self.scene.textures.push(Texture {
             name,
             width: data.width,
             height: data.height,
             texels,
+            bytes,
+            srgb,
             wrap_s: wrap(sampler.wrap_s()),
             wrap_t: wrap(sampler.wrap_t()),
         });
@@ -232,12 +246,13 @@ fn wrap(mode: gltf::texture::WrappingMode) -> Wrap {
     }
 }
 
-/// Linear RGBA texels; grey images replicate to RGB, missing alpha is 1. An error where the
-/// allocator has not got them.
+/// An image's texels, as [`Texture`] holds them: an 8-bit image's bytes as RGBA (grey replicated
+/// to RGB, a missing alpha 255), decoded when read; a 16-bit or float image's as linear RGBA
+/// floats (grey replicated, a missing alpha 1). An error where the allocator has not got them.
 fn decode(
     image: &gltf::image::Data,
     srgb: bool,
-) -> std::result::Result<Vec<Vec4>, std::collections::TryReserveError> {
+) -> std::result::Result<Texels, std::collections::TryReserveError> {
     use gltf::image::Format;
     let (channels, bytes) = match image.format {
         Format::R8 => (1, 1),
@@ -251,38 +266,46 @@ fn decode(
         Format::R32G32B32FLOAT => (3, 4),
         Format::R32G32B32A32FLOAT => (4, 4),
     };
+    let count = image.pixels.len() / (channels * bytes);
+    if bytes == 1 {
+        let mut texels = Vec::new();
+        texels.try_reserve_exact(count)?;
+        texels.extend(image.pixels.chunks_exact(channels).map(|px| match channels {
+            1 => [px[0], px[0], px[0], 255],
+            2 => [px[0], px[0], px[0], px[1]],
+            3 => [px[0], px[1], px[2], 255],
+            _ => [px[0], px[1], px[2], px[3]],
+        }));
+        return Ok(Texels::Bytes(texels));
+    }
     // Float images are linear already; only integer encodings carry the sRGB curve.
     let srgb = srgb && bytes < 4;
-    // An 8-bit channel has 256 values: their linear values once, not a power per texel (a 2048²
-    // texture's decode was a third of loading it). Alpha is linear whatever the colour's encoding.
-    let linear8: [f32; 256] = std::array::from_fn(|v| f32::from(v as u8) / 255.0);
-    let colour8: [f32; 256] =
-        std::array::from_fn(|v| if srgb { srgb_to_linear(linear8[v]) } else { linear8[v] });
     let mut texels = Vec::new();
-    texels.try_reserve_exact(image.pixels.len() / (channels * bytes))?;
+    texels.try_reserve_exact(count)?;
     texels.extend(image.pixels.chunks_exact(channels * bytes).map(|px| {
-        let raw = |i: usize| {
+        let c = |i: usize| {
             let b = &px[i * bytes..];
             match bytes {
-                1 => linear8[b[0] as usize],
                 2 => f32::from(u16::from_ne_bytes([b[0], b[1]])) / 65535.0,
                 _ => f32::from_ne_bytes([b[0], b[1], b[2], b[3]]),
             }
         };
-        let colour = |i: usize| match (bytes, srgb) {
-            (1, _) => colour8[px[i] as usize],
-            (_, true) => srgb_to_linear(raw(i)),
-            _ => raw(i),
-        };
         let (rgb, alpha) = match channels {
-            1 => (Vec3::splat(colour(0)), 1.0),
-            2 => (Vec3::splat(colour(0)), raw(1)),
-            3 => (Vec3::new(colour(0), colour(1), colour(2)), 1.0),
-            _ => (Vec3::new(colour(0), colour(1), colour(2)), raw(3)),
+            1 => (Vec3::splat(c(0)), 1.0),
+            2 => (Vec3::splat(c(0)), c(1)),
+            3 => (Vec3::new(c(0), c(1), c(2)), 1.0),
+            _ => (Vec3::new(c(0), c(1), c(2)), c(3)),
         };
+        let rgb = if srgb { rgb.map(srgb_to_linear) } else { rgb };
         rgb.extend(alpha)
     }));
-    Ok(texels)
+    Ok(Texels::Floats(texels))
+}
+
+/// Decoded texels: an 8-bit image's bytes, or linear floats.
+enum Texels {
+    Bytes(Vec<[u8; 4]>),
+    Floats(Vec<Vec4>),
 }
 
 /// The sRGB electro-optical transfer function (IEC 61966-2-1).
@@ -306,11 +329,19 @@ mod tests {
     #[test]
     fn decode_handles_grey_alpha_and_sixteen_bit_images() {
         use gltf::image::{Data, Format};
+        let texture = |texels: Texels, srgb: bool| {
+            let (texels, bytes) = match texels {
+                Texels::Bytes(bytes) => (Vec::new(), bytes),
+                Texels::Floats(texels) => (texels, Vec::new()),
+            };
+            Texture { width: 1, height: 1, texels, bytes, srgb, ..Texture::default() }
+        };
         let grey_alpha = Data { pixels: vec![255, 51], format: Format::R8G8, width: 1, height: 1 };
-        assert_eq!(decode(&grey_alpha, true).unwrap(), vec![Vec4::new(1.0, 1.0, 1.0, 0.2)]);
+        let grey_alpha = texture(decode(&grey_alpha, true).unwrap(), true);
+        assert_eq!(grey_alpha.texels().collect::<Vec<_>>(), vec![Vec4::new(1.0, 1.0, 1.0, 0.2)]);
         let rgb16: Vec<u8> = [65535u16, 0, 32768].iter().flat_map(|v| v.to_ne_bytes()).collect();
         let rgb16 = Data { pixels: rgb16, format: Format::R16G16B16, width: 1, height: 1 };
-        let texel = decode(&rgb16, false).unwrap()[0];
+        let texel = texture(decode(&rgb16, false).unwrap(), false).texel(0);
         assert_eq!((texel.x, texel.y, texel.w), (1.0, 0.0, 1.0));
         assert!((texel.z - 0.5).abs() < 1e-4);
     }
