@@ -44,7 +44,15 @@ pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>, start: Instant
     spp_as_passes(args, &mut run)?;
     let outputs = output_paths(args, &run, &scene_path);
     let denoised = if args.denoise { outputs.iter().map(|o| denoised_path(o)).collect() } else { Vec::new() };
-    let all_outputs: Vec<PathBuf> = outputs.iter().chain(&denoised).cloned().collect();
+    // Every file the command writes goes through the same checks: not an input, not another output.
+    let guide_image = args.guiding_debug.map(|_| guide_path(&outputs[0]));
+    let all_outputs: Vec<PathBuf> = outputs.iter().chain(&denoised).chain(&guide_image).cloned().collect();
+    if guide_image.is_some() && run.frames.range().is_some() {
+        anyhow::bail!(
+            "--guiding-debug writes one image of what the guide learnt; with --frames there is a guide a \
+             frame: render the frame you want to look at without --frames"
+        );
+    }
     check_outputs(&all_outputs, &inputs(args, &run, &scene_path))?;
     let written_aovs = run.film.aovs.clone();
     if !written_aovs.is_empty() && args.part.is_none() && !outputs.iter().any(|o| is_exr(o)) {
@@ -210,8 +218,8 @@ pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>, start: Instant
             .collect(),
         None => write_outputs(&renderer, &image, &outputs, &written_aovs, &run),
     };
-    if let Some((x, y)) = args.guiding_debug {
-        write_guide_image(&renderer, x, y, &outputs[0]);
+    if let (Some((x, y)), Some(path)) = (args.guiding_debug, &guide_image) {
+        write_guide_image(&renderer, x, y, path);
     }
     let denoise_failed = if args.denoise && part.is_none() {
         write_denoised(&renderer, &image, &denoised, &run).err()
@@ -300,14 +308,19 @@ fn lanes_line(totals: &caustica::trace::VertexTotals) -> Option<String> {
     Some(format!("camera vertices {all}: {:.1}% in lanes ({})", share(lanes), classes.join(", ")))
 }
 
-/// `--guiding-debug X,Y`: what the guide learnt where pixel X,Y looks, beside `output`.
-fn write_guide_image(renderer: &Renderer, x: u32, y: u32, output: &Path) {
-    let path = output.with_file_name(format!(
+/// Where `--guiding-debug` writes its image: `NAME-guide.exr` beside the first output `NAME.EXT`.
+fn guide_path(output: &Path) -> PathBuf {
+    output.with_file_name(format!(
         "{}-guide.exr",
         output.file_stem().map_or("render".into(), |s| s.to_string_lossy())
-    ));
+    ))
+}
+
+/// `--guiding-debug X,Y`: what the guide learnt where pixel X,Y looks, to `path` (checked with the
+/// outputs before the render).
+fn write_guide_image(renderer: &Renderer, x: u32, y: u32, path: &Path) {
     match caustica::camera_paths::guide::learnt_at_pixel(&renderer.world, x, y) {
-        Some((p, share, image)) => match output::write_image(&image, &path, 0.0) {
+        Some((p, share, image)) => match output::write_image(&image, path, 0.0) {
             Ok(()) => outln!("guide       at {p} (pixel {x},{y}), BSDF share {share}: {}", path.display()),
             Err(e) => tracing::warn!("--guiding-debug: {e}"),
         },

@@ -479,3 +479,52 @@ fn a_time_limit_spent_before_rendering_still_writes_an_image_and_says_so() {
         assert_eq!((png.width(), png.height()), (16, 16));
     }
 }
+
+/// `--guiding-debug` writes `NAME-guide.exr` beside the first output: that file goes through the
+/// checks every output does. An input (the environment map), another output and a checkpoint of
+/// that name are each refused before anything renders, the file left as it was; with `--frames`
+/// the option is refused rather than silently skipped.
+#[test]
+fn the_guide_image_is_checked_as_every_output_is() {
+    let dir = scratch("guide-image");
+    let scene = common::data("cornell-box.gltf");
+    let output = dir.join("render.exr");
+    let guide = dir.join("render-guide.exr");
+    let sky = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/sky.exr");
+    std::fs::copy(&sky, &guide).unwrap();
+    let before = std::fs::read(&guide).unwrap();
+    let (scene, output_s, guide_s) =
+        (scene.to_str().unwrap(), output.to_str().unwrap(), guide.to_str().unwrap());
+    let base = [
+        "render",
+        scene,
+        "--spp",
+        "16",
+        "--width",
+        "16",
+        "--height",
+        "16",
+        "--guiding",
+        "--guiding-debug",
+        "8,8",
+        "-q",
+    ];
+    let run = |extra: &[&str]| caustica(&[&base[..], extra].concat());
+    let out = run(&["-o", output_s, "--environment", guide_s]);
+    assert_fails_naming(&out, "the output is also an input");
+    let out = run(&["-o", output_s, "-o", guide_s]);
+    assert_fails_naming(&out, "named twice");
+    let checkpoint = dir.join("render-guide.exr");
+    let out = run(&["-o", output_s, "--checkpoint", checkpoint.to_str().unwrap()]);
+    assert_fails_naming(&out, "refusing to overwrite it");
+    let out = run(&["-o", output_s, "--frames", "0:2"]);
+    assert_fails_naming(&out, "--guiding-debug");
+    assert_eq!(std::fs::read(&guide).unwrap(), before, "the file named like the guide image was changed");
+    assert!(!output.exists(), "a refused render wrote its output");
+    // Named nowhere else, it is written.
+    std::fs::remove_file(&guide).unwrap();
+    let out = run(&["-o", output_s]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let said = String::from_utf8_lossy(&out.stdout);
+    assert!(guide.exists(), "the guide image was not written: {said}");
+}
