@@ -70,13 +70,42 @@ pub fn check() -> Result<()> {
     Ok(())
 }
 
-/// The denoised `color`, guided by the albedo and normal of `features`.
+/// The denoised `color`, guided by the albedo and normal of `features`. What the denoiser returns
+/// is checked as the film checks samples: a NaN or infinite pixel fails the denoise (its images
+/// are not written), rather than reaching a file.
 pub fn denoise(color: &Image, features: &AovImages) -> Result<Image> {
     check()?;
-    match CHOSEN.get().expect("checked") {
-        Denoiser::Native => Ok(caustica::film::denoise::denoise(color, features)?),
-        Denoiser::Python(python) => through_python(python, color, features),
-    }
+    let (clean, which) = match CHOSEN.get().expect("checked") {
+        Denoiser::Native => {
+            (caustica::film::denoise::denoise(color, features)?, "Open Image Denoise".to_owned())
+        }
+        Denoiser::Python(python) => {
+            (through_python(python, color, features)?, format!("pyoidn through {}", python.display()))
+        }
+    };
+    finite(&clean, &which)?;
+    Ok(clean)
+}
+
+/// An error naming the denoiser unless every pixel of `image` is finite.
+fn finite(image: &Image, denoiser: &str) -> Result<()> {
+    let bad = image.pixels.iter().filter(|p| !p.is_finite()).count();
+    anyhow::ensure!(
+        bad == 0,
+        "the denoiser ({denoiser}) returned {bad} NaN or infinite pixels of {}: its image is not written",
+        image.pixels.len()
+    );
+    Ok(())
+}
+
+/// How long the denoiser may take before it is stopped: two minutes, and twenty seconds more a
+/// megapixel (Open Image Denoise's high-quality filter takes about a second a megapixel on two
+/// cores; a denoiser past this bound is stuck, not slow).
+/// `CAUSTICA_DENOISE_SECONDS` sets another bound.
+fn time_bound(pixels: usize) -> std::time::Duration {
+    let seconds = std::env::var("CAUSTICA_DENOISE_SECONDS").ok().and_then(|s| s.parse::<f64>().ok());
+    let seconds = seconds.filter(|s| s.is_finite() && *s > 0.0).unwrap_or(120.0 + 20.0 * pixels as f64 / 1e6);
+    std::time::Duration::from_secs_f64(seconds.min(1e9))
 }
 
 fn through_python(python: &Path, color: &Image, features: &AovImages) -> Result<Image> {
@@ -95,25 +124,66 @@ fn through_python(python: &Path, color: &Image, features: &AovImages) -> Result<
             std::fs::write(folder.join(format!("{name}.f32")), as_bytes(&image.pixels))
                 .with_context(|| format!("writing the {name} for the denoiser in {}", folder.display()))?;
         }
-        let out = Command::new(python)
+        // Its messages go to a file (a pipe nobody reads while waiting could fill and stall it).
+        let log = folder.join("stderr.txt");
+        let mut child = Command::new(python)
             .arg("-c")
             .arg(SCRIPT)
             .arg(&folder)
             .args([width.to_string(), height.to_string()])
-            .output()
-            .with_context(|| format!("running {}", python.display()))?;
+            .stdout(std::process::Stdio::null())
+            .stderr(std::fs::File::create(&log).with_context(|| format!("creating {}", log.display()))?)
+            .spawn()
+            .with_context(|| format!("running the denoiser's interpreter {}", python.display()))?;
+        let bound = time_bound(color.pixels.len());
+        let started = std::time::Instant::now();
+        let status = loop {
+            if let Some(status) = child.try_wait().context("waiting for the denoiser")? {
+                break status;
+            }
+            if started.elapsed() > bound {
+                let _ = child.kill();
+                let _ = child.wait();
+                anyhow::bail!(
+                    "the denoiser (pyoidn through {}) did not finish within {:.0} s and was stopped",
+                    python.display(),
+                    bound.as_secs_f64()
+                );
+            }
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        };
+        let said = || {
+            let text = std::fs::read_to_string(&log).unwrap_or_default();
+            let text = text.trim();
+            if text.is_empty() {
+                "it printed nothing on stderr".to_owned()
+            } else {
+                format!("its stderr: {text}")
+            }
+        };
         anyhow::ensure!(
-            out.status.success(),
-            "the denoiser (pyoidn through {}) failed: {}",
+            status.success(),
+            "the denoiser (pyoidn through {}) failed ({status}); {}",
             python.display(),
-            String::from_utf8_lossy(&out.stderr).trim()
+            said()
         );
-        let bytes = std::fs::read(folder.join("out.f32")).context("reading the denoised image")?;
+        let expected = folder.join("out.f32");
+        let bytes = std::fs::read(&expected).map_err(|e| {
+            anyhow::anyhow!(
+                "the denoiser (pyoidn through {}) ended without writing {} ({e}); {}",
+                python.display(),
+                expected.display(),
+                said()
+            )
+        })?;
         let pixels = from_bytes(&bytes);
         anyhow::ensure!(
             pixels.len() == color.pixels.len(),
-            "the denoiser gave {} pixels for {width}x{height}",
-            pixels.len()
+            "the denoiser (pyoidn through {}) wrote {} pixels to {} for a {width}x{height} image; {}",
+            python.display(),
+            pixels.len(),
+            expected.display(),
+            said()
         );
         Ok(Image { width, height, pixels })
     })();

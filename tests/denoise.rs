@@ -4,9 +4,7 @@
 
 use crate::common;
 
-use std::process::Command;
-#[cfg(feature = "denoise")]
-use std::process::Output;
+use std::process::{Command, Output};
 
 #[cfg(feature = "denoise")]
 fn caustica(args: &[&str]) -> Output {
@@ -106,4 +104,71 @@ fn without_the_feature_denoise_runs_pyoidn_through_python() {
     assert_eq!((denoised.width, denoised.height), (12, 8));
     assert!(albedo.iter().zip(&layer).all(|(a, b)| a.to_bits() == b.to_bits()), "the albedo came back");
     assert!(albedo.iter().any(|&a| a > 0.0), "and it is not black");
+}
+
+/// A stand-in interpreter for pyoidn whose filter runs `filter` (a shell line, `$3` the scratch
+/// folder): the import check passes.
+#[cfg(all(not(feature = "denoise"), unix))]
+fn stand_in_python(dir: &std::path::Path, filter: &str) -> std::path::PathBuf {
+    use std::os::unix::fs::PermissionsExt;
+    let python = dir.join("python");
+    std::fs::write(&python, format!("#!/bin/sh\n[ -z \"$3\" ] && exit 0\n{filter}\n")).unwrap();
+    std::fs::set_permissions(&python, std::fs::Permissions::from_mode(0o755)).unwrap();
+    python
+}
+
+/// Render the Cornell box with `--denoise` through the stand-in `python`: the command's output, and
+/// whether the raw and the denoised images were written.
+#[cfg(all(not(feature = "denoise"), unix))]
+fn denoise_through(dir: &std::path::Path, python: &std::path::Path, seconds: &str) -> (Output, bool, bool) {
+    let raw = dir.join("box.exr");
+    let scene = common::data("cornell-box.gltf");
+    let out = Command::new(env!("CARGO_BIN_EXE_caustica"))
+        .args(["render", scene.to_str().unwrap(), "--spp", "2", "--width", "12", "--height", "8"])
+        .args(["--denoise", "-q", "-o", raw.to_str().unwrap()])
+        .env("CAUSTICA_PYTHON", python)
+        .env("CAUSTICA_DENOISE_SECONDS", seconds)
+        .output()
+        .unwrap();
+    (out, raw.exists(), dir.join("box-denoised.exr").exists())
+}
+
+/// A denoiser's output is not trusted: NaN or infinite pixels fail the denoise and write no
+/// denoised image (the raw one is written); one that never returns is stopped after its bound; one
+/// that fails, or ends without writing its image, is named with the file it was expected to write
+/// and what it printed. Each exits non-zero.
+#[cfg(all(not(feature = "denoise"), unix))]
+#[test]
+fn what_a_denoiser_returns_is_checked_and_a_stuck_one_stopped() {
+    let stderr = |out: &Output| String::from_utf8_lossy(&out.stderr).into_owned();
+    // 12 × 8 × 3 floats of NaN (0x7fc00000, little-endian).
+    let dir = tempfile::tempdir().unwrap();
+    let nans = "printf '\\000\\000\\300\\177%.0s' $(seq 288) > \"$3/out.f32\"";
+    let (out, raw, denoised) = denoise_through(dir.path(), &stand_in_python(dir.path(), nans), "60");
+    assert!(!out.status.success() && raw && !denoised, "{}", stderr(&out));
+    assert!(stderr(&out).contains("96 NaN or infinite pixels of 96"), "{}", stderr(&out));
+
+    let dir = tempfile::tempdir().unwrap();
+    let started = std::time::Instant::now();
+    let (out, raw, denoised) = denoise_through(dir.path(), &stand_in_python(dir.path(), "sleep 600"), "1");
+    assert!(!out.status.success() && raw && !denoised, "{}", stderr(&out));
+    assert!(stderr(&out).contains("did not finish within 1 s and was stopped"), "{}", stderr(&out));
+    assert!(started.elapsed().as_secs() < 60, "the stuck denoiser was waited for");
+
+    let dir = tempfile::tempdir().unwrap();
+    let python = stand_in_python(dir.path(), "echo 'no module named pyoidn.oidn' >&2; exit 3");
+    let (out, raw, denoised) = denoise_through(dir.path(), &python, "60");
+    assert!(!out.status.success() && raw && !denoised, "{}", stderr(&out));
+    let said = stderr(&out);
+    assert!(
+        said.contains(python.to_str().unwrap()) && said.contains("no module named pyoidn.oidn"),
+        "{said}"
+    );
+
+    let dir = tempfile::tempdir().unwrap();
+    let python = stand_in_python(dir.path(), "echo 'wrote it elsewhere' >&2");
+    let (out, raw, denoised) = denoise_through(dir.path(), &python, "60");
+    assert!(!out.status.success() && raw && !denoised, "{}", stderr(&out));
+    let said = stderr(&out);
+    assert!(said.contains("out.f32") && said.contains("wrote it elsewhere"), "{said}");
 }
