@@ -54,6 +54,9 @@ pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>, start: Instant
         );
     }
     check_outputs(&all_outputs, &inputs(args, &run, &scene_path))?;
+    // The summary says which outputs replaced a file (a second run with other settings overwrites
+    // the first's image).
+    let existed: Vec<PathBuf> = all_outputs.iter().filter(|p| p.exists()).cloned().collect();
     let written_aovs = run.film.aovs.clone();
     if !written_aovs.is_empty() && args.part.is_none() && !outputs.iter().any(|o| is_exr(o)) {
         anyhow::bail!(
@@ -266,7 +269,8 @@ pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>, start: Instant
         outln!("error       RMSE {:.5}  relMSE {:.5}  MAE {:.5}", e.rmse, e.relmse, e.mae);
     }
     for path in outputs.iter().chain(denoised.iter().filter(|_| denoise_failed.is_none())) {
-        outln!("wrote       {}", path.display());
+        let replaced = if existed.contains(path) { " (replaced the file that was there)" } else { "" };
+        outln!("wrote       {}{replaced}", path.display());
     }
     if let Some(checkpoints) = &checkpoints {
         outln!("checkpoints {}", checkpoints.summary());

@@ -528,3 +528,33 @@ fn the_guide_image_is_checked_as_every_output_is() {
     let said = String::from_utf8_lossy(&out.stdout);
     assert!(guide.exists(), "the guide image was not written: {said}");
 }
+
+/// The summary says when an output replaced a file that was there (a second run with other
+/// settings writes over the first's image), and not when it made a new one.
+#[test]
+fn the_summary_says_which_outputs_replaced_a_file() {
+    let dir = scratch("summary-overwrite");
+    let scene = common::data("cornell-box.gltf");
+    let output = dir.join("box.png");
+    let _ = std::fs::remove_file(&output);
+    let run = || {
+        let out = caustica(&[
+            "render",
+            scene.to_str().unwrap(),
+            "--spp",
+            "1",
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "-o",
+            output.to_str().unwrap(),
+        ]);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    let first = run();
+    assert!(first.contains("wrote") && !first.contains("(replaced"), "{first}");
+    let second = run();
+    assert!(second.contains("(replaced the file that was there)"), "{second}");
+}

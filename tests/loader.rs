@@ -1550,3 +1550,55 @@ fn clearcoat_factors_outside_zero_to_one_are_refused_naming_the_material() {
         assert!(error.contains(&format!("{factor} is {value}")) && error.contains("furnace"), "{error}");
     }
 }
+
+/// A file that requires an extension Caustica lacks is refused saying so, naming the extension,
+/// not as an invalid glTF file.
+#[test]
+fn a_required_extension_caustica_lacks_is_named_as_such() {
+    let dir = temp_dir("required-extension");
+    let text = triangle_gltf(
+        "",
+        "",
+        r#""extensionsUsed":["EXT_meshopt_compression","KHR_texture_transform"],"extensionsRequired":["EXT_meshopt_compression","KHR_texture_transform"],"#,
+    );
+    let path = write(&dir, "required.gltf", &text);
+    let error = load_gltf(&path).expect_err("a required extension it lacks");
+    let message = error.to_string();
+    assert_names_file(&error, &path);
+    assert!(
+        message.contains("requires EXT_meshopt_compression, which Caustica does not support")
+            && !message.contains("not a valid glTF"),
+        "{message}"
+    );
+    // One it has is no reason to refuse.
+    let text = triangle_gltf(
+        "",
+        "",
+        r#""extensionsUsed":["KHR_texture_transform"],"extensionsRequired":["KHR_texture_transform"],"#,
+    );
+    load_gltf(&write(&dir, "supported.gltf", &text)).expect("a required extension it has");
+}
+
+/// KHR_materials_volume's attenuation distance must be positive and its colour a fraction of each
+/// channel: anything else is refused naming the material and the value, as thickness and ior are.
+#[test]
+fn volume_attenuation_outside_its_range_is_refused_naming_the_material() {
+    let dir = temp_dir("attenuation");
+    let volume = |fields: &str| {
+        let rest = format!(
+            r#""extensionsUsed":["KHR_materials_volume"],"materials":[{{"name":"jade","extensions":{{"KHR_materials_volume":{{"thicknessFactor":0.1,{fields}}}}}}}],"#
+        );
+        write(&dir, "volume.gltf", &triangle_gltf("", r#","material":0"#, &rest))
+    };
+    for (fields, needle) in [
+        (r#""attenuationDistance":0"#, "attenuationDistance is 0, must be positive"),
+        (r#""attenuationDistance":-2"#, "attenuationDistance is -2, must be positive"),
+        (r#""attenuationColor":[1.5,0.5,0.5]"#, "attenuationColor is [1.5, 0.5, 0.5]"),
+        (r#""attenuationColor":[0.5,-0.1,0.5]"#, "each channel must be in [0, 1]"),
+    ] {
+        let path = volume(fields);
+        let message = load_gltf(&path).expect_err(fields).to_string();
+        assert!(message.contains("jade") && message.contains(needle), "{fields}: {message}");
+    }
+    load_gltf(&volume(r#""attenuationDistance":2,"attenuationColor":[0.9,0.5,0.1]"#)).expect("in range");
+}

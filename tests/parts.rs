@@ -36,8 +36,23 @@ fn whole(kind: IntegratorKind) -> Film {
 
 /// Render share `i` of `k` and write its accumulator into `dir`.
 fn part(kind: IntegratorKind, seed: u64, i: u32, k: u32, dir: &Path) -> PathBuf {
+    part_with_chunk(kind, seed, i, k, dir, None)
+}
+
+/// [`part`] with shards of `chunk` paths (the run file's default without).
+fn part_with_chunk(
+    kind: IntegratorKind,
+    seed: u64,
+    i: u32,
+    k: u32,
+    dir: &Path,
+    chunk: Option<u32>,
+) -> PathBuf {
     init_thread_pools(None);
-    let (scene, run) = setup(kind, seed);
+    let (scene, mut run) = setup(kind, seed);
+    if let Some(chunk) = chunk {
+        run.render.chunk = chunk;
+    }
     let info = PartInfo {
         fingerprint: fingerprint(&scene, &run),
         integrator: format!("{kind:?}"),
@@ -72,6 +87,18 @@ fn four_parts_merge_into_one_run(kind: IntegratorKind) {
     assert_same_bits(&merged, &one_run, &format!("{kind:?}, parts 1..4"));
     let shuffled = [&parts[2], &parts[0], &parts[3], &parts[1]];
     assert_same_bits(&merge_parts(&shuffled).unwrap().0, &one_run, &format!("{kind:?}, parts 3, 1, 4, 2"));
+}
+
+/// The chunk size never changes the bits, so parts made with different ones merge into the bits of
+/// one run (it is left out of the fingerprint that refuses foreign parts).
+#[test]
+fn parts_made_with_other_chunk_sizes_merge() {
+    let dir = tempfile::tempdir().unwrap();
+    let parts: Vec<PathBuf> = [(1, 1024), (2, 4096), (3, 333), (4, 64)]
+        .map(|(i, c)| part_with_chunk(IntegratorKind::Pt, 7, i, 4, dir.path(), Some(c)))
+        .to_vec();
+    let (merged, _) = merge_parts(&parts).expect("parts of other chunk sizes merge");
+    assert_same_bits(&merged, &whole(IntegratorKind::Pt), "pt, parts with chunks 1024, 4096, 333, 64");
 }
 
 #[test]

@@ -1,7 +1,8 @@
 //! A fingerprint of what decides a render's image: the scene's content and every setting that
 //! changes a pixel. Partial renders carry it, so that a merge refuses parts of different renders.
-//! Paths, output settings, time limits and memory budgets are left out: they differ between machines
-//! or runs without changing the bits. So is the target (samples per pixel, passes): a resumed render
+//! Paths, output settings, time limits, memory budgets and the chunk size (`render.chunk`, how many
+//! paths a worker holds) are left out: they differ between machines or runs without changing the
+//! bits. So is the target (samples per pixel, passes): a resumed render
 //! may go past its first target, and an accumulator records its samples itself.
 
 use super::{RunFile, Scene};
@@ -18,6 +19,7 @@ pub fn fingerprint(scene: &Scene, run: &RunFile) -> String {
     settings.render.spp = 0;
     settings.progressive.passes = 0;
     settings.render.memory_budget_mib = None;
+    settings.render.chunk = 0;
     settings.progressive.memory_budget_mib = None;
     settings.environment.file = None;
     let mut text = String::new();

@@ -59,6 +59,24 @@ pub(super) fn import(
             )));
         }
     }
+    // A file that requires an extension Caustica lacks is valid glTF all the same: say which.
+    let lacking: Vec<&str> = json
+        .extensions_required
+        .iter()
+        .map(String::as_str)
+        .filter(|e| !super::SUPPORTED_EXTENSIONS.contains(e))
+        .collect();
+    if !lacking.is_empty() {
+        return Err(Error::InvalidScene {
+            path: path.to_path_buf(),
+            object: "extensionsRequired".to_owned(),
+            problem: format!(
+                "the file requires {}, which Caustica does not support (it supports {})",
+                lacking.join(", "),
+                super::SUPPORTED_EXTENSIONS.join(", ")
+            ),
+        });
+    }
     let document = validate(document.into_json()).map_err(|e| gltf_error(describe(&e)))?;
     let version = &document.as_json().asset.version;
     if !version.starts_with("2.") {

@@ -68,6 +68,25 @@ impl Loader<'_> {
                 (t, scale.map_or(1.0, |s| s as f32))
             });
         let volume = material.volume();
+        if let Some(v) = &volume {
+            // KHR_materials_volume: a distance light travels before it is attenuated to the colour,
+            // which is a fraction of each channel; anything else means nothing the extension defines.
+            let (distance, color) = (v.attenuation_distance(), v.attenuation_color());
+            if !(distance > 0.0) {
+                return Err(self.invalid(
+                    object,
+                    format!("KHR_materials_volume attenuationDistance is {distance}, must be positive"),
+                ));
+            }
+            if !color.iter().all(|c| (0.0..=1.0).contains(c)) {
+                return Err(self.invalid(
+                    object,
+                    format!(
+                        "KHR_materials_volume attenuationColor is {color:?}, each channel must be in [0, 1]"
+                    ),
+                ));
+            }
+        }
 
         if material.occlusion_texture().is_some() {
             ignored.push("occlusionTexture");
