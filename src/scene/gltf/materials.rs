@@ -72,7 +72,7 @@ impl Loader<'_> {
             // KHR_materials_volume: a distance light travels before it is attenuated to the colour,
             // which is a fraction of each channel; anything else means nothing the extension defines.
             let (distance, color) = (v.attenuation_distance(), v.attenuation_color());
-            if !(distance > 0.0) {
+            if distance.is_nan() || distance <= 0.0 {
                 return Err(self.invalid(
                     object,
                     format!("KHR_materials_volume attenuationDistance is {distance}, must be positive"),
