@@ -213,6 +213,13 @@ impl Shards {
         })
     }
 
+    /// Drop every path in flight (a pass dropped by a stop): the shards are made anew, chunks
+    /// and all, when the phase next runs.
+    pub fn drop_paths(&mut self) {
+        self.shards.clear();
+        self.stale = true;
+    }
+
     /// Run `f` on every shard's World (a host reading its paths, a test).
     pub fn for_each_world(&mut self, mut f: impl FnMut(&mut World)) {
         self.prepare();
@@ -250,4 +257,16 @@ pub struct RoundFull(pub bool);
 /// Worker threads: one shard each.
 pub fn workers() -> usize {
     rayon::current_num_threads().max(1)
+}
+
+/// Rows below which a chunk is not cut to a worker's share of the film: enough lanes to queue by
+/// material, and photon passes (whose work is not the film's) keep a useful batch.
+const SMALLEST_SHARED_CHUNK: u64 = 64;
+
+/// The chunk a worker keeps in flight for a `pixels`-pixel render asked for `requested` rows: at
+/// most its share of the film, so that many workers on a small film do not each spawn a full chunk
+/// (`--threads 1024` on a 32² film made 4 million paths). Any chunk gives the same bits.
+pub fn chunk_within_share(requested: u32, pixels: u64) -> u32 {
+    let share = pixels.div_ceil(workers() as u64).max(SMALLEST_SHARED_CHUNK);
+    requested.min(u32::try_from(share).unwrap_or(u32::MAX))
 }

@@ -113,3 +113,33 @@ fn chunk_sizes_and_thread_counts_give_bit_identical_path_traced_images() {
     }
     std::fs::remove_dir_all(dir).ok();
 }
+
+/// Many workers on a small film: each keeps at most its share of the film in flight (with 1024
+/// threads on a 32² film every worker spawned a full chunk, 4 million paths and gigabytes), and the
+/// bits are those of two workers.
+#[test]
+fn many_workers_on_a_small_film_keep_their_share_and_the_bits() {
+    use caustica::Renderer;
+    use caustica::scene::load;
+    caustica::driver::init_thread_pools(None);
+    let (scene, mut run) = load(&common::data("cornell-box.gltf")).unwrap();
+    (run.film.width, run.film.height, run.render.spp, run.render.seed) = (Some(32), Some(32), 2, 3);
+    let bits = |image: caustica::film::Image| -> Vec<[u32; 3]> {
+        image.pixels.iter().map(|p| p.to_array().map(f32::to_bits)).collect()
+    };
+    let two = bits(common::render(scene.clone(), &run));
+    let workers = 64;
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(workers).build().unwrap();
+    let (image, report) = pool.install(|| {
+        let mut renderer = Renderer::new(scene, &run).unwrap();
+        let report = renderer.run(None, |_| {});
+        (renderer.image(), report)
+    });
+    // A share of 1024 / 64 = 16 pixels, raised to the smallest chunk that is cut (64 rows).
+    assert!(
+        report.wavefront <= workers as u32 * 64,
+        "{} paths in flight for a 1024-pixel film",
+        report.wavefront
+    );
+    assert_eq!(bits(image), two);
+}

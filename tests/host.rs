@@ -106,6 +106,52 @@ fn a_stop_during_the_photon_pass_drops_it_and_going_on_gives_the_same_bits() {
     assert_eq!(rendered(&mut renderer), whole);
 }
 
+/// `lt`, `bdpt` and `vcm` render a pass into films of its own: a stop inside a pass drops it within
+/// a round (the film keeps exactly the whole passes before it, to the bit), the time limit is kept
+/// however long a pass is, and a host that goes on gets the bits of a render never stopped.
+#[test]
+fn a_stop_inside_a_whole_pass_drops_it_and_going_on_gives_the_same_bits() {
+    use caustica::scene::IntegratorKind;
+    use std::sync::atomic::Ordering;
+    init_thread_pools(None);
+    for integrator in [IntegratorKind::Lt, IntegratorKind::Bdpt, IntegratorKind::Vcm] {
+        let (scene, mut run) = setup(&common::data("cornell-box.gltf"));
+        run.render.integrator = integrator;
+        let one_pass = {
+            run.render.spp = 1;
+            rendered(&mut Renderer::new(scene.clone(), &run).unwrap())
+        };
+        run.render.spp = 3;
+        let whole = rendered(&mut Renderer::new(scene.clone(), &run).unwrap());
+
+        let mut renderer = Renderer::new(scene.clone(), &run).unwrap();
+        renderer.set_max_pass(Some(1));
+        renderer.set_target(1);
+        renderer.run(None, |_| {});
+        // Raised before the second pass: its first round runs, then the stop drops it.
+        renderer.set_target(3);
+        renderer.interrupt_flag().store(true, Ordering::Relaxed);
+        let report = renderer.run(None, |_| {});
+        assert_eq!(report.stopped_by, Some(caustica::report::StopReason::Interrupted), "{integrator:?}");
+        assert_eq!(
+            (renderer.passes(), renderer.units_done()),
+            (1, 1),
+            "{integrator:?}: the dropped pass counts"
+        );
+        assert_eq!(bits(&renderer.image()), one_pass, "{integrator:?}: not the one whole pass");
+        assert_eq!(renderer.progress().done, 1.0, "{integrator:?}: the dropped pass's samples count");
+        renderer.clear_stop();
+        assert_eq!(rendered(&mut renderer), whole, "{integrator:?}: going on");
+
+        // A limit far shorter than a pass: nothing of it is in the image, and it ends at once.
+        let mut limited = Renderer::new(scene.clone(), &run).unwrap();
+        let report = limited.run(Some(1e-9), |_| {});
+        assert_eq!(report.stopped_by, Some(caustica::report::StopReason::TimeLimit), "{integrator:?}");
+        assert_eq!(limited.units_done(), 0, "{integrator:?}: rendered all its samples under a 1 ns limit");
+        assert!(limited.image().pixels.iter().all(|p| *p == Vec3::ZERO), "{integrator:?}");
+    }
+}
+
 /// However the BVHs follow a move (the dynamic set rebuilt alone, one tree refit, or everything
 /// rebuilt), the moved scene renders the bits of the file posed the same way.
 #[test]

@@ -116,6 +116,17 @@ impl AovFilm {
         self.pixels[pixel as usize].add(values, 1);
     }
 
+    /// Add every pixel of `pass` (a film of the same size) to this one and leave `pass` empty.
+    pub fn take_from(&self, pass: &AovFilm) {
+        debug_assert_eq!((self.width, self.height), (pass.width, pass.height));
+        fixed::take_all(&self.pixels, &pass.pixels);
+    }
+
+    /// Make every pixel empty, with no samples.
+    pub fn clear(&self) {
+        fixed::clear_all(&self.pixels);
+    }
+
     /// The mean of every feature image per pixel.
     pub fn images(&self) -> AovImages {
         let (w, h) = (self.width, self.height);

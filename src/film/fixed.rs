@@ -46,6 +46,18 @@ pub struct PixelSums<const N: usize = 3> {
     count: AtomicU32,
 }
 
+/// Add every pixel of `from` to the pixel of `to` at the same index and leave `from` empty (a pass's
+/// film folded into the render's).
+pub fn take_all<const N: usize>(to: &[PixelSums<N>], from: &[PixelSums<N>]) {
+    debug_assert_eq!(to.len(), from.len());
+    to.iter().zip(from).for_each(|(to, from)| to.take_from(from));
+}
+
+/// Make every pixel of `pixels` empty.
+pub fn clear_all<const N: usize>(pixels: &[PixelSums<N>]) {
+    pixels.iter().for_each(PixelSums::clear);
+}
+
 /// `n` empty pixels, in one allocation asked for fallibly: an error naming `what` (the film), its
 /// size and `budget` where the allocator has not got them (a film is the one allocation that grows
 /// with the resolution alone).
@@ -90,6 +102,23 @@ impl<const N: usize> PixelSums<N> {
             }
         }
         self.count.fetch_add(count, Ordering::Relaxed);
+    }
+
+    /// Back to no sums and no samples.
+    pub fn clear(&self) {
+        for c in 0..N {
+            self.lo[c].store(0, Ordering::Relaxed);
+            self.hi[c].store(0, Ordering::Relaxed);
+        }
+        self.count.store(0, Ordering::Relaxed);
+    }
+
+    /// Add another pixel's sums and count, and leave it empty (folding a pass's film into the
+    /// render's: integer sums, so the bits are those of adding every sample to the one film).
+    pub fn take_from(&self, other: &Self) {
+        let (sums, count) = other.get();
+        self.add(sums, count);
+        other.clear();
     }
 
     /// The channel sums (sign-extended from 96 bits) and the sample count.

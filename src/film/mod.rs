@@ -75,6 +75,17 @@ impl Film {
         self.pixels[pixel as usize].add(sums, count);
     }
 
+    /// Add every pixel of `pass` (a film of the same size) to this one and leave `pass` empty.
+    pub fn take_from(&self, pass: &Film) {
+        debug_assert_eq!((self.width, self.height), (pass.width, pass.height));
+        fixed::take_all(&self.pixels, &pass.pixels);
+    }
+
+    /// Make every pixel empty, with no samples.
+    pub fn clear(&self) {
+        fixed::clear_all(&self.pixels);
+    }
+
     /// A pixel's fixed-point channel sums and its sample count.
     pub fn sums(&self, pixel: u32) -> ([i128; 3], u32) {
         self.pixels[pixel as usize].get()

@@ -8,6 +8,7 @@ use crate::integrators::{self, Integrator};
 
 mod checkpoint;
 mod frames;
+mod pass_film;
 mod pass_loop;
 mod restart;
 mod shares;
@@ -75,6 +76,8 @@ pub struct Renderer {
     /// What the phases that trace from the lights alone made for an earlier frame is in the World
     /// still (`pm`'s photon maps: only the camera moved): they do not run.
     light_kept: bool,
+    /// A whole-pass integrator's films for the next pass, black ([`pass_film`]).
+    pass_films: Option<pass_film::PassFilms>,
 }
 
 impl Renderer {
@@ -102,6 +105,9 @@ impl Renderer {
             let camera = world.resource::<crate::resources::CameraResource>();
             camera.width as u64 * camera.height as u64
         };
+        let mut run = run.clone();
+        run.render.chunk = crate::shards::chunk_within_share(run.render.chunk, pixels);
+        let run = &run;
         let pilot = if integrator.traces_light_paths() {
             let config = world.resource::<crate::resources::RenderConfig>();
             let scene = world.resource::<crate::resources::SceneResource>();
@@ -113,6 +119,10 @@ impl Renderer {
         let counted = integrators::memory::check(run, need)?;
         world.insert_resource(crate::resources::MemoryCounted(counted));
         crate::world::add_films(&mut world, run)?;
+        let pass_films = match integrator.whole_passes {
+            true => Some(pass_film::PassFilms::try_new(&world, run.memory_budget_bytes())?),
+            false => None,
+        };
         let plan = (integrator.plan)(integrator, &mut world, run, features)?;
         crate::aov::equip_paths(&mut world);
         let target = integrator.units(run);
@@ -137,6 +147,7 @@ impl Renderer {
             at_pass_boundary: true,
             spp_image: run.film.aovs.contains(&caustica_core::film::aov::Aov::Spp),
             light_kept: false,
+            pass_films,
         })
     }
 
@@ -175,8 +186,7 @@ impl Renderer {
 
     /// The feature images so far, when the render makes them.
     pub fn aov_images(&self) -> Option<caustica_core::film::aov::AovImages> {
-        let surface =
-            self.world.get_resource::<crate::resources::AovFilmResource>().map(|film| film.images());
+        let surface = crate::resources::committed_aov_film(&self.world).map(|film| film.images());
         if !self.spp_image {
             return surface;
         }
@@ -196,9 +206,9 @@ impl Renderer {
         self.samples_per_unit
     }
 
-    /// The film: every sample's sum and count so far.
+    /// The film: every sample's sum and count so far (of whole passes, for a whole-pass integrator).
     pub fn film(&self) -> &caustica_core::film::Film {
-        self.world.resource::<FilmResource>()
+        crate::resources::committed_film(&self.world)
     }
 
     /// Passes run so far.

@@ -5,6 +5,7 @@ use super::{Renderer, StopReason};
 use crate::plan::Repeat;
 use crate::report::{Report, Unit};
 use crate::resources::{PassRange, RenderStats};
+use caustica_core::choice::Choice;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
@@ -80,6 +81,14 @@ impl Renderer {
         end
     }
 
+    /// Whether a phase after phase `i` runs in pass `index` (which begins at `begin`).
+    fn phases_left_after(&self, i: usize, index: u32, begin: u32) -> bool {
+        self.plan.phases[i + 1..].iter().any(|phase| {
+            phase.when.includes(index, begin)
+                && !(self.light_kept && phase.when == crate::plan::When::FirstPassOfProcess)
+        })
+    }
+
     /// Whether the film holds exactly the passes done (no step of a next pass has run).
     pub fn at_pass_boundary(&self) -> bool {
         self.at_pass_boundary
@@ -119,7 +128,30 @@ impl Renderer {
         while self.done < self.target && !self.stops.stopped && !self.converged() {
             self.run_pass(deadline, &mut on_step);
         }
+        self.warn_if_stopped_before_a_pass();
         self.report()
+    }
+
+    /// A whole-pass integrator stopped inside its first pass has a black film: say so, and why.
+    fn warn_if_stopped_before_a_pass(&self) {
+        let Some(reason) = self.stops.reason else { return };
+        if !self.integrator.whole_passes || self.done != self.first {
+            return;
+        }
+        let film = self.film();
+        if (0..film.width * film.height).any(|p| film.samples(p) > 0) {
+            return;
+        }
+        let what = match reason {
+            StopReason::TimeLimit => "the time limit",
+            StopReason::Interrupted => "the interrupt",
+        };
+        tracing::warn!(
+            "{what} came before {}'s first pass ended, and a pass is one estimate that a stop drops \
+             whole: the image is black; allow more time (a pass traces at least as many light \
+             subpaths as the film has pixels)",
+            self.integrator.kind.name()
+        );
     }
 
     /// Run one pass of the plan, towards the current target.
@@ -132,6 +164,8 @@ impl Renderer {
         }
         self.world.insert_resource(PassRange { index, begin, end, stop: false });
         self.at_pass_boundary = false;
+        self.begin_pass_films();
+        let samples_before = self.world.resource::<RenderStats>().samples;
         self.stops.pass_end_requested.store(false, Ordering::Relaxed);
         let mut cut = false;
         let _span = tracing::info_span!("pass", index).entered();
@@ -166,14 +200,22 @@ impl Renderer {
                 };
                 let whole_passes = self.stops.whole_passes || self.integrator.whole_passes;
                 if let Some(reason) = self.stops.due(deadline) {
-                    if self.plan.phases[i].dropped_on_stop && busy {
-                        // Nothing of this pass is in the film yet: stop now, not at the phase's end.
+                    // Nothing of this pass is in the render's film yet (a first photon pass; a
+                    // whole-pass integrator's pass, in films of its own): drop it now rather than
+                    // wait for its end, unless it has just ended.
+                    let droppable = self.plan.phases[i].dropped_on_stop || self.integrator.whole_passes;
+                    if droppable && (busy || self.phases_left_after(i, index, begin)) {
                         self.stops.stop(reason);
                         self.phase_times[i].seconds += phase_start.elapsed().as_secs_f64();
                         self.phase_times[i].runs += runs;
+                        if let Some(shards) = &mut shards {
+                            shards.drop_paths();
+                        }
+                        self.plan.phases[i].shards = shards;
+                        self.end_pass_films(false);
+                        self.world.resource_mut::<RenderStats>().samples = samples_before;
                         self.at_pass_boundary = true;
                         self.seconds += pass_start.elapsed().as_secs_f64();
-                        self.plan.phases[i].shards = shards;
                         on_step(self);
                         return;
                     }
@@ -203,6 +245,7 @@ impl Renderer {
             time.seconds += phase_start.elapsed().as_secs_f64();
             time.runs += runs;
         }
+        self.end_pass_films(true);
         self.passes += 1;
         self.done = end;
         self.at_pass_boundary = true;

@@ -76,9 +76,10 @@ pub struct Integrator {
     /// merges with the others' into the bits of one run (partial renders), and a checkpoint holds the
     /// film only. False when each pass builds on the statistics of the one before.
     pub film_is_the_state: bool,
-    /// Whether a stop waits for the pass's end instead of cutting its camera samples short: the pass
-    /// is one estimate whose parts must all be there (`lt`: its camera samples count the light
-    /// subpaths' splats), and short.
+    /// Whether a pass is one estimate whose parts must all be there (`lt`: its camera samples count
+    /// the light subpaths' splats): it renders into films of its own, folded into the render's at
+    /// its end, and a stop drops it at once (`crate::driver`'s pass films) rather than cut its
+    /// camera samples short. The memory count has the second film.
     pub whole_passes: bool,
     /// Light sampling at camera vertices.
     pub light_sampling: LightSampling,

@@ -14,8 +14,8 @@
 //!
 //! A unit is a camera ray per pixel that follows delta bounces only and adds the emission it meets on
 //! the way (lights and sky seen directly, in a mirror or through glass), and as many light subpaths
-//! as pixels; a pass groups units to about a million subpaths and is never cut short (a stop waits
-//! for its end: its camera samples count its splats).
+//! as pixels; a pass groups units to about a million subpaths and is never cut short (its camera
+//! samples count its splats): it renders into films of its own, and a stop drops it whole.
 //!
 //! Both phases run on the vector core ([`crate::shards`]): each worker owns a chunk of camera paths
 //! ([`crate::camera_paths`]) in the camera phase and a chunk of light subpaths
@@ -58,8 +58,8 @@ use caustica_core::photon::PhotonMapKind;
 use caustica_core::scene::schedule::Stage;
 use caustica_core::scene::{IntegratorKind, RunFile};
 
-/// Light subpaths a pass aims at: enough to amortise a pass's fixed cost, few enough that a stop
-/// (which waits for the pass's end) is prompt.
+/// Light subpaths a pass aims at: enough to amortise a pass's fixed cost, few enough that little is
+/// lost when a stop drops the pass that runs.
 const SUBPATHS_PER_PASS: u32 = 1 << 20;
 
 /// `lt`: light subpaths connected to the camera.
@@ -155,7 +155,7 @@ fn plan(_: &Integrator, world: &mut World, run: &RunFile, features: SceneFeature
         .with_begin((begin_light_pass(pixels), light_subpaths::begin_subpaths).chain());
     Ok(Plan {
         phases: vec![camera, light],
-        // Units enough for about a million subpaths a pass (a stop waits for the pass's end);
+        // Units enough for about a million subpaths a pass (a stop drops the running one);
         // each unit's subpaths have its own numbers, however the units are grouped into passes.
         pass_end: Box::new(move |done, target| (done + units_per_pass).min(target)),
         image: film_image,

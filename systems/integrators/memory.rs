@@ -26,11 +26,16 @@ const WRITTEN_BYTES_PER_PIXEL: u64 = 14;
 const WRITTEN_AOV_BYTES_PER_PIXEL: u64 = 2 * (12 + 12 + 4 + 4);
 
 /// Everything a `pixels`-pixel render of `run` with `integrator` adds to the process: the film (and
-/// the feature images' film), the integrator's working set, and the final image as it is written.
+/// the feature images' film; twice for a whole-pass integrator, whose passes have films of their
+/// own), the integrator's working set, and the final image as it is written.
 pub fn render_need(integrator: &Integrator, pixels: u64, run: &RunFile, pilot: &PilotPaths) -> MemoryNeed {
     let own = (integrator.memory)(integrator, pixels, run, pilot);
     let aovs = run.film.aovs.iter().any(|aov| aov.needs_surface());
-    let film = Film::BYTES_PER_PIXEL + if aovs { AovFilm::BYTES_PER_PIXEL } else { 0 };
+    let mut film = Film::BYTES_PER_PIXEL + if aovs { AovFilm::BYTES_PER_PIXEL } else { 0 };
+    if integrator.whole_passes {
+        // The pass's films beside the render's.
+        film *= 2;
+    }
     let written = WRITTEN_BYTES_PER_PIXEL + if aovs { WRITTEN_AOV_BYTES_PER_PIXEL } else { 0 };
     MemoryNeed { bytes: own.bytes + pixels * (film + written), what: own.what }
 }

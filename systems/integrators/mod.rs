@@ -89,7 +89,7 @@ pub fn paths_busy(world: &World) -> bool {
 
 /// The film's mean per pixel: the image of the integrators whose every sample goes to the film.
 pub fn film_image(world: &World, _passes: u32) -> caustica_core::film::Image {
-    world.resource::<crate::resources::FilmResource>().image()
+    crate::resources::committed_film(world).image()
 }
 
 /// The wavefront of the integrators whose camera paths are not yet on the vector core: one

@@ -92,6 +92,33 @@ shared_resource_of!(
     AovFilmResource(caustica_core::film::aov::AovFilm)
 );
 
+/// The render's films while a pass of a whole-pass integrator (`lt`, `bdpt`, `vcm`) runs: its
+/// samples and splats go to films of the pass's own (in [`FilmResource`] and [`AovFilmResource`]
+/// meanwhile), which the driver folds into these at the pass's end or drops if a stop cuts it.
+#[derive(Resource)]
+pub struct CommittedFilms {
+    /// The render's film: whole passes.
+    pub film: FilmResource,
+    /// The render's feature images' film, if it makes them.
+    pub aov: Option<AovFilmResource>,
+}
+
+/// The render's film: whole passes only while a pass of a whole-pass integrator runs.
+pub fn committed_film(world: &bevy_ecs::world::World) -> &Film {
+    match world.get_resource::<CommittedFilms>() {
+        Some(committed) => &committed.film,
+        None => world.resource::<FilmResource>(),
+    }
+}
+
+/// The render's feature images' film, if it makes them (as [`committed_film`]).
+pub fn committed_aov_film(world: &bevy_ecs::world::World) -> Option<&caustica_core::film::aov::AovFilm> {
+    match world.get_resource::<CommittedFilms>() {
+        Some(committed) => committed.aov.as_deref(),
+        None => world.get_resource::<AovFilmResource>().map(|film| &**film),
+    }
+}
+
 /// Settings of the camera paths.
 #[derive(Resource, Clone, Debug)]
 pub struct RenderConfig {
