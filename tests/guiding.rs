@@ -171,3 +171,31 @@ fn guiding_is_refused_by_the_integrators_that_do_not_take_it() {
         "{stderr}"
     );
 }
+
+/// The hostile settings (a region split at every sample, a directional node for every ten
+/// thousandth of the energy) under a 200 MiB budget grew the tree to 5.4 GB in one refinement. The
+/// refinement that would pass the tree's share of the budget is not made: training ends with a
+/// warning saying so, the render finishes, and the process peaks under the budget.
+#[test]
+fn a_tree_that_would_outgrow_its_share_of_the_budget_ends_training_instead() {
+    let dir = std::env::temp_dir().join(format!("caustica-guiding-cap-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_caustica"))
+        .arg("render")
+        .arg(common::data("cornell-spheres.gltf"))
+        .args(["--width", "96", "--height", "96", "--spp", "64", "--guiding", "--memory-budget-mib", "200"])
+        .args(["--set", "guiding.spatial_threshold=1", "--set", "guiding.directional_threshold=0.0001"])
+        .arg("-o")
+        .arg(dir.join("out.exr"))
+        .output()
+        .expect("caustica runs");
+    let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success(), "{stdout}{stderr}");
+    assert!(stderr.contains("would take it past 50 MiB") && stderr.contains("training ends"), "{stderr}");
+    let memory = stdout.lines().find(|l| l.starts_with("memory")).expect("a memory line");
+    let peak: u64 = memory.split_whitespace().find_map(|w| w.parse().ok()).expect("a peak");
+    assert!(peak <= 200, "peaked at {peak} MiB under a 200 MiB budget: {memory}");
+    let image = read_exr(&dir.join("out.exr")).unwrap();
+    assert!(image.pixels.iter().all(|p| p.is_finite()) && image.mean().max_element() > 0.0);
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -36,7 +36,7 @@ mod tests;
 pub use cylindrical::{INV_FOUR_PI, from_square, to_square};
 pub use quadtree::DirectionalDistribution;
 pub use selection::{CANDIDATE_SHARES, PRIOR_SHARE};
-pub use spatial::{Leaf, NodeCounts, SdTree};
+pub use spatial::{Leaf, NodeCounts, Refined, SdTree};
 
 use quadtree::quadrant;
 

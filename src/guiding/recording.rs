@@ -60,12 +60,18 @@ impl RecordingTree {
         self.nodes.len() * size_of::<RecordingNode>()
     }
 
+    /// Bytes of the nodes of a tree of a shape of `nodes` nodes.
+    pub(crate) fn bytes_of_shape(nodes: usize) -> usize {
+        nodes * size_of::<RecordingNode>()
+    }
+
     /// Count one sample, and add `energy` (fixed point; 0 adds nothing) to the quadrant holding point
     /// `s` ∈ [0, 1)² of the square.
     #[inline]
     pub(crate) fn record(&self, mut s: Vec2, energy: u128) {
         self.samples.fetch_add(1, Ordering::Relaxed);
-        if energy == 0 {
+        // No nodes: training has ended (`SdTree::refine_within`), and nothing is recorded.
+        if energy == 0 || self.nodes.is_empty() {
             return;
         }
         let mut node = 0;
@@ -83,6 +89,10 @@ impl RecordingTree {
     /// The sums with every inner quadrant's filled in from its subtree, children before parents
     /// (children have larger indices), so the result is a fixed function of the recorded integers.
     pub(crate) fn finish(&self) -> Recorded {
+        let samples = self.samples.load(Ordering::Relaxed);
+        if self.nodes.is_empty() {
+            return Recorded { sums: vec![[0; 4]], children: vec![[0; 4]], samples };
+        }
         let mut sums = vec![[0u128; 4]; self.nodes.len()];
         for i in (0..self.nodes.len()).rev() {
             let n = &self.nodes[i];
@@ -94,7 +104,7 @@ impl RecordingTree {
             }
         }
         let children = self.nodes.iter().map(|n| n.child).collect();
-        Recorded { sums, children, samples: self.samples.load(Ordering::Relaxed) }
+        Recorded { sums, children, samples }
     }
 
     /// The fixed shape of the next iteration's tree: a quadrant holding more than `threshold` of the

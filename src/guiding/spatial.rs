@@ -228,8 +228,22 @@ impl SdTree {
     /// Leaves are finished in parallel, each from its own integers alone; the new tree is then built
     /// depth first in the old one's order, so the result does not depend on the thread count.
     pub fn refine(&mut self, iteration: u32) {
+        self.refine_within(iteration, usize::MAX);
+    }
+
+    /// As [`Self::refine`] if the refined tree, with what refining holds beside it, fits in
+    /// `max_bytes`. If it does not (or the allocator refuses its tables), training ends here: the
+    /// recorded distributions are kept, no leaf is split, the recording quadtrees are dropped (the
+    /// tree then needs less than before), and [`Refined::Capped`] says so. The bytes are counted
+    /// before anything is allocated: a tree that would double past the budget is never built.
+    pub fn refine_within(&mut self, iteration: u32, max_bytes: usize) -> Refined {
         let (rho, max_depth, fixed) =
             (self.config.directional_threshold, self.config.max_depth, self.config.fixed_bsdf_share);
+        let shape_of =
+            |leaf: &LeafData| RecordingTree::refined_shape(&leaf.recording.finish(), rho, max_depth);
+        // The shapes' sizes first, each shape dropped once counted: a leaf's next recording quadtree
+        // may be far larger than its last (a leaf that saw nothing gets a uniform tree as deep as
+        // the threshold allows).
         let finished: Vec<Finished> = self
             .leaves
             .par_iter()
@@ -241,24 +255,65 @@ impl SdTree {
                         &recorded.children,
                         recorded.samples,
                     ),
-                    shape: RecordingTree::refined_shape(&recorded, rho, max_depth),
+                    shape_nodes: RecordingTree::refined_shape(&recorded, rho, max_depth).len(),
                     samples: recorded.samples,
                     bsdf_share: fixed
                         .unwrap_or_else(|| leaf.selection.choose(leaf.distribution.is_uniform())),
                 }
             })
             .collect();
-        let mut build = Rebuild {
-            old: &self.nodes,
-            finished: &finished,
-            threshold: self.spatial_threshold(iteration),
-            nodes: vec![0],
-            leaves: Vec::with_capacity(self.leaves.len()),
+        let threshold = self.spatial_threshold(iteration);
+        let grown = Self::grown_size(&self.nodes, &finished, threshold);
+        // Refining holds the finished leaves and the shapes beside the old tree, then beside the
+        // new one (the old leaves go before it is built).
+        let beside = finished.iter().map(Finished::memory_bytes).sum::<usize>() as f64;
+        let peak = beside + grown.bytes.max(self.memory_bytes() as f64);
+        let shapes: Option<Vec<Vec<[u16; 4]>>> =
+            (peak <= max_bytes as f64).then(|| self.leaves.par_iter().map(shape_of).collect());
+        self.leaves = Vec::new();
+        let built = shapes
+            .as_deref()
+            .and_then(|shapes| Rebuild::new(&self.nodes, &finished, threshold, grown, Some(shapes)));
+        let (outcome, build) = match built {
+            Some(build) => (Refined::Grown, build),
+            None => {
+                let same = Self::grown_size(&self.nodes, &finished, f64::INFINITY);
+                let build = Rebuild::new(&self.nodes, &finished, f64::INFINITY, same, None)
+                    .expect("a tree of the old shape without its recordings is smaller than the old one");
+                (Refined::Capped, build)
+            }
         };
-        build.copy(0, 0, 0);
-        let (nodes, leaves) = (build.nodes, build.leaves);
-        self.nodes = nodes;
-        self.leaves = leaves;
+        (self.nodes, self.leaves) = build.run();
+        outcome
+    }
+
+    /// Nodes, leaves and bytes of the tree `refine` builds from `nodes` and `finished` splitting
+    /// above `threshold`: each leaf as often as its samples halve past it (as f64: 72 levels of
+    /// splits overflow any integer).
+    fn grown_size(nodes: &[u32], finished: &[Finished], threshold: f64) -> GrownSize {
+        let mut size = GrownSize { nodes: 0.0, leaves: 0.0, bytes: 0.0 };
+        let mut stack = vec![(0usize, 0u32)];
+        while let Some((node, depth)) = stack.pop() {
+            let n = nodes[node];
+            if n & LEAF == 0 {
+                size.nodes += 1.0;
+                stack.extend([(n as usize, depth + 1), (n as usize + 1, depth + 1)]);
+                continue;
+            }
+            let f = &finished[(n & !LEAF) as usize];
+            let mut splits = 0;
+            let mut samples = f.samples as f64;
+            while samples > threshold && depth + splits < MAX_SPATIAL_DEPTH {
+                samples = (samples as u64 / 2) as f64;
+                splits += 1;
+            }
+            let leaves = (splits as f64).exp2();
+            size.nodes += 2.0 * leaves - 1.0;
+            size.leaves += leaves;
+            size.bytes += leaves * f.leaf_bytes() as f64;
+        }
+        size.bytes += size.nodes * size_of::<u32>() as f64;
+        size
     }
 
     /// Node counts of the spatial tree and of the quadtrees.
@@ -344,13 +399,49 @@ impl SdTree {
     }
 }
 
+/// What [`SdTree::refine_within`] did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Refined {
+    /// The tree was refined as the paper's.
+    Grown,
+    /// The refined tree would not fit: the distributions were kept, nothing split, training ends.
+    Capped,
+}
+
 /// A leaf after its iteration: its new distribution, its next recording shape, its sample count,
 /// its next BSDF share.
 struct Finished {
     distribution: DirectionalDistribution,
-    shape: Vec<[u16; 4]>,
+    /// Nodes of its next recording quadtree's shape.
+    shape_nodes: usize,
     samples: u64,
     bsdf_share: f32,
+}
+
+impl Finished {
+    /// Bytes it and its shape hold while the new tree is built.
+    fn memory_bytes(&self) -> usize {
+        size_of::<Self>()
+            + self.distribution.memory_bytes()
+            + size_of::<Vec<[u16; 4]>>()
+            + self.shape_nodes * size_of::<[u16; 4]>()
+    }
+
+    /// Bytes a leaf made from it holds in the new tree: its fields, its distribution, and the
+    /// recording quadtree of its shape.
+    fn leaf_bytes(&self) -> usize {
+        size_of::<LeafData>()
+            + self.distribution.memory_bytes()
+            + RecordingTree::bytes_of_shape(self.shape_nodes)
+    }
+}
+
+/// The size of a tree [`SdTree::refine_within`] may build.
+#[derive(Clone, Copy)]
+struct GrownSize {
+    nodes: f64,
+    leaves: f64,
+    bytes: f64,
 }
 
 /// The new spatial tree being built from the old one and its finished leaves.
@@ -358,11 +449,34 @@ struct Rebuild<'a> {
     old: &'a [u32],
     finished: &'a [Finished],
     threshold: f64,
+    /// Each finished leaf's recording shape (training goes on), or none (it ends: nothing records).
+    shapes: Option<&'a [Vec<[u16; 4]>]>,
     nodes: Vec<u32>,
     leaves: Vec<LeafData>,
 }
 
-impl Rebuild<'_> {
+impl<'a> Rebuild<'a> {
+    /// A build with its tables reserved for `size`; `None` if the allocator has not got them.
+    fn new(
+        old: &'a [u32],
+        finished: &'a [Finished],
+        threshold: f64,
+        size: GrownSize,
+        shapes: Option<&'a [Vec<[u16; 4]>]>,
+    ) -> Option<Self> {
+        let (mut nodes, mut leaves) = (Vec::new(), Vec::new());
+        nodes.try_reserve_exact(size.nodes.min(usize::MAX as f64) as usize).ok()?;
+        leaves.try_reserve_exact(size.leaves.min(usize::MAX as f64) as usize).ok()?;
+        nodes.push(0);
+        Some(Self { old, finished, threshold, shapes, nodes, leaves })
+    }
+
+    /// The new tree's nodes and leaves.
+    fn run(mut self) -> (Vec<u32>, Vec<LeafData>) {
+        self.copy(0, 0, 0);
+        (self.nodes, self.leaves)
+    }
+
     /// Copy old node `old` (at `depth`) into new node `new`.
     fn copy(&mut self, old: usize, new: usize, depth: u32) {
         let n = self.old[old];
@@ -386,9 +500,13 @@ impl Rebuild<'_> {
         } else {
             let f = &self.finished[leaf];
             self.nodes[new] = LEAF | self.leaves.len() as u32;
+            let recording = match self.shapes {
+                Some(shapes) => RecordingTree::with_shape(&shapes[leaf]),
+                None => RecordingTree::with_shape(&[]),
+            };
             self.leaves.push(LeafData {
                 distribution: f.distribution.clone(),
-                recording: RecordingTree::with_shape(&f.shape),
+                recording,
                 bsdf_share: f.bsdf_share,
                 selection: SelectionRecording::default(),
                 depth,

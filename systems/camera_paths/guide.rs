@@ -48,7 +48,8 @@ pub struct Guide {
     pub started: Instant,
     /// Seconds from then to the end of the last training pass.
     pub training_took: f64,
-    /// The run's memory budget: a refinement that grows the tree past a quarter of it ends training.
+    /// The run's memory budget: a refinement that would grow the tree past a quarter of it is not
+    /// made, and training ends ([`SdTree::refine_within`]).
     pub budget_bytes: u64,
 }
 
@@ -58,7 +59,19 @@ pub const TRAINING_SHARE_OF_TIME: f64 = 0.25;
 /// The share of the run's memory budget the tree may grow to.
 pub const TREE_SHARE_OF_BUDGET: u64 = 4;
 
+/// The most a guided render's tree may hold under a memory budget of `budget_bytes`: refining stops
+/// (and training ends) rather than pass it.
+pub fn tree_cap(budget_bytes: u64) -> u64 {
+    budget_bytes / TREE_SHARE_OF_BUDGET
+}
+
 impl Guide {
+    /// The most the tree may hold, refining included: a share of the run's memory budget, counted
+    /// before the render ([`tree_cap`]).
+    pub fn tree_cap(&self) -> u64 {
+        tree_cap(self.budget_bytes)
+    }
+
     /// Whether the running pass records into the tree.
     pub fn training(&self) -> bool {
         self.refined < self.training_passes()
@@ -228,13 +241,14 @@ pub fn refine_guide(mut guide: ResMut<Guide>) {
         return;
     }
     let start = std::time::Instant::now();
-    let iteration = guide.refined;
+    let (iteration, cap) = (guide.refined, usize::try_from(guide.tree_cap()).unwrap_or(usize::MAX));
     let Some(tree) = Arc::get_mut(&mut guide.tree) else {
         // A host holding the tree keeps it unrefined rather than refining a copy it does not see.
         tracing::warn!("path guiding: the tree is shared beyond the render, so it is not refined");
         return;
     };
-    tree.refine(iteration);
+    let refined = tree.refine_within(iteration, cap);
+    let tree = &guide.tree;
     let counts = tree.node_counts();
     let bounds = tree.guiding_bounds();
     tracing::info!(
@@ -260,11 +274,12 @@ pub fn refine_guide(mut guide: ResMut<Guide>) {
         );
         guide.training_passes.store(guide.refined, Ordering::Relaxed);
     }
-    let bytes = guide.tree.memory_bytes();
-    if guide.training() && bytes as u64 > guide.budget_bytes / TREE_SHARE_OF_BUDGET {
+    if refined == caustica_core::guiding::Refined::Capped && guide.training() {
         tracing::warn!(
-            "path guiding: the tree holds {} MiB, over a quarter of the memory budget; training ends after {} passes",
-            bytes >> 20,
+            "path guiding: refining the tree after training pass {iteration} would take it past {} MiB, \
+             a quarter of the memory budget: training ends after {} passes, the tree as it stands (raise \
+             --memory-budget-mib, or guiding.spatial_threshold and guiding.directional_threshold)",
+            guide.tree_cap() >> 20,
             guide.refined
         );
         guide.training_passes.store(guide.refined, Ordering::Relaxed);

@@ -125,9 +125,14 @@ pub(super) fn chunked_paths(pixels: u64, run: &RunFile) -> MemoryNeed {
     let rows = run.render.chunk as u64 * crate::shards::workers() as u64;
     let paths = rows * (crate::world::entity_bytes(&components) + QUEUE_BYTES + scratch)
         + crate::shards::workers() as u64 * crate::shards::SHARD_WORLD_BYTES;
+    // The guide's tree may grow to its cap (refining never passes it): counted whole.
+    let (tree, with_tree) = match run.is_guided() {
+        true => (guide::tree_cap(run.memory_budget_bytes()), ", its paths and the guiding tree"),
+        false => (0, " and its paths"),
+    };
     MemoryNeed {
-        bytes: paths + adaptive_bytes(pixels, run),
-        what: format!("a {pixels}-pixel film and its paths"),
+        bytes: paths + tree + adaptive_bytes(pixels, run),
+        what: format!("a {pixels}-pixel film{with_tree}"),
     }
 }
 

@@ -230,3 +230,44 @@ fn the_guiding_bounds_are_the_regions_that_guide() {
     let (lo, hi) = tree.guiding_bounds().expect("the corner guides");
     assert!(lo.abs_diff_eq(Vec3::ZERO, 1e-5) && hi.abs_diff_eq(Vec3::splat(0.25), 1e-5), "{lo} {hi}");
 }
+
+/// The hostile settings (split a region at every sample, a quadtree node for every ten
+/// thousandth of the energy) grew the tree to gigabytes in one refinement. Under a cap the
+/// refinement that would pass it is not made: the distributions are kept, nothing splits, the
+/// recording trees go (training ends), and the tree is smaller than before, never past the cap; a
+/// cap the grown tree fits under refines as without one, to the bit.
+#[test]
+fn a_refinement_past_the_cap_is_not_made_and_training_ends() {
+    let config =
+        GuidingConfig { spatial_threshold: 1.0, directional_threshold: 1e-4, ..GuidingConfig::default() };
+    let fresh = || SdTree::with_config(Vec3::ZERO, Vec3::new(4.0, 3.0, 4.0), config);
+    let data = samples(20_000);
+
+    let mut free = fresh();
+    record_all(&free, &data);
+    assert_eq!(free.refine_within(0, usize::MAX), Refined::Grown);
+    let grown = free.memory_bytes();
+    assert!(free.node_counts().leaves > 1000, "the test wants a tree that grows far");
+
+    // A cap just above what refining holds: the same tree as without one.
+    let mut roomy = fresh();
+    record_all(&roomy, &data);
+    assert_eq!(roomy.refine_within(0, 4 * grown), Refined::Grown);
+    assert_eq!(roomy.fingerprint(), free.fingerprint());
+
+    let mut capped = fresh();
+    record_all(&capped, &data);
+    let (before, leaves_before) = (capped.memory_bytes(), capped.node_counts().leaves);
+    let cap = grown / 10;
+    assert!(before < cap);
+    assert_eq!(capped.refine_within(0, cap), Refined::Capped);
+    assert!(capped.memory_bytes() <= before, "{} bytes after, {before} before", capped.memory_bytes());
+    assert_eq!(capped.node_counts().leaves, leaves_before, "a capped refinement split a region");
+    assert_eq!(capped.node_counts().recording, 0, "training ended but the recording trees stayed");
+    // What was recorded is what is sampled now.
+    assert!(!capped.leaf(Vec3::splat(1.0)).distribution().is_uniform());
+    // Recording into an ended tree is a no-op, not a panic.
+    let ended = capped.memory_bytes();
+    record_all(&capped, &data[..100]);
+    assert_eq!(capped.memory_bytes(), ended);
+}
