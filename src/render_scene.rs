@@ -294,13 +294,21 @@ pub fn scene_lights(geometry: &mut Geometry, scene: &Scene, light_selection: Lig
 /// [`scene_lights`], warning of the white environment only when `warn` (once a render, not a frame).
 fn lights_of(geometry: &mut Geometry, scene: &Scene, light_selection: LightSelection, warn: bool) -> Lights {
     let lights = own_lights(geometry, scene, light_selection);
-    if !lights.is_empty() {
+    // Unlit surfaces (KHR_materials_unlit) emit only to show their colour: not the scene's light.
+    let lit = scene.environment.is_some()
+        || !scene.punctual_lights.is_empty()
+        || scene.materials.iter().any(|m| !m.unlit && m.emission.max_element() > 0.0);
+    if !lights.is_empty() && lit {
+        if warn && scene.environment.is_none() && scene.punctual_lights.is_empty() {
+            warn_if_emission_is_weak(geometry, scene, &lights);
+        }
         return lights;
     }
     if warn {
+        let unlit = if lights.is_empty() { "" } else { " (only unlit surfaces, which show their colour)" };
         tracing::warn!(
-            "{}: no emitters and no environment: lighting the scene with a uniform white environment \
-         (radiance 1); choose one with [environment] or --environment / --environment-color",
+            "{}: no emitters{unlit} and no environment: lighting the scene with a uniform white \
+             environment (radiance 1); choose one with [environment] or --environment / --environment-color",
             scene.source.display()
         );
     }
@@ -313,6 +321,32 @@ fn lights_of(geometry: &mut Geometry, scene: &Scene, light_selection: LightSelec
         &scene.punctual_lights,
         light_selection,
     )
+}
+
+/// Emitters whose power is below this share of what the default white environment (radiance 1)
+/// sends through the scene's bounds light it too weakly to be seen: a file made for a viewer,
+/// whose emissive marks stand out on lit surfaces there and light nothing here.
+const WEAK_EMISSION: f64 = 1e-3;
+
+/// A scene lit by its emitters alone (no environment, no punctual light) keeps them as its light,
+/// and the white environment is not added (the rule above); where their power is far too weak for
+/// the scene's size, the render is black but for the emitters: say so, and how to light it.
+fn warn_if_emission_is_weak(geometry: &Geometry, scene: &Scene, lights: &Lights) {
+    let power: f64 = lights.lights.iter().map(|l| l.power() as f64).sum();
+    let (min, max) = geometry.bounds();
+    let radius = 0.5 * (max - min).length() as f64;
+    // A radiance-1 environment's power through the bounding sphere: π (irradiance) × 4πr².
+    let environment = 4.0 * std::f64::consts::PI * std::f64::consts::PI * radius * radius;
+    if !(environment > 0.0 && power.is_finite()) || power >= WEAK_EMISSION * environment {
+        return;
+    }
+    tracing::warn!(
+        "{}: the scene's only light is its emissive surfaces, {:.2e} of the power a white environment \
+         would give it: expect a black image but for them. Add light with --environment-color 1,1,1 \
+         (or [environment]), or raise their emission (KHR_materials_emissive_strength)",
+        scene.source.display(),
+        power / environment
+    );
 }
 
 /// The scene's own emitters, punctual lights and environment, and nothing in their place.

@@ -454,3 +454,53 @@ fn a_camera_less_file_is_framed_and_the_flags_override_the_framing() {
     );
     assert!((ray.o - Vec3::new(4.0, 0.0, 0.0)).length() < 1e-5 && ray.d.x < -0.99, "{ray:?}");
 }
+
+/// KHR_materials_unlit surfaces emit their base colour to show it and reflect nothing; they are not
+/// the scene's light, so a scene lit by them alone gets the white environment (and its warning), and
+/// an unlit ball under it shows exactly its colour, as the extension asks, against the white sky.
+#[test]
+fn unlit_surfaces_show_their_colour_and_do_not_count_as_the_scenes_light() {
+    let colour = Vec3::new(0.2, 0.5, 0.8);
+    let mut scene = caustica::test_scenes::environment_furnace(0.5, 1.0);
+    scene.environment = None;
+    scene.materials[0] = caustica::scene::MaterialDesc {
+        name: "label".into(),
+        shading: caustica::materials::ShadingParams {
+            base_color: Vec3::ZERO,
+            metallic: 0.0,
+            specular: 0.0,
+            ..Default::default()
+        },
+        emission: colour,
+        unlit: true,
+        ..Default::default()
+    };
+    let (built, logs) = common::capture_logs(|| caustica::RenderScene::build(&scene, LightSelection::Power));
+    assert!(built.lights.environment.is_some(), "an unlit-only scene got no environment");
+    assert!(logs.contains("only unlit surfaces") && logs.contains("uniform white"), "{logs}");
+    let mut run = RunFile::default();
+    run.render.spp = 4;
+    let image = common::render(scene, &run);
+    let (w, h) = (image.width, image.height);
+    let centre = image.pixels[(h / 2 * w + w / 2) as usize];
+    assert!((centre - colour).abs().max_element() < 1e-4, "the unlit ball shows {centre}, not {colour}");
+    let corner = image.pixels[0];
+    assert!((corner - Vec3::ONE).abs().max_element() < 1e-4, "the sky behind it is {corner}");
+}
+
+/// Emitters far too weak for the scene's size (a file's emissive marks, made for a viewer that lights
+/// it) are the scene's light all the same, and the warning says so and names the flag; a lamp of
+/// ordinary power gets no such warning.
+#[test]
+fn emission_far_too_weak_for_the_scene_is_named_in_a_warning() {
+    let weak = caustica::test_scenes::furnace(0.5, 1e-4);
+    let (built, logs) = common::capture_logs(|| caustica::RenderScene::build(&weak, LightSelection::Power));
+    assert!(built.lights.environment.is_none(), "the rule changed: emitters are the scene's light");
+    assert!(
+        logs.contains("only light is its emissive surfaces") && logs.contains("--environment-color"),
+        "{logs}"
+    );
+    let lamp = caustica::test_scenes::furnace(0.5, 1.0);
+    let (_, logs) = common::capture_logs(|| caustica::RenderScene::build(&lamp, LightSelection::Power));
+    assert!(!logs.contains("emissive surfaces"), "{logs}");
+}

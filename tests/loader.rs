@@ -1602,3 +1602,75 @@ fn volume_attenuation_outside_its_range_is_refused_naming_the_material() {
     }
     load_gltf(&volume(r#""attenuationDistance":2,"attenuationColor":[0.9,0.5,0.1]"#)).expect("in range");
 }
+
+/// KHR_materials_unlit (required by DiffuseTransmissionTest) loads: the base colour and its texture
+/// become the emission, and nothing is reflected; alpha stays.
+#[test]
+fn an_unlit_material_emits_its_base_colour_and_reflects_nothing() {
+    let dir = temp_dir("unlit");
+    let material = r#""materials":[{"name":"label","pbrMetallicRoughness":{"baseColorFactor":[0.2,0.5,0.8,0.7]},"alphaMode":"BLEND","extensions":{"KHR_materials_unlit":{}}}],
+        "extensionsUsed":["KHR_materials_unlit"],"extensionsRequired":["KHR_materials_unlit"],"#;
+    let path = write(&dir, "unlit.gltf", &triangle_gltf("", r#","material":0"#, material));
+    let scene = load_gltf(&path).expect("an unlit material loads");
+    let m = &scene.materials[0];
+    assert!(m.unlit);
+    assert!(close(m.emission, Vec3::new(0.2, 0.5, 0.8)), "{}", m.emission);
+    assert_eq!(m.shading.base_color, Vec3::ZERO);
+    assert_eq!((m.shading.metallic, m.shading.specular, m.alpha), (0.0, 0.0, 0.7));
+    assert_eq!(m.alpha_mode, scene::AlphaMode::Blend);
+}
+
+/// KHR_animation_pointer channels (LightVisibility's) target no node, which gltf-json cannot parse:
+/// they are dropped with one warning naming their animation, and the file loads with its node
+/// channels. KHR_node_visibility hides a node's mesh.
+#[test]
+fn pointer_animations_are_ignored_by_name_and_hidden_nodes_are_not_loaded() {
+    let dir = temp_dir("pointer");
+    let animation = r#""animations":[{"name":"blink","channels":[{"sampler":0,"target":{"path":"pointer","extensions":{"KHR_animation_pointer":{"pointer":"/materials/0/emissiveFactor"}}}}],"samplers":[{"input":0,"output":1}]}],
+        "extensionsUsed":["KHR_animation_pointer"],"#;
+    let path = write(&dir, "pointer.gltf", &triangle_gltf("", "", animation));
+    let (scene, logs) = common::capture_logs(|| load_gltf(&path));
+    let scene = scene.expect("a file with pointer animations loads");
+    assert_eq!(triangle_count(&scene), 1);
+    assert!(logs.contains("KHR_animation_pointer") && logs.contains("animation 'blink'"), "{logs}");
+
+    let hidden = r#","extensions":{"KHR_node_visibility":{"visible":false}}"#;
+    let used = r#""extensionsUsed":["KHR_node_visibility"],"extensionsRequired":["KHR_node_visibility"],"#;
+    let scene = load_gltf(&write(&dir, "hidden.gltf", &triangle_gltf(hidden, "", used))).expect("loads");
+    assert_eq!(triangle_count(&scene), 0, "a hidden node's mesh was loaded");
+    let shown = r#","extensions":{"KHR_node_visibility":{"visible":true}}"#;
+    let scene = load_gltf(&write(&dir, "shown.gltf", &triangle_gltf(shown, "", used))).expect("loads");
+    assert_eq!(triangle_count(&scene), 1);
+}
+
+/// The loader's memory check counts what the meshes become, not only what is decoded: a file whose
+/// decoded vertices, indices and triangles fit the budget but whose built geometry and BVH (every
+/// placement of a mesh built anew) do not is refused before it is built, naming the budget; with
+/// room for the build it loads.
+#[test]
+fn a_file_whose_decoded_meshes_fit_but_whose_build_does_not_is_refused() {
+    let nodes = 5000;
+    let placements: Vec<String> = (0..nodes).map(|_| r#"{"mesh":0}"#.to_owned()).collect();
+    let scene_nodes: Vec<String> = (0..nodes).map(|i| i.to_string()).collect();
+    let text = format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[{}]}}],"nodes":[{}],
+        "meshes":[{{"name":"m","primitives":[{{"attributes":{{"POSITION":0,"NORMAL":1}}}}]}}],
+        "buffers":[{{"byteLength":72,"uri":"data:application/octet-stream;base64,{TRIANGLE_BUFFER}"}}],
+        "bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":72}}],
+        "accessors":[
+          {{"bufferView":0,"byteOffset":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}},
+          {{"bufferView":0,"byteOffset":36,"componentType":5126,"count":3,"type":"VEC3"}}]}}"#,
+        scene_nodes.join(","),
+        placements.join(",")
+    );
+    let path = write(&temp_dir("built-budget"), "placed.gltf", &text);
+    // Decoded, each placement holds three vertices of position and normal (72 bytes), the indices
+    // made for it (12) and its triangle (12).
+    let decoded = nodes as u64 * (72 + 12 + 12);
+    let error = load_gltf_within(&path, None, decoded + 4096).expect_err("the build does not fit");
+    let message = error.to_string();
+    assert_names_file(&error, &path);
+    assert!(message.contains("decoded and built") && message.contains("memory budget"), "{message}");
+    let scene = load_gltf_within(&path, None, decoded + nodes as u64 * 1024).expect("room for the build");
+    assert_eq!(triangle_count(&scene), nodes);
+}

@@ -419,3 +419,39 @@ fn a_normal_map_does_not_let_light_through_the_surface() {
     let image = common::render(scene, &run);
     assert_eq!(image.mean(), Vec3::ZERO, "light leaked through the plane");
 }
+
+/// Mirrored UVs (v running along −z, as on the mirrored half of a symmetric model) flip the
+/// bitangent: glTF's is (n × t) · w, and a mirrored face carries w = −1, so a map tilting the normal
+/// towards the bitangent tilts it towards +z here. Given as w = −1, and made by MikkTSpace from the
+/// UVs when the file has no tangents, the sun from 45° on the +z side shades with cos 15°; a
+/// handedness ignored (w taken as +1) tilts it the other way, cos 75°.
+#[test]
+fn a_normal_map_on_mirrored_uvs_follows_the_bitangents_handedness() {
+    let (s, c) = (0.5f32, 0.75f32.sqrt());
+    let texel = (Vec3::new(0.0, s, c) + Vec3::ONE) * 0.5;
+    let diagonal = std::f32::consts::FRAC_1_SQRT_2;
+    let mirrored = vec![Vec2::new(0.0, 1.0), Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0)];
+    for made in [false, true] {
+        let what = if made { "MikkTSpace's tangents" } else { "tangents with w = -1" };
+        let mut scene = normal_mapped_plane(Some(texel));
+        scene.meshes[0].uvs = vec![mirrored.clone()];
+        scene.meshes[0].tangents = Some(vec![Vec4::new(1.0, 0.0, 0.0, -1.0); 4]);
+        if made {
+            // What the loader makes for a file without tangents.
+            let tangents = caustica::scene::tangents::generate(&scene.meshes[0], 0).expect("tangents");
+            assert!(
+                tangents.iter().all(|t| t.w == -1.0),
+                "MikkTSpace's handedness on mirrored UVs: {tangents:?}"
+            );
+            scene.meshes[0].tangents = Some(tangents);
+        }
+        scene.punctual_lights = vec![sun(Vec3::new(0.0, -diagonal, -diagonal))];
+        let mut run = RunFile::default();
+        run.render.spp = 4;
+        let image = common::render(scene, &run);
+        let expected = 0.5 / std::f32::consts::PI * 15f32.to_radians().cos();
+        for p in &image.pixels {
+            assert!((p.x - expected).abs() < 1e-4 * expected, "{what}: pixel {p}, expected {expected}");
+        }
+    }
+}

@@ -217,6 +217,11 @@ pub struct MaterialDesc {
     pub alpha_mode: AlphaMode,
     /// The base colour factor's alpha (times the base colour texture's where there is one).
     pub alpha: f32,
+    /// KHR_materials_unlit: the surface shows its base colour whatever lights it, which a path tracer
+    /// renders as emission of that colour with nothing reflected (`emission` and `emissive_texture`
+    /// hold it, `shading` reflects nothing). Such emitters light what is near them, but do not count
+    /// as the scene's own light when the default white environment is decided.
+    pub unlit: bool,
 }
 
 /// KHR_materials_volume's absorption coefficient σa = −ln(color) / distance, per channel: zero for
@@ -262,6 +267,7 @@ impl Default for MaterialDesc {
             double_sided: false,
             alpha_mode: AlphaMode::Opaque,
             alpha: 1.0,
+            unlit: false,
         }
     }
 }

@@ -53,9 +53,15 @@ impl mikktspace::Geometry for Input<'_> {
         self.uvs[self.vertex(face, vert)].to_array()
     }
 
+    /// MikkTSpace's bitangent points along increasing v (OpenGL's texture space, v up); glTF's
+    /// normal maps are +Y up in the image, and glTF's v runs down it, so glTF's bitangent,
+    /// (n × t) · w, points along decreasing v: the sign is negated (as three.js's
+    /// `computeMikkTSpaceTangents` does for glTF). Kept, a map's green channel tilted the normal the
+    /// wrong way on every mesh without tangents.
     fn set_tangent_encoded(&mut self, tangent: [f32; 4], face: usize, vert: usize) {
         let v = self.vertex(face, vert);
-        self.tangents[v] = Vec4::from(tangent);
+        let [x, y, z, sign] = tangent;
+        self.tangents[v] = Vec4::new(x, y, z, -sign);
     }
 }
 
@@ -64,7 +70,10 @@ mod tests {
     use super::*;
 
     /// A quad in the xz plane whose u runs along +x and v along +z: the tangent is +x everywhere,
-    /// and the bitangent sign makes n × t (with n = +y) point along +v, i.e. w · (y × x) = +z: w = −1.
+    /// and glTF's bitangent (n × t) · w points along decreasing v (a normal map's +Y is up in the
+    /// image, where v runs down): w · (y × x) = −z, so w = +1. (NormalTangentMirrorTest's own
+    /// tangents, which Khronos wrote for glTF, have this sign on all 5240 of its triangles; MikkTSpace
+    /// alone gives the other.)
     #[test]
     fn a_planar_quad_gets_its_u_direction_as_tangent() {
         let mesh = Mesh {
@@ -87,7 +96,7 @@ mod tests {
         let tangents = generate(&mesh, 0).unwrap();
         for t in tangents {
             assert!((t.truncate() - Vec3::X).length() < 1e-5, "{t}");
-            assert_eq!(t.w, -1.0);
+            assert_eq!(t.w, 1.0);
         }
     }
 }

@@ -21,6 +21,7 @@ pub(super) fn import(
         Unread::Io(source) => Error::Io { path: path.to_path_buf(), source },
         Unread::Memory(problem) => gltf_error(problem),
     })?;
+    let bytes = without_pointer_channels(bytes).map_err(gltf_error)?;
     let gltf::Gltf { document, mut blob } =
         gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| gltf_error(describe(&e)))?;
     // gltf-json 1.4's validation indexes `accessors` with each POSITION index before checking it
@@ -77,7 +78,11 @@ pub(super) fn import(
             ),
         });
     }
-    let document = validate(document.into_json()).map_err(|e| gltf_error(describe(&e)))?;
+    // gltf-json's validation knows only the extensions compiled into it: those the loader reads
+    // from the raw JSON itself (KHR_materials_unlit, KHR_node_visibility, …) are checked above.
+    let mut root = document.into_json();
+    root.extensions_required.retain(|e| !super::SUPPORTED_EXTENSIONS.contains(&e.as_str()));
+    let document = validate(root).map_err(|e| gltf_error(describe(&e)))?;
     let version = &document.as_json().asset.version;
     if !version.starts_with("2.") {
         return Err(gltf_error(format!("asset.version is \"{version}\", only 2.x is supported")));
@@ -325,4 +330,63 @@ fn describe_uri(uri: &str, base: &Path) -> String {
     } else {
         format!("'{uri}', resolved to {}", base.join(uri).display())
     }
+}
+
+/// The file's bytes without its KHR_animation_pointer channels, which target a JSON pointer (a
+/// material's colour, a light's intensity) instead of a node and which gltf-json cannot parse
+/// ("missing field `node`"). Caustica animates nodes only: the channels are dropped with one
+/// warning naming their animations, and the rest of the file loads. A file that never names the
+/// extension is passed through untouched, unparsed.
+fn without_pointer_channels(bytes: Vec<u8>) -> std::result::Result<Vec<u8>, String> {
+    const EXTENSION: &[u8] = b"KHR_animation_pointer";
+    if !bytes.windows(EXTENSION.len()).any(|w| w == EXTENSION) {
+        return Ok(bytes);
+    }
+    let glb = bytes.starts_with(b"glTF");
+    let (json, bin) = if glb {
+        let glb = gltf::binary::Glb::from_slice(&bytes).map_err(|e| describe(&e))?;
+        (glb.json.into_owned(), glb.bin.map(std::borrow::Cow::into_owned))
+    } else {
+        (bytes, None)
+    };
+    let mut root: gltf::json::Value =
+        gltf::json::deserialize::from_slice(&json).map_err(|e| format!("not valid JSON: {e}"))?;
+    let mut dropped = Vec::new();
+    if let Some(animations) = root.get_mut("animations").and_then(|a| a.as_array_mut()) {
+        for (a, animation) in animations.iter_mut().enumerate() {
+            let name = animation.get("name").and_then(|n| n.as_str()).map(str::to_owned);
+            let Some(channels) = animation.get_mut("channels").and_then(|c| c.as_array_mut()) else {
+                continue;
+            };
+            let before = channels.len();
+            channels
+                .retain(|channel| channel.get("target").is_none_or(|target| target.get("node").is_some()));
+            if channels.len() < before {
+                dropped.push((label("animation", name.as_deref(), a), before - channels.len()));
+            }
+        }
+        // An animation left without channels animates nothing (and glTF requires one).
+        animations.retain(|a| a.get("channels").and_then(|c| c.as_array()).is_none_or(|c| !c.is_empty()));
+    }
+    if dropped.is_empty() {
+        return Ok(if glb { rebuild_glb(&json, bin)? } else { json });
+    }
+    tracing::warn!(
+        "KHR_animation_pointer channels animate material, light and camera properties, which Caustica \
+         does not: ignored {}",
+        dropped.iter().map(|(what, n)| format!("{n} channel(s) of {what}")).collect::<Vec<_>>().join(", ")
+    );
+    let json = gltf::json::serialize::to_vec(&root).map_err(|e| e.to_string())?;
+    if glb { rebuild_glb(&json, bin) } else { Ok(json) }
+}
+
+/// A GLB container of `json` and `bin`.
+fn rebuild_glb(json: &[u8], bin: Option<Vec<u8>>) -> std::result::Result<Vec<u8>, String> {
+    use std::borrow::Cow;
+    let glb = gltf::binary::Glb {
+        header: gltf::binary::Header { magic: *b"glTF", version: 2, length: 0 },
+        json: Cow::Borrowed(json),
+        bin: bin.map(Cow::Owned),
+    };
+    glb.to_vec().map_err(|e| describe(&e))
 }

@@ -106,7 +106,7 @@ impl Loader<'_> {
             warn!(file = %self.path.display(), "{object}: not supported, ignored: {}", ignored.join(", "));
         }
 
-        Ok(MaterialDesc {
+        let desc = MaterialDesc {
             name: material.name().map_or_else(|| format!("material #{index}"), str::to_owned),
             shading: ShadingParams {
                 base_color: Vec3::new(r, g, b),
@@ -143,6 +143,11 @@ impl Loader<'_> {
                 gltf::material::AlphaMode::Blend => AlphaMode::Blend,
             },
             alpha,
+            unlit: false,
+        };
+        Ok(match material.extension_value("KHR_materials_unlit") {
+            Some(_) => unlit(desc),
+            None => desc,
         })
     }
 
@@ -330,6 +335,31 @@ enum Texels {
 /// The sRGB electro-optical transfer function (IEC 61966-2-1).
 pub fn srgb_to_linear(c: f32) -> f32 {
     if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+}
+
+/// KHR_materials_unlit for a path tracer: the base colour (and its texture) is emitted and nothing is
+/// reflected, so the surface shows its colour whatever lights it, as the extension asks. The base
+/// colour texture stays for its alpha (masks, blending); everything else the material says is
+/// lighting, which the extension leaves out. Vertex colours, which multiply the base colour, do not
+/// reach the emission.
+fn unlit(lit: MaterialDesc) -> MaterialDesc {
+    MaterialDesc {
+        shading: ShadingParams {
+            base_color: Vec3::ZERO,
+            metallic: 0.0,
+            specular: 0.0,
+            ..ShadingParams::default()
+        },
+        emission: lit.shading.base_color,
+        emissive_texture: lit.base_color_texture,
+        unlit: true,
+        name: lit.name,
+        base_color_texture: lit.base_color_texture,
+        double_sided: lit.double_sided,
+        alpha_mode: lit.alpha_mode,
+        alpha: lit.alpha,
+        ..MaterialDesc::default()
+    }
 }
 
 #[cfg(test)]

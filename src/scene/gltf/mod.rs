@@ -31,9 +31,19 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_ior",
     "KHR_materials_specular",
     "KHR_materials_transmission",
+    "KHR_materials_unlit",
     "KHR_materials_volume",
+    "KHR_node_visibility",
     "KHR_texture_transform",
 ];
+
+/// Whether KHR_node_visibility sets `node` invisible (`visible: false`; true is its default).
+fn hidden_by_extension(node: &gltf::Node) -> bool {
+    node.extension_value("KHR_node_visibility")
+        .and_then(|v| v.get("visible"))
+        .and_then(|v| v.as_bool())
+        .is_some_and(|visible| !visible)
+}
 
 /// Loads a .gltf or .glb file with its first perspective camera (in node traversal order).
 pub fn load_gltf(path: &Path) -> Result<Scene> {
@@ -185,11 +195,12 @@ impl Loader<'_> {
     /// Depth-first, children in file order, so that "the first camera" is the one a reader of the file expects.
     fn walk(&mut self, scene: &gltf::Scene, node_count: usize) -> Result<()> {
         let mut visited = vec![false; node_count];
-        // Each node with its parent's world transform and whether an animation moves that parent.
-        let mut stack: Vec<(gltf::Node, Mat4, bool)> =
-            scene.nodes().map(|n| (n, Mat4::IDENTITY, false)).collect();
+        // Each node with its parent's world transform, whether an animation moves that parent, and
+        // whether KHR_node_visibility hides it.
+        let mut stack: Vec<(gltf::Node, Mat4, bool, bool)> =
+            scene.nodes().map(|n| (n, Mat4::IDENTITY, false, false)).collect();
         stack.reverse();
-        while let Some((node, parent, parent_moves)) = stack.pop() {
+        while let Some((node, parent, parent_moves, parent_hidden)) = stack.pop() {
             let object = label("node", node.name(), node.index());
             // A cycle would otherwise loop forever; glTF requires a strict tree.
             if std::mem::replace(&mut visited[node.index()], true) {
@@ -210,10 +221,13 @@ impl Loader<'_> {
             if let Some(animation) = &mut self.animation {
                 animation.order.push(node.index());
             }
-            if let Some(mesh) = node.mesh() {
+            // KHR_node_visibility: a hidden node's meshes and lights, and its descendants', are not in
+            // the scene (an animation of its visibility is a pointer animation: not followed).
+            let hidden = parent_hidden || hidden_by_extension(&node);
+            if let Some(mesh) = node.mesh().filter(|_| !hidden) {
                 self.add_mesh(&node, &mesh, world, moves)?;
             }
-            if let Some(light) = node.light() {
+            if let Some(light) = node.light().filter(|_| !hidden) {
                 self.add_light(&light, world, &object)?;
                 if moves && let Some(animation) = &mut self.animation {
                     let index = self.scene.punctual_lights.len() - 1;
@@ -224,7 +238,7 @@ impl Loader<'_> {
                 self.add_camera(&node, &camera, world, object, moves);
             }
             let children: Vec<gltf::Node> = node.children().collect();
-            stack.extend(children.into_iter().rev().map(|child| (child, world, moves)));
+            stack.extend(children.into_iter().rev().map(|child| (child, world, moves, hidden)));
         }
         Ok(())
     }

@@ -124,6 +124,7 @@ impl MaterialSpec {
             double_sided: true,
             alpha_mode: crate::scene::AlphaMode::Opaque,
             alpha: 1.0,
+            unlit: false,
         }
     }
 }

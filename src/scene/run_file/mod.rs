@@ -11,7 +11,7 @@ pub use checks::{
 };
 pub use guiding::GuidingSettings;
 pub use kinds::{FilterKind, IntegratorKind, LightSelection};
-pub use sets::SHORT_KEYS;
+pub use sets::{SHORT_KEYS, assigns};
 
 use crate::error::{Error, Result};
 use glam::Vec3;

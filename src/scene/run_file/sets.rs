@@ -63,6 +63,16 @@ impl RunFile {
     }
 }
 
+/// Whether one of `sets` (`KEY=VALUE`) assigns the dotted key `dotted` (`render.spp`), written in
+/// full or by its short key (`spp`).
+pub fn assigns(sets: &[String], dotted: &str) -> bool {
+    sets.iter().filter_map(|set| set.split_once('=')).any(|(key, _)| {
+        let key = key.trim();
+        key == dotted
+            || SHORT_KEYS.iter().any(|(short, table)| key == *short && dotted == format!("{table}.{short}"))
+    })
+}
+
 /// The keys `--set` (and Python's keyword overrides) take without their table, as Mitsuba's `-D
 /// spp=…` does, with their tables: the one list, which the Python package reads too.
 pub const SHORT_KEYS: &[(&str, &str)] = &[
