@@ -62,6 +62,7 @@ fn main() -> std::process::ExitCode {
 fn run() -> Result<()> {
     // A render's --time-limit counts from here: loading and preparing come out of it.
     let start = std::time::Instant::now();
+    signals::writes_fail_past_the_file_size_limit();
     let cli = Cli::parse();
     let render_args = match &cli.command {
         Some(Command::Render(args)) => (**args).clone(),

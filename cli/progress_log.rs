@@ -17,12 +17,15 @@ pub struct ProgressLog {
     tenths: u32,
     /// Seconds into the render of the last line.
     last: f64,
+    /// Progress the render started from (a resumed checkpoint's): not this run's work.
+    started_at: f64,
 }
 
 impl ProgressLog {
-    /// Lines on stderr unless `quiet` or stderr is a terminal (where the bar draws).
-    pub fn new(quiet: bool) -> Self {
-        Self { enabled: !quiet && !std::io::stderr().is_terminal(), tenths: 0, last: 0.0 }
+    /// Lines on stderr unless `quiet` or stderr is a terminal (where the bar draws), for a render
+    /// that starts at `started_at` (a resumed one: its rate and ETA count this run's work alone).
+    pub fn new(quiet: bool, started_at: f64) -> Self {
+        Self { enabled: !quiet && !std::io::stderr().is_terminal(), tenths: 0, last: 0.0, started_at }
     }
 
     /// Say where the render is, if a tenth was passed or the log has been silent too long.
@@ -38,7 +41,7 @@ impl ProgressLog {
 
     fn line(&mut self, progress: &caustica::Progress, seconds: f64) -> Option<String> {
         let unit = progress.unit.name();
-        let rate = progress.done / seconds.max(1e-9);
+        let rate = (progress.done - self.started_at).max(0.0) / seconds.max(1e-9);
         if progress.target == u32::MAX {
             if seconds - self.last < UNBOUNDED_EVERY {
                 return None;
@@ -82,7 +85,7 @@ mod tests {
     /// silence; none in between.
     #[test]
     fn a_line_each_tenth_and_after_half_a_minute_of_silence() {
-        let mut log = ProgressLog { enabled: true, tenths: 0, last: 0.0 };
+        let mut log = ProgressLog { enabled: true, tenths: 0, last: 0.0, started_at: 0.0 };
         assert_eq!(log.line(&at(3.0), 1.0), None, "under a tenth");
         let line = log.line(&at(6.5), 2.0).expect("a tenth passed");
         assert!(line.contains("10%") && line.contains("6.5/64 spp"), "{line}");
@@ -97,10 +100,19 @@ mod tests {
     /// Without a target (a time limit alone), every ten seconds.
     #[test]
     fn a_render_without_a_target_says_where_it_is_every_ten_seconds() {
-        let mut log = ProgressLog { enabled: true, tenths: 0, last: 0.0 };
+        let mut log = ProgressLog { enabled: true, tenths: 0, last: 0.0, started_at: 0.0 };
         let unbounded = |done| Progress { target: u32::MAX, ..at(done) };
         assert_eq!(log.line(&unbounded(5.0), 9.0), None);
         assert!(log.line(&unbounded(6.0), 10.5).expect("ten seconds").contains("6.0 spp"));
         assert_eq!(log.line(&unbounded(7.0), 15.0), None);
+    }
+
+    /// A resumed render's rate and ETA count this run's samples, not the checkpoint's: resumed at
+    /// 32 of 64 spp, 4 more in 2 s is 2 spp/s and 14 s to go (it said 18 spp/s and 0.9 s).
+    #[test]
+    fn a_resumed_render_counts_its_own_rate() {
+        let mut log = ProgressLog { enabled: true, tenths: 3, last: 0.0, started_at: 32.0 };
+        let line = log.line(&at(36.0), 2.0).expect("a tenth passed");
+        assert!(line.contains("2.00 spp/s") && line.contains("ETA 14.0 s"), "{line}");
     }
 }

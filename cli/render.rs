@@ -161,13 +161,25 @@ pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>, start: Instant
     renderer.set_max_pass(run.output.write_every);
     if let Some(resumed) = resumed {
         resumed.apply(&mut renderer)?;
+        if !args.quiet {
+            let progress = renderer.progress();
+            eprintln!(
+                "resumed     {} at {:.0} of {} {}",
+                args.resume.as_deref().unwrap_or(Path::new("")).display(),
+                progress.done,
+                progress.target,
+                progress.unit.name()
+            );
+        }
     }
+    // Rates and ETAs count what this run renders, not what a checkpoint brought.
+    let started_at = renderer.progress().done;
     if let Some(checkpoints) = &mut checkpoints {
         checkpoints.configure(&mut renderer)?;
     }
 
     let bar = progress_bar(&renderer, args.quiet);
-    let mut log = crate::progress_log::ProgressLog::new(args.quiet);
+    let mut log = crate::progress_log::ProgressLog::new(args.quiet, started_at);
     let render_start = Instant::now();
     let setup = start.elapsed().as_secs_f64();
     // What loading and preparing left of the limit. With none left the render still starts and
@@ -182,7 +194,7 @@ pub fn render(args: &RenderArgs, profile: Option<&SystemProfile>, start: Instant
         }
         let progress = renderer.progress();
         let seconds = render_start.elapsed().as_secs_f64();
-        show_progress(&bar, &progress, seconds);
+        show_progress(&bar, &progress, seconds, started_at);
         log.update(&progress, seconds);
         if let Some(server) = &mut display
             && server.due()
@@ -435,10 +447,10 @@ fn progress_bar(renderer: &Renderer, quiet: bool) -> ProgressBar {
 }
 
 /// "12.3/64 spp, 5.1 spp/s" or "17/64 passes, 2.3 passes/s".
-fn show_progress(bar: &ProgressBar, progress: &caustica::Progress, seconds: f64) {
+fn show_progress(bar: &ProgressBar, progress: &caustica::Progress, seconds: f64, started_at: f64) {
     let unit = progress.unit.name();
     let target = if progress.target == u32::MAX { String::new() } else { format!("/{}", progress.target) };
-    let rate = progress.done / seconds.max(1e-9);
+    let rate = (progress.done - started_at).max(0.0) / seconds.max(1e-9);
     bar.set_message(format!("{:.1}{target} {unit}, {rate:.2} {unit}/s", progress.done));
     bar.set_position((progress.done * 100.0) as u64);
 }

@@ -1,5 +1,6 @@
 //! Ctrl-C and SIGTERM during a render (one image or an animation's frames): the render stops at its
-//! next step and writes what it has; a second signal, or a minute without stopping, exits at once.
+//! next step and writes what it has; a second signal (a second or more after the first: signals
+//! together are one request), or a minute without stopping, exits at once.
 
 use caustica::Renderer;
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
@@ -21,6 +22,14 @@ static STOPPING: AtomicBool = AtomicBool::new(false);
 /// Signals received: the second exits at once.
 static RECEIVED: AtomicU32 = AtomicU32::new(0);
 
+/// When the first signal came.
+static FIRST: std::sync::OnceLock<std::time::Instant> = std::sync::OnceLock::new();
+
+/// Signals this close after the first are the same request: `timeout` and a terminal's job control
+/// signal the process and then its group, a moment apart, and the second read as "quit now" lost
+/// the image and the checkpoint that the first was stopping to write.
+const TOGETHER: std::time::Duration = std::time::Duration::from_millis(1000);
+
 /// Whether SIGINT or SIGTERM has come since [`watch_for_signals`].
 pub(crate) fn signalled() -> bool {
     STOPPING.load(Ordering::SeqCst)
@@ -32,10 +41,14 @@ pub(crate) fn watch_for_signals(renderer: &Renderer) {
     let flag = renderer.interrupt_flag();
     let result = ctrlc::set_handler(move || {
         if RECEIVED.fetch_add(1, Ordering::SeqCst) > 0 {
-            say("\nstopped at once: nothing more is written");
+            if FIRST.get().is_some_and(|first| first.elapsed() < TOGETHER) {
+                return;
+            }
+            say("\nstopped at once: nothing more is written (what was written stays)");
             // A write cut short leaves no partial file beside its output (the previous file stays).
             caustica::film::partial::remove_all_and_exit(INTERRUPTED_EXIT);
         }
+        FIRST.get_or_init(std::time::Instant::now);
         // Said before the render is told: told first, a small render wrote its image and exited
         // before the line was written, and the stop went unexplained.
         say("\nstopping: finishing the paths in flight and writing the image so far (again to quit now)");
@@ -63,4 +76,18 @@ pub(crate) fn watch_for_signals(renderer: &Renderer) {
 fn say(line: &str) {
     use std::io::Write;
     let _ = writeln!(std::io::stderr(), "{line}");
+}
+
+/// A write past the file size limit (`ulimit -f`) raises SIGXFSZ, whose default action kills the
+/// process mid-write and leaves the temporary file beside the output. Handled (by a flag nobody
+/// reads), the write fails with "File too large" instead, its temporary file is removed, and the
+/// failure is reported as a full disk's is.
+pub(crate) fn writes_fail_past_the_file_size_limit() {
+    #[cfg(unix)]
+    {
+        let ignored = std::sync::Arc::new(AtomicBool::new(false));
+        if let Err(e) = signal_hook::flag::register(signal_hook::consts::SIGXFSZ, ignored) {
+            tracing::warn!("cannot handle SIGXFSZ: {e}; a write past `ulimit -f` will end the process");
+        }
+    }
 }

@@ -484,3 +484,64 @@ fn a_signal_stops_lt_bdpt_and_vcm_and_writes_the_image_so_far() {
         std::fs::remove_dir_all(&dir).ok();
     }
 }
+
+/// A write past the file size limit (`ulimit -f`) raised SIGXFSZ, which killed the process mid-write
+/// and left `.NAME.partial` behind. Now it fails as a full disk does: "File too large", a non-zero
+/// exit, nothing left beside the output, and the file that was there as it was.
+#[test]
+fn a_write_past_the_file_size_limit_fails_and_leaves_nothing_behind() {
+    let dir = scratch("file-size-limit");
+    let target = dir.join("out.exr");
+    std::fs::write(&target, b"the previous image").unwrap();
+    // `ulimit -f` counts 512-byte blocks: 4 KiB, far under a 64² EXR.
+    let out = Command::new("sh")
+        .arg("-c")
+        .arg("ulimit -f 8; exec \"$0\" \"$@\"")
+        .arg(env!("CARGO_BIN_EXE_caustica"))
+        .args(["render", &box_scene(), "-q", "--spp", "1", "--width", "64", "--height", "64", "-o"])
+        .arg(&target)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "a write past the limit succeeded: {stderr}");
+    assert!(out.status.code().is_some(), "killed by a signal ({:?}): {stderr}", out.status);
+    assert!(stderr.contains("File too large") && stderr.contains("out.exr"), "{stderr}");
+    assert!(leftovers(&dir).is_empty(), "{:?}", leftovers(&dir));
+    assert_eq!(std::fs::read(&target).unwrap(), b"the previous image");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// An output that is a symbolic link is written where the link points, as `cp` and a shell's
+/// redirection write through one: the link stays a link (renaming over it replaced it with a file
+/// and left the file it pointed to with the old image). And `-o` into a missing folder makes it.
+#[test]
+fn an_output_through_a_symbolic_link_is_written_where_it_points_and_missing_folders_are_made() {
+    let dir = scratch("symlink");
+    let real = dir.join("real.exr");
+    let link = dir.join("link.exr");
+    std::fs::write(&real, b"old").unwrap();
+    std::os::unix::fs::symlink("real.exr", &link).unwrap();
+    let nested = dir.join("made").join("here").join("out.png");
+    let out = caustica(&[
+        "render",
+        &box_scene(),
+        "-q",
+        "--spp",
+        "1",
+        "--width",
+        "16",
+        "--height",
+        "16",
+        "-o",
+        link.to_str().unwrap(),
+        "-o",
+        nested.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink(), "the link was replaced");
+    let image = read_exr(&real).expect("the image is where the link points");
+    assert_eq!((image.width, image.height), (16, 16));
+    assert!(nested.is_file(), "the missing folders were not made");
+    assert!(leftovers(&dir).is_empty(), "{:?}", leftovers(&dir));
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -137,8 +137,11 @@ pub struct RenderArgs {
     #[arg(long)]
     pub hit_points_per_pixel: Option<u32>,
     /// Stop this many seconds after the command started, loading and preparing included (with
-    /// --frames: of each frame's rendering); without --spp or --passes it renders until then,
-    /// however many samples or passes that is; overrides the run file.
+    /// --frames: of each frame's rendering); overrides the run file. One rule for a limit given on
+    /// the command line, here or as --set render.time_limit: without samples given there too
+    /// (--spp, --passes, --set render.spp or progressive.passes) it renders until the limit,
+    /// however many samples or passes that is; with them, whichever comes first. A run file's own
+    /// time_limit stops its spp or passes early.
     #[arg(long)]
     pub time_limit: Option<f64>,
     /// Path guiding (pt, pt-naive): training passes of 1, 2, 4, … samples per pixel learn where light
@@ -224,8 +227,15 @@ impl RenderArgs {
         r.noise_threshold = self.noise_threshold.unwrap_or(r.noise_threshold);
         r.min_spp = self.min_spp.unwrap_or(r.min_spp);
         run.guiding.enabled |= self.guiding;
-        // A time limit alone on the command line is the budget: render until it, without end.
-        let until_the_limit = self.time_limit.is_some() && self.spp.is_none() && self.passes.is_none();
+        // A time limit on the command line without samples there is the budget: render until it,
+        // whatever the run file's spp or passes. The same rule for --time-limit and --set.
+        use caustica::scene::run_file::assigns;
+        let limit_here = self.time_limit.is_some() || assigns(&self.set, "render.time_limit");
+        let samples_here = self.spp.is_some()
+            || self.passes.is_some()
+            || assigns(&self.set, "render.spp")
+            || assigns(&self.set, "progressive.passes");
+        let until_the_limit = limit_here && !samples_here;
         if until_the_limit {
             r.spp = u32::MAX;
         }
@@ -336,6 +346,30 @@ mod tests {
         let args = render_args(&["caustica", "render", "--environment-strength=-1"]);
         let error = caustica::scene::load_with(&path, |run| args.apply(run)).expect_err("negative strength");
         assert!(error.to_string().contains("environment.strength"), "{error}");
+    }
+
+    /// One rule for a time limit given on the command line, by flag or by --set: without samples
+    /// given there too it renders until the limit, whatever the run file's spp and passes; with
+    /// them, the samples stand. (--set render.time_limit kept the run file's spp, --time-limit
+    /// dropped it.)
+    #[test]
+    fn a_command_line_time_limit_renders_until_it_however_it_is_given() {
+        let (path, _) = outdoor("time-limit");
+        let spp_of = |args: &[&str]| {
+            let args = render_args(&[&["caustica", "render"], args].concat());
+            let (_, run) = caustica::scene::load_with_sets(&path, &args.set, |run| args.apply(run)).unwrap();
+            (run.render.spp, run.progressive.passes)
+        };
+        let until = (u32::MAX, u32::MAX);
+        assert_eq!(spp_of(&["--time-limit", "5"]), until);
+        assert_eq!(spp_of(&["--set", "render.time_limit=5"]), until);
+        assert_eq!(spp_of(&["--set", "time_limit=5"]), until);
+        assert_eq!(spp_of(&["--time-limit", "5", "--spp", "8"]).0, 8);
+        assert_eq!(spp_of(&["--set", "time_limit=5", "--spp", "8"]).0, 8);
+        assert_eq!(spp_of(&["--time-limit", "5", "--set", "spp=8"]).0, 8);
+        assert_eq!(spp_of(&["--set", "render.time_limit=5", "--set", "render.spp=8"]).0, 8);
+        assert_eq!(spp_of(&["--time-limit", "5", "--passes", "3"]).1, 3);
+        assert_eq!(spp_of(&[]).0, RunFile::default().render.spp, "no limit, no change");
     }
 
     #[test]

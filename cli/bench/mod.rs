@@ -72,6 +72,10 @@ pub fn run(args: &BenchArgs) -> Result<BenchReport> {
         Some(path) => read_exr(path)?,
         None => {
             let budget = args.reference_time.unwrap_or(4.0 * args.time);
+            say(&format!(
+                "bench: no --reference: rendering one with {} for {budget:.0} s",
+                args.reference_integrator.name()
+            ));
             let mut reference_run = run.clone();
             reference_run.render.seed = run.render.seed.wrapping_add(1);
             let image = render_for(&scene, &reference_run, args.reference_integrator, budget, |_, _, _| {})?;
@@ -91,8 +95,11 @@ pub fn run(args: &BenchArgs) -> Result<BenchReport> {
     };
     let mut checkpoints = Vec::new();
     let mut series = Vec::new();
+    let total = args.integrators.len() * selections.len();
     for &integrator in &args.integrators {
         for &light_selection in &selections {
+            let name = series_name(integrator, light_selection, selections.len() > 1);
+            say(&format!("bench: {name} ({} of {total}) for {:.0} s", series.len() + 1, args.time));
             let mut measure = |seconds: f64, samples_or_passes: f64, image: &Image| {
                 if let Some(e) = compare(image, &reference) {
                     checkpoints.push(Checkpoint {
@@ -110,7 +117,12 @@ pub fn run(args: &BenchArgs) -> Result<BenchReport> {
             let mut run = run.clone();
             run.render.light_selection = light_selection;
             let image = render_for(&scene, &run, integrator, args.time, &mut measure)?;
-            let name = series_name(integrator, light_selection, selections.len() > 1);
+            if let Some(last) = checkpoints.last().filter(|c| c.integrator == integrator) {
+                say(&format!(
+                    "bench: {name}: {:.1} spp|passes in {:.2} s, relMSE {:.6}",
+                    last.samples_or_passes, last.seconds, last.relmse
+                ));
+            }
             let exr = args.out_dir.join(format!("{name}.exr"));
             write_image(&image, &exr, run.film.exposure)?;
             let error_png = args.out_dir.join(format!("{name}-error.png"));
@@ -134,6 +146,11 @@ pub fn run(args: &BenchArgs) -> Result<BenchReport> {
     Ok(BenchReport { checkpoints, files, rendered_reference })
 }
 
+/// A line on stderr, so that a long bench shows where it is while stdout keeps its table.
+fn say(line: &str) {
+    let _ = writeln!(std::io::stderr(), "{line}");
+}
+
 /// A series' name: the integrator, and the light selection when several are compared (`pt-tree`).
 pub fn series_name(integrator: IntegratorKind, selection: LightSelection, with_selection: bool) -> String {
     if with_selection {
@@ -143,8 +160,9 @@ pub fn series_name(integrator: IntegratorKind, selection: LightSelection, with_s
     }
 }
 
-/// Render `scene` with `integrator` for `budget` seconds, calling `measure(seconds, samples or
-/// passes, image)` after 1, 2, 4, … samples per pixel or passes and at the end.
+/// Render `scene` with `integrator` for `budget` seconds (at least its first sample per pixel or
+/// pass), calling `measure(seconds, samples or passes, image)` after 1, 2, 4, … samples per pixel
+/// or passes and at the end.
 fn render_for(
     scene: &Scene,
     run: &RunFile,
@@ -162,7 +180,11 @@ fn render_for(
     loop {
         let step = Instant::now();
         renderer.set_target(target);
-        renderer.run(Some((budget - rendering).max(0.0)), |_| {});
+        // The first sample or pass runs whole whatever the budget: a measurement of nothing (a
+        // photon pass the limit dropped) is a black image at 0 spp, which a log axis cannot place
+        // and which says nothing of the integrator.
+        let limit = (target > 1).then(|| (budget - rendering).max(0.0));
+        renderer.run(limit, |_| {});
         rendering += step.elapsed().as_secs_f64();
         let image = renderer.image();
         measure(rendering, renderer.progress().done, &image);

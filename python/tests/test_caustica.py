@@ -417,3 +417,23 @@ def test_the_bouncing_block_example_writes_denoised_frames_of_a_moving_block(tmp
     frames = sorted((tmp_path / "out/bouncing").glob("frame-*.png"))
     assert [f.name for f in frames] == ["frame-0000.png", "frame-0001.png", "frame-0002.png"]
     assert frames[0].read_bytes() != frames[2].read_bytes(), "the block did not move"
+
+
+def test_the_readme_quick_start_runs_and_says_what_it_made(tmp_path):
+    """The README's Python quick start, as a new user pastes it (from the repository's root, the
+    paths as written): it runs, prints what it rendered and writes the image it names."""
+    readme = (ROOT / "README.md").read_text()
+    section = readme[readme.index("## Python"):]
+    start = section.index("```python\n") + len("```python\n")
+    block = section[start:section.index("```", start)]
+    # The scenes are named from the repository's root, the image lands in the test's folder.
+    block = block.replace('"scenes/', f'"{ROOT / "scenes"}/').replace('"cornell.png"', f'"{tmp_path / "cornell.png"}"')
+    if not caustica.has_denoiser():
+        block = block.replace("clean = result.denoised()", "clean = result.color")
+    script = tmp_path / "quick_start.py"
+    script.write_text(block)
+    run = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=600)
+    assert run.returncode == 0, run.stderr
+    assert "samples in" in run.stdout and "cornell.png" in run.stdout, run.stdout
+    assert "sppm: 64 of 64 passes" in run.stdout, run.stdout
+    assert (tmp_path / "cornell.png").stat().st_size > 0

@@ -14,8 +14,10 @@ pub struct PartialFile {
 }
 
 impl PartialFile {
-    /// A new partial file beside `path`, its folder made if need be; the problem, if it cannot be.
+    /// A new partial file beside `path` (beside what it points to, if it is a symbolic link: see
+    /// [`through_links`]), its folder made if need be; the problem, if it cannot be.
     pub fn beside(path: &Path) -> Result<Self, String> {
+        let path = &through_links(path);
         let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
         std::fs::create_dir_all(dir).map_err(|e| format!("cannot create folder: {e}"))?;
         let name = path.file_name().map_or("output".into(), |n| n.to_string_lossy().into_owned());
@@ -42,8 +44,9 @@ impl PartialFile {
         self.file.as_file_mut()
     }
 
-    /// On disk, then renamed over `path`.
+    /// On disk, then renamed over `path` (over what it points to, if it is a symbolic link).
     pub fn finish(self, path: &Path) -> Result<(), String> {
+        let path = &through_links(path);
         let Self { file, _listed } = self;
         file.as_file().sync_all().map_err(|e| e.to_string())?;
         // Renamed under the list's lock, as it was made: once a process exiting at once has removed
@@ -54,6 +57,23 @@ impl PartialFile {
         drop(list);
         renamed
     }
+}
+
+/// Where a write to `path` goes: `path` itself, or, if it is a symbolic link, the file it points to
+/// (followed through further links; a dangling link's target is made). Renaming the finished file
+/// over the link would replace the link with a file, and the file it pointed to would keep the old
+/// image: `cp` and shell redirection write through a link, and so do we.
+pub fn through_links(path: &Path) -> PathBuf {
+    let mut path = path.to_path_buf();
+    // A bound on the links followed: a loop of links ends in the last one, whose write then fails.
+    for _ in 0..40 {
+        let Ok(target) = std::fs::read_link(&path) else { break };
+        path = match path.parent() {
+            Some(dir) if target.is_relative() => dir.join(target),
+            _ => target,
+        };
+    }
+    path
 }
 
 static PENDING: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
