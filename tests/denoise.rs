@@ -41,6 +41,36 @@ fn denoising_the_cornell_box_at_8_spp_cuts_its_relmse_to_under_a_third() {
     assert!(clean.relmse <= noisy.relmse / 3.0, "denoised {} against raw {}", clean.relmse, noisy.relmse);
 }
 
+/// The library's denoiser alone: a flat grey wall under white noise comes out far closer to the
+/// wall's grey. (Here rather than in the core's unit tests, so that CI builds one test binary with
+/// the feature, not two.)
+#[cfg(feature = "denoise")]
+#[test]
+fn noise_on_a_flat_wall_goes_away() {
+    use caustica::film::Image;
+    use caustica::film::aov::AovImages;
+    use glam::Vec3;
+    let (w, h) = (48u32, 32u32);
+    let n = (w * h) as usize;
+    let mut state = 1u32;
+    let mut noise = || {
+        state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        (state >> 8) as f32 / (1 << 24) as f32 - 0.5
+    };
+    let pixels = (0..n).map(|_| Vec3::splat(0.5) + 0.4 * Vec3::new(noise(), noise(), noise())).collect();
+    let color = Image { width: w, height: h, pixels };
+    let features = AovImages {
+        albedo: Image { width: w, height: h, pixels: vec![Vec3::splat(0.8); n] },
+        normal: Image { width: w, height: h, pixels: vec![Vec3::Z; n] },
+        depth: vec![1.0; n],
+        spp: Vec::new(),
+    };
+    let out = caustica::film::denoise::denoise(&color, &features).unwrap();
+    let mse =
+        |image: &Image| image.pixels.iter().map(|p| (*p - 0.5).length_squared()).sum::<f32>() / n as f32;
+    assert!(mse(&out) < mse(&color) / 10.0, "{} against {}", mse(&out), mse(&color));
+}
+
 /// Without the feature and without pyoidn (an interpreter that is not there), the command refuses
 /// before rendering and names both ways to a denoiser.
 #[cfg(not(feature = "denoise"))]

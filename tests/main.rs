@@ -9,6 +9,7 @@ mod animation;
 mod aov;
 mod bench;
 mod bidirectional;
+mod camera;
 mod caustics;
 mod cli;
 mod common;
