@@ -545,3 +545,37 @@ fn an_output_through_a_symbolic_link_is_written_where_it_points_and_missing_fold
     assert!(leftovers(&dir).is_empty(), "{:?}", leftovers(&dir));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Two signals a moment apart (as `timeout` sends them, to the process and then its group) are one
+/// request: the render stops and writes its image as for one, rather than read the second as
+/// "quit now" and write nothing.
+#[test]
+fn signals_that_come_together_are_one_request() {
+    let dir = scratch("signals-together");
+    let target = dir.join("out.exr");
+    let child = spawn(&[
+        "render",
+        &box_scene(),
+        "--spp",
+        "1000000",
+        "--width",
+        "48",
+        "--height",
+        "48",
+        "-o",
+        target.to_str().unwrap(),
+    ]);
+    std::thread::sleep(Duration::from_millis(1500));
+    signal(&child, "INT");
+    std::thread::sleep(Duration::from_millis(30));
+    signal(&child, "INT");
+    let out = child.wait_with_output().unwrap();
+    let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert_eq!(out.status.code(), Some(130), "{stdout}{stderr}");
+    assert!(!stderr.contains("stopped at once"), "the second signal quit: {stderr}");
+    assert!(stdout.contains("stopped     by a signal"), "{stdout}");
+    let image = read_exr(&target).expect("the image so far is written");
+    assert!(image.pixels.iter().all(|p| p.is_finite()) && image.mean().max_element() > 0.0);
+    assert!(leftovers(&dir).is_empty(), "{:?}", leftovers(&dir));
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -423,3 +423,26 @@ fn bdpt_checkpoints_whose_fields_lie_are_refused() {
 fn vcm_checkpoints_whose_fields_lie_are_refused() {
     well_formed_lies_are_refused("vcm");
 }
+
+/// A resumed render says so and where it starts (it said nothing, and its first progress line's rate
+/// counted the checkpoint's samples as its own).
+#[test]
+fn a_resumed_render_says_it_resumed_and_from_where() {
+    let dir = tempfile::tempdir().unwrap();
+    let (ck, out) = (dir.path().join("ck.exr"), dir.path().join("o.exr"));
+    assert!(
+        caustica(&["--spp", "2", "--checkpoint"], &[&ck, Path::new("-o"), &out]).status().unwrap().success()
+    );
+    let resumed = Command::new(env!("CARGO_BIN_EXE_caustica"))
+        .arg("render")
+        .arg(common::data("cornell-spheres.gltf"))
+        .args(["--width", "48", "--height", "36", "--spp", "4", "--resume"])
+        .arg(&ck)
+        .arg("-o")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&resumed.stderr);
+    assert!(resumed.status.success(), "{stderr}");
+    assert!(stderr.contains("resumed") && stderr.contains("at 2 of 4 spp"), "{stderr}");
+}
