@@ -159,7 +159,8 @@ impl Shards {
 
     /// Paths over all shards (a chunk each).
     pub fn paths(&self) -> u32 {
-        self.plan.chunk * self.shards.len().max(workers()) as u32
+        let shards = if self.shards.is_empty() { workers() } else { self.shards.len() };
+        self.plan.chunk * shards as u32
     }
 
     /// Paths per shard.
@@ -167,9 +168,9 @@ impl Shards {
         self.plan.chunk
     }
 
-    /// Make the shards (one per worker) or bring their schedules up to date.
-    fn prepare(&mut self) {
-        let workers = workers();
+    /// Make the shards (one per worker, at most `limit`) or bring their schedules up to date.
+    fn prepare(&mut self, limit: usize) {
+        let workers = workers().min(limit.max(1));
         while self.shards.len() < workers {
             let mut world = World::new();
             (self.plan.spawn)(&mut world, self.plan.chunk, self.shards.len(), workers);
@@ -193,7 +194,7 @@ impl Shards {
     /// Run every shard on its own worker for about `budget` (at least one bounce each, none for a
     /// shard with nothing in flight), lending it what it reads and folding back what it counted.
     pub fn run_round(&mut self, main: &mut World, budget: Duration) -> Round {
-        self.prepare();
+        self.prepare(main.get_resource::<ShardLimit>().map_or(usize::MAX, |limit| limit.0));
         for shard in &mut self.shards {
             for link in &self.plan.links {
                 (link.lend)(main, &mut shard.world);
@@ -222,7 +223,11 @@ impl Shards {
 
     /// Run `f` on every shard's World (a host reading its paths, a test).
     pub fn for_each_world(&mut self, mut f: impl FnMut(&mut World)) {
-        self.prepare();
+        if self.shards.is_empty() {
+            self.prepare(usize::MAX);
+        } else {
+            self.prepare(self.shards.len());
+        }
         for shard in &mut self.shards {
             f(&mut shard.world);
         }
@@ -257,6 +262,20 @@ pub struct RoundFull(pub bool);
 /// Worker threads: one shard each.
 pub fn workers() -> usize {
     rayon::current_num_threads().max(1)
+}
+
+/// The most shards a render's phases make, whatever the worker count: a film's pixels over the
+/// smallest chunk that is cut, so that a thousand workers on a small film do not each make a World
+/// and a chunk (`--threads 1024` on a 32² film took 11 s and 1.6 GB). Any number of shards gives
+/// the same bits.
+#[derive(Resource, Clone, Copy, Debug)]
+pub struct ShardLimit(pub usize);
+
+impl ShardLimit {
+    /// The limit for a `pixels`-pixel render.
+    pub fn for_film(pixels: u64) -> Self {
+        Self(usize::try_from(pixels.div_ceil(SMALLEST_SHARED_CHUNK)).unwrap_or(usize::MAX).max(1))
+    }
 }
 
 /// Rows below which a chunk is not cut to a worker's share of the film: enough lanes to queue by

@@ -108,6 +108,7 @@ impl Renderer {
         let mut run = run.clone();
         run.render.chunk = crate::shards::chunk_within_share(run.render.chunk, pixels);
         let run = &run;
+        world.insert_resource(crate::shards::ShardLimit::for_film(pixels));
         let pilot = if integrator.traces_light_paths() {
             let config = world.resource::<crate::resources::RenderConfig>();
             let scene = world.resource::<crate::resources::SceneResource>();
