@@ -329,9 +329,15 @@ fn lights_of(geometry: &mut Geometry, scene: &Scene, light_selection: LightSelec
 const WEAK_EMISSION: f64 = 1e-3;
 
 /// A scene lit by its emitters alone (no environment, no punctual light) keeps them as its light,
-/// and the white environment is not added (the rule above); where their power is far too weak for
-/// the scene's size, the render is black but for the emitters: say so, and how to light it.
+/// and the white environment is not added (the rule above); where a file opened alone (not a run
+/// file) has emitters far too weak for its size, the render is black but for them: say so, and how
+/// to light it.
 fn warn_if_emission_is_weak(geometry: &Geometry, scene: &Scene, lights: &Lights) {
+    // A run file's author chose its light (and its huge floor spheres stretch the bounds): the
+    // warning is for a file made for a viewer, opened alone.
+    if scene.source.extension().is_some_and(|e| e.eq_ignore_ascii_case("toml")) {
+        return;
+    }
     let power: f64 = lights.lights.iter().map(|l| l.power() as f64).sum();
     let (min, max) = geometry.bounds();
     let radius = 0.5 * (max - min).length() as f64;
