@@ -189,6 +189,25 @@ impl Lights {
         Some((index, pmf * (1.0 - share)))
     }
 
+    /// [`Lights::select`] for the first `count` of `N` shading points at once, the same picks (the
+    /// rest `None`): by the selector, `N` searches of its CDF interleaved; by the tree, one point
+    /// after another.
+    #[inline]
+    pub fn select_many<const N: usize>(
+        &self,
+        p_ref: &[Vec3; N],
+        n_ref: &[Vec3; N],
+        u_select: &[f32; N],
+        count: usize,
+    ) -> [Option<(u32, f32)>; N] {
+        if self.tree.is_none() {
+            let mut chosen = self.selector.sample_many(u_select);
+            chosen[count..].fill(None);
+            return chosen;
+        }
+        std::array::from_fn(|i| if i < count { self.select(p_ref[i], n_ref[i], u_select[i]) } else { None })
+    }
+
     /// Pick a light with `u_select` for a shading point `p_ref` with normal `n_ref` (zero: none; on the
     /// side the point is shaded from, which visibility-aware selection needs) and a point on it at `time`. The returned pdf is per unit solid angle at `p_ref` and includes the
     /// selection probability.

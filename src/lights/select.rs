@@ -22,6 +22,15 @@ impl LightSelector {
         Some((i as u32, pmf))
     }
 
+    /// [`LightSelector::sample`] for `N` numbers at once (the searches interleaved), the same picks.
+    #[inline]
+    pub fn sample_many<const N: usize>(&self, u: &[f32; N]) -> [Option<(u32, f32)>; N] {
+        match &self.cdf {
+            None => [None; N],
+            Some(cdf) => cdf.sample_discrete_many(u).map(|(i, pmf)| Some((i as u32, pmf))),
+        }
+    }
+
     /// Probability of index `i`.
     #[inline]
     pub fn pmf(&self, i: u32) -> f32 {

@@ -60,8 +60,34 @@ impl Distribution1D {
     /// probability. Steps of zero mass have equal boundaries and are skipped over, never chosen.
     #[inline]
     pub fn sample_discrete(&self, u: f32) -> (usize, f32) {
-        let i = (self.cdf.partition_point(|&c| c <= u).max(1) - 1).min(self.len() - 1);
-        (i, self.step_probability(i))
+        self.sample_discrete_many(&[u])[0]
+    }
+
+    /// [`Distribution1D::sample_discrete`] for `N` numbers at once: one branchless binary search per
+    /// number (a branch on the CDF is a coin flip no predictor guesses: 8% of `pt`'s time on a scene
+    /// of 15 872 emitting triangles went to mispredicted searches), the `N` searches interleaved
+    /// level by level, so that their loads overlap instead of waiting on each other.
+    #[inline]
+    pub fn sample_discrete_many<const N: usize>(&self, u: &[f32; N]) -> [(usize, f32); N] {
+        let cdf = self.cdf.as_slice();
+        // The first index whose CDF exceeds u (`partition_point(|&c| c <= u)`): the CDF does not
+        // decrease, so any search for it finds the same index.
+        let mut base = [0usize; N];
+        let mut size = cdf.len();
+        while size > 1 {
+            let half = size / 2;
+            for (b, &u) in base.iter_mut().zip(u) {
+                let mid = *b + half;
+                // A data-dependent choice that no predictor guesses: a conditional move, not a branch.
+                *b = std::hint::select_unpredictable(cdf[mid] <= u, mid, *b);
+            }
+            size -= half;
+        }
+        std::array::from_fn(|k| {
+            let after = base[k] + (cdf[base[k]] <= u[k]) as usize;
+            let i = (after.max(1) - 1).min(self.len() - 1);
+            (i, self.step_probability(i))
+        })
     }
 
     /// A point x in [0, 1) for `u` in [0, 1), its density and its step.
@@ -154,6 +180,36 @@ mod tests {
         let p = crate::sampling::chi2::discrete_chi2_p_value(&counts, &pmf, n).unwrap();
         assert!(p > 1e-3, "p-value {p}, counts {counts:?}");
         assert!((dist.integral() - 2.0).abs() < 1e-6);
+    }
+
+    /// The branchless searches, one or eight at once, find the step that holds u: numbers on step
+    /// boundaries, inside zero-mass runs, at 0 and just below 1, and NaN.
+    #[test]
+    fn branchless_searches_pick_the_step_that_holds_u() {
+        for n in [1usize, 2, 3, 7, 8, 100, 1000] {
+            let func: Vec<f32> = (0..n).map(|i| if i % 3 == 1 { 0.0 } else { (i % 7 + 1) as f32 }).collect();
+            let d = Distribution1D::new(&func);
+            let mut us: Vec<f32> = d.cdf.clone();
+            us.extend((0..500).map(|i| crate::sampling::Sampler::new(4, i, 0).get1d(0)));
+            us.extend([0.0, ONE_MINUS_EPSILON, f32::NAN]);
+            for chunk in us.chunks(8) {
+                let mut u = [0.5f32; 8];
+                u[..chunk.len()].copy_from_slice(chunk);
+                let many = d.sample_discrete_many(&u);
+                for k in 0..8 {
+                    // The definition: the last step whose start is at most u.
+                    let i = (d.cdf.partition_point(|&c| c <= u[k]).max(1) - 1).min(n - 1);
+                    let one = d.sample_discrete(u[k]);
+                    assert_eq!(
+                        (many[k].0, many[k].1.to_bits()),
+                        (i, d.step_probability(i).to_bits()),
+                        "n {n}, u {}",
+                        u[k]
+                    );
+                    assert_eq!(one, many[k]);
+                }
+            }
+        }
     }
 
     #[test]

@@ -37,13 +37,13 @@ pub fn sample_lights(
     let lights = &scene.lights;
     // Each lane's light and the probability of its choice; per lane, as selection reads what
     // differs per lane (a tree's nodes, a distribution's steps).
-    let mut chosen = [None; WIDTH];
     let mut triangles: [Option<&Light>; WIDTH] = [None; WIDTH];
     let (mut in_lanes, mut one_by_one) = (0u32, 0u32);
     // The lights chosen, asked for before any is read: a scene of many emitting triangles (a
     // lamp's mesh) reads them from memory, and the lanes' waits then overlap.
+    let u_select = std::array::from_fn(|i| g.u[i].light_select());
+    let chosen = lights.select_many(&p, &n_side, &u_select, query.count);
     for i in 0..query.count {
-        chosen[i] = lights.select(p[i], n_side[i], g.u[i].light_select());
         if let Some(light) = chosen[i].and_then(|(index, _)| lights.lights.get(index as usize)) {
             crate::geometry::wide_bvh::prefetch_line(&light.shape);
             crate::geometry::wide_bvh::prefetch_line(&light.motion);
