@@ -177,16 +177,37 @@ impl Lights {
             return self.selector.sample(u_select);
         };
         let share = self.tree_infinite_share();
-        if u_select < share {
-            let (i, pmf) = self.infinite_selector.sample((u_select / share).min(ONE_MINUS_EPSILON))?;
-            return Some((self.infinite[i as usize], pmf * share));
-        }
-        let u = ((u_select - share) / (1.0 - share)).min(ONE_MINUS_EPSILON);
+        let u = match self.split_tree_share(u_select) {
+            Err(infinite) => return infinite,
+            Ok(u) => u,
+        };
         let (index, pmf) = match &self.visibility {
             Some(grid) => grid.sample(tree, p_ref, n_ref, u)?,
             None => tree.sample(p_ref, n_ref, u)?,
         };
         Some((index, pmf * (1.0 - share)))
+    }
+
+    /// With a tree, `u_select`'s choice between the infinite lights (the light chosen among them,
+    /// as `Err`) and the tree (the number that descends it, as `Ok`).
+    #[inline]
+    pub(crate) fn split_tree_share(&self, u_select: f32) -> Result<f32, Option<(u32, f32)>> {
+        let share = self.tree_infinite_share();
+        if u_select < share {
+            let chosen = self.infinite_selector.sample((u_select / share).min(ONE_MINUS_EPSILON));
+            return Err(chosen.map(|(i, pmf)| (self.infinite[i as usize], pmf * share)));
+        }
+        Ok(((u_select - share) / (1.0 - share)).min(ONE_MINUS_EPSILON))
+    }
+
+    /// The tree and the share of selections it takes, where selection is by the tree alone (not
+    /// visibility-aware): what the lanes descend (`kernel::lanes::tree`).
+    #[inline]
+    pub(crate) fn tree_alone(&self) -> Option<(&LightTree, f32)> {
+        match (&self.tree, &self.visibility) {
+            (Some(tree), None) => Some((tree, 1.0 - self.tree_infinite_share())),
+            _ => None,
+        }
     }
 
     /// [`Lights::select`] for the first `count` of `N` shading points at once, the same picks (the

@@ -91,17 +91,17 @@ impl LightBounds {
 /// [`LightBounds`] with what every importance evaluation needs precomputed: the tree's descent
 /// evaluates two of these per level for every light sample.
 #[derive(Clone, Copy, Debug)]
-struct NodeBounds {
-    center: Vec3,
-    phi: f32,
-    w: Vec3,
-    cos_theta_o: f32,
-    sin_theta_o: f32,
-    cos_theta_e: f32,
+pub(crate) struct NodeBounds {
+    pub(crate) center: Vec3,
+    pub(crate) phi: f32,
+    pub(crate) w: Vec3,
+    pub(crate) cos_theta_o: f32,
+    pub(crate) sin_theta_o: f32,
+    pub(crate) cos_theta_e: f32,
     /// Squared radius of the bounding sphere of the box.
-    radius2: f32,
+    pub(crate) radius2: f32,
     /// pbrt's floor on the squared distance, half the box diagonal (keeps near points finite).
-    min_d2: f32,
+    pub(crate) min_d2: f32,
 }
 
 impl NodeBounds {
@@ -178,11 +178,11 @@ fn cone_union(wa: Vec3, cos_a: f32, wb: Vec3, cos_b: f32) -> (Vec3, f32) {
 /// A node: its bounds and either its second child (interior; the first child is the next node) or
 /// its light (leaf).
 #[derive(Clone, Copy, Debug)]
-struct Node {
-    bounds: NodeBounds,
+pub(crate) struct Node {
+    pub(crate) bounds: NodeBounds,
     /// Second child's index for an interior node, the light's index for a leaf.
-    index: u32,
-    leaf: bool,
+    pub(crate) index: u32,
+    pub(crate) leaf: bool,
 }
 
 /// The light tree.
@@ -243,6 +243,11 @@ impl LightTree {
         let union = a.union(&b);
         self.nodes[node].bounds = NodeBounds::new(union);
         union
+    }
+
+    /// The nodes, depth first (for the descent in lanes, `kernel::lanes::tree`).
+    pub(crate) fn nodes(&self) -> &[Node] {
+        &self.nodes
     }
 
     /// Whether the tree holds no light.

@@ -3,6 +3,7 @@
 //! contribution and the shadow segment.
 
 use super::surface::Surface;
+use super::tree::select_lights;
 use super::triangle_light::TriangleLanes;
 use super::v3::{Mask, MaskBits, V3, max_element, select};
 use super::{Group, Lanes, WIDTH, power_heuristic};
@@ -35,16 +36,15 @@ pub fn sample_lights(
     let (s, g) = (query.surface, query.group);
     let (p, n_side, times) = (s.p.lanes(), s.n_side.lanes(), g.time.to_array());
     let lights = &scene.lights;
-    // Each lane's light and the probability of its choice; per lane, as selection reads what
-    // differs per lane (a tree's nodes, a distribution's steps).
     let mut triangles: [Option<&Light>; WIDTH] = [None; WIDTH];
     let (mut in_lanes, mut one_by_one) = (0u32, 0u32);
     // The lights chosen, asked for before any is read: a scene of many emitting triangles (a
     // lamp's mesh) reads them from memory, and the lanes' waits then overlap.
     let u_select = std::array::from_fn(|i| g.u[i].light_select());
-    let chosen = lights.select_many(&p, &n_side, &u_select, query.count);
-    for i in 0..query.count {
-        if let Some(light) = chosen[i].and_then(|(index, _)| lights.lights.get(index as usize)) {
+    // Each lane's light and the probability of its choice, in lanes (`tree.rs`).
+    let chosen = select_lights(lights, s.p, s.n_side, u_select, query.count);
+    for choice in &chosen[..query.count] {
+        if let Some(light) = choice.and_then(|(index, _)| lights.lights.get(index as usize)) {
             crate::geometry::wide_bvh::prefetch_line(&light.shape);
             crate::geometry::wide_bvh::prefetch_line(&light.motion);
         }

@@ -16,6 +16,7 @@
 //! | `columns.rs` | how lanes reach the paths' columns |
 //! | `surface.rs` | the hit point, frames, offset origins |
 //! | `light.rs` | next-event estimation |
+//! | `tree.rs` | light selection: the light tree's descent in lanes |
 //! | `triangle_light.rs` | a point on a triangle light, by solid angle or by area |
 //! | `shade.rs` | a class's vertices: materials resolved, then the vertex in lanes |
 //! | `bsdf.rs` | the BSDFs of the classes: Lambert's, the metallic-roughness mixture |
@@ -29,6 +30,7 @@ mod ggx;
 mod light;
 mod shade;
 mod surface;
+mod tree;
 mod triangle_light;
 mod v3;
 

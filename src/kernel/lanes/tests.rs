@@ -332,3 +332,49 @@ fn hits_on_emitters_and_misses_are_the_scalar_kernels() {
     }
     assert!(lamp > 10 && wall > 1000, "{lamp} {wall}");
 }
+
+/// Light selection in lanes picks the light and probability `Lights::select` picks, bit for bit:
+/// a tree over hundreds of emitting triangles (two lamp spheres and the room's quads) with and
+/// without an environment beside it (the tree's share), power selection's interleaved searches,
+/// from points inside and outside the lamps' bounds, with and without a normal.
+#[test]
+fn light_selection_in_lanes_picks_what_the_scalar_selection_picks() {
+    let mut scene = room();
+    scene.meshes.push(uv_sphere("lamp ball", Vec3::new(-0.4, 0.3, -0.2), 0.15, 12, false, 3));
+    scene.meshes.push(uv_sphere("dim ball", Vec3::new(0.5, -0.2, 0.4), 0.1, 9, false, 4));
+    let mut with_sky = scene.clone();
+    with_sky.environment = Some(crate::scene::environment::EnvironmentDesc::constant(Vec3::splat(0.3)));
+    let mut compared = 0;
+    for scene in [&scene, &with_sky] {
+        for selection in [LightSelection::Tree, LightSelection::Power, LightSelection::Uniform] {
+            let render_scene = RenderScene::build(scene, selection);
+            let lights = &render_scene.lights;
+            assert!(lights.lights.len() > 300, "{} lights", lights.lights.len());
+            for group in 0..300u32 {
+                let s = Sampler::new(17, group, 0);
+                let p = V3::gather(|i| {
+                    let d = 3 * i as u32;
+                    (Vec3::new(s.get1d(d), s.get1d(d + 1), s.get1d(d + 2)) - 0.5) * 2.4
+                });
+                let n = V3::gather(|i| {
+                    if (group as usize + i) % 5 == 0 {
+                        Vec3::ZERO
+                    } else {
+                        uniform_sphere(s.get2d(40 + 2 * i as u32))
+                    }
+                });
+                let u: [f32; WIDTH] = std::array::from_fn(|i| s.get1d(80 + i as u32));
+                let count = WIDTH - (group as usize % 3);
+                let lanes = tree::select_lights(lights, p, n, u, count);
+                let (p, n) = (p.lanes(), n.lanes());
+                for i in 0..WIDTH {
+                    let scalar = if i < count { lights.select(p[i], n[i], u[i]) } else { None };
+                    let bits = |c: Option<(u32, f32)>| c.map(|(light, pmf)| (light, pmf.to_bits()));
+                    assert_eq!(bits(lanes[i]), bits(scalar), "{selection:?}, group {group}, lane {i}");
+                    compared += scalar.is_some() as usize;
+                }
+            }
+        }
+    }
+    assert!(compared > 10_000, "only {compared} selections compared");
+}

@@ -1,0 +1,174 @@
+//! The light tree's descent in lanes (`LightTree::sample`): every lane walks from the root to a
+//! leaf, one level per step, the two children's bounds of each lane's node gathered into lanes and
+//! their importances computed together. A scalar descent spends most of its time waiting on the
+//! square roots and divisions of one importance after another (51% of `pt`'s time on veach-mis
+//! with tree selection); in lanes eight of them share each instruction. Every lane runs the scalar
+//! code's operations in its order, so it picks the light and probability the scalar descent does,
+//! bit for bit (`tests.rs`).
+
+use super::v3::{Mask, MaskBits, V3, select};
+use super::{Lanes, WIDTH};
+use crate::lights::tree::{Node, NodeBounds};
+use crate::lights::{LightTree, Lights};
+use crate::sampling::ONE_MINUS_EPSILON;
+
+/// A node's bounds in each lane.
+struct BoundsLanes {
+    center: V3,
+    phi: Lanes,
+    w: V3,
+    cos_theta_o: Lanes,
+    sin_theta_o: Lanes,
+    cos_theta_e: Lanes,
+    radius2: Lanes,
+    min_d2: Lanes,
+}
+
+impl BoundsLanes {
+    /// The bounds of node `index[i]` in lane `i`.
+    #[inline(always)]
+    fn gather(nodes: &[Node], index: &[u32; WIDTH]) -> Self {
+        let b: [&NodeBounds; WIDTH] = std::array::from_fn(|i| &nodes[index[i] as usize].bounds);
+        let lanes = |f: fn(&NodeBounds) -> f32| Lanes::new(std::array::from_fn(|i| f(b[i])));
+        Self {
+            center: V3::gather(|i| b[i].center),
+            phi: lanes(|b| b.phi),
+            w: V3::gather(|i| b[i].w),
+            cos_theta_o: lanes(|b| b.cos_theta_o),
+            sin_theta_o: lanes(|b| b.sin_theta_o),
+            cos_theta_e: lanes(|b| b.cos_theta_e),
+            radius2: lanes(|b| b.radius2),
+            min_d2: lanes(|b| b.min_d2),
+        }
+    }
+
+    /// `NodeBounds::importance` in lanes; `has_n` where the lane's `n` is not zero.
+    #[inline(always)]
+    fn importance(&self, p: V3, n: V3, has_n: Mask) -> Lanes {
+        let (zero, one) = (Lanes::ZERO, Lanes::ONE);
+        let safe_sqrt = |x: Lanes| x.max(zero).sqrt();
+        // cos(a − b) and sin(a − b), clamped to 1 and 0 where a < b (cos a > cos b).
+        let cos_sub = |sin_a: Lanes, cos_a: Lanes, sin_b: Lanes, cos_b: Lanes| {
+            select(cos_a.simd_gt(cos_b), one, cos_a * cos_b + sin_a * sin_b)
+        };
+        let sin_sub = |sin_a: Lanes, cos_a: Lanes, sin_b: Lanes, cos_b: Lanes| {
+            select(cos_a.simd_gt(cos_b), zero, sin_a * cos_b - cos_a * sin_b)
+        };
+        let d = p - self.center;
+        let dist2 = d.dot(d);
+        let wi = V3::select(dist2.simd_gt(zero), d.scale(one / dist2.sqrt()), V3::splat(0.0));
+        let cos_w = self.w.dot(wi);
+        let sin_w = safe_sqrt(one - cos_w * cos_w);
+        let cos_b = select(dist2.simd_lt(self.radius2), -one, safe_sqrt(one - self.radius2 / dist2));
+        let sin_b = safe_sqrt(one - cos_b * cos_b);
+        let cos_x = cos_sub(sin_w, cos_w, self.sin_theta_o, self.cos_theta_o);
+        let sin_x = sin_sub(sin_w, cos_w, self.sin_theta_o, self.cos_theta_o);
+        let cos_p = cos_sub(sin_x, cos_x, sin_b, cos_b);
+        let importance = self.phi * cos_p / dist2.max(self.min_d2).max(Lanes::splat(f32::MIN_POSITIVE));
+        let cos_i = wi.dot(n).abs();
+        let sin_i = safe_sqrt(one - cos_i * cos_i);
+        let importance = select(has_n, importance * cos_sub(sin_i, cos_i, sin_b, cos_b), importance);
+        select(cos_p.simd_le(self.cos_theta_e), zero, importance.max(zero))
+    }
+}
+
+/// `LightTree::sample` for the lanes in `active`: each lane's light and its probability, `None`
+/// where the scalar descent returns none (and for the lanes not in `active`).
+pub fn sample_tree(
+    tree: &LightTree,
+    p: V3,
+    n: V3,
+    u: [f32; WIDTH],
+    active: u32,
+) -> [Option<(u32, f32)>; WIDTH] {
+    let nodes = tree.nodes();
+    let mut chosen = [None; WIDTH];
+    if nodes.is_empty() || active == 0 {
+        return chosen;
+    }
+    let has_n = !n.is_zero();
+    let root = BoundsLanes::gather(nodes, &[0; WIDTH]).importance(p, n, has_n);
+    let reached = active & !root.simd_le(Lanes::ZERO).bits();
+    let mut node = [0u32; WIDTH];
+    let mut u = Lanes::new(u);
+    let mut pmf = Lanes::ONE;
+    let mut walking = if nodes[0].leaf { 0 } else { reached };
+    let mut lost = 0u32;
+    while walking != 0 {
+        // Lanes that have stopped walk along with the first that has not (their results are kept).
+        let lead = node[walking.trailing_zeros() as usize];
+        let at: [u32; WIDTH] = std::array::from_fn(|i| if walking >> i & 1 == 1 { node[i] } else { lead });
+        let first: [u32; WIDTH] = std::array::from_fn(|i| at[i] + 1);
+        let second: [u32; WIDTH] = std::array::from_fn(|i| nodes[at[i] as usize].index);
+        let (a, b) = (BoundsLanes::gather(nodes, &first), BoundsLanes::gather(nodes, &second));
+        let (ia, ib) = (a.importance(p, n, has_n), b.importance(p, n, has_n));
+        // `LightTree::split`: by importance, by power where both children rule the point out.
+        let total = ia + ib;
+        let by_importance = total.simd_gt(Lanes::ZERO) & total.is_finite();
+        let phi = a.phi + b.phi;
+        let p_first = select(by_importance, ia / total, a.phi / phi);
+        let no_split = (!by_importance & !phi.simd_gt(Lanes::ZERO)).bits() & walking;
+        let go_first = u.simd_lt(p_first);
+        let one_minus_epsilon = Lanes::splat(ONE_MINUS_EPSILON);
+        let u_next = select(
+            go_first,
+            (u / p_first).min(one_minus_epsilon),
+            ((u - p_first) / (Lanes::ONE - p_first)).min(one_minus_epsilon),
+        );
+        let moving = Mask::from_fn(|i| walking >> i & 1 == 1);
+        u = select(moving, u_next, u);
+        pmf = select(moving, pmf * select(go_first, p_first, Lanes::ONE - p_first), pmf);
+        let go_first = go_first.bits();
+        lost |= no_split;
+        walking &= !no_split;
+        let mut still = walking;
+        while still != 0 {
+            let i = still.trailing_zeros() as usize;
+            still &= still - 1;
+            node[i] = if go_first >> i & 1 == 1 { first[i] } else { second[i] };
+            if nodes[node[i] as usize].leaf {
+                walking &= !(1 << i);
+            }
+        }
+    }
+    let pmf = pmf.to_array();
+    let mut found = reached & !lost;
+    while found != 0 {
+        let i = found.trailing_zeros() as usize;
+        found &= found - 1;
+        chosen[i] = (pmf[i] > 0.0).then_some((nodes[node[i] as usize].index, pmf[i]));
+    }
+    chosen
+}
+
+/// `Lights::select` for the first `count` lanes: by the tree in lanes where selection is by the
+/// tree alone, else `Lights::select_many` (the selector's searches interleaved, or a
+/// visibility-aware tree one lane after another).
+#[inline(never)]
+pub fn select_lights(
+    lights: &Lights,
+    p: V3,
+    n: V3,
+    u_select: [f32; WIDTH],
+    count: usize,
+) -> [Option<(u32, f32)>; WIDTH] {
+    let Some((tree, tree_share)) = lights.tree_alone() else {
+        return lights.select_many(&p.lanes(), &n.lanes(), &u_select, count);
+    };
+    let mut chosen = [None; WIDTH];
+    let mut u = [0.0; WIDTH];
+    let mut descend = 0u32;
+    for i in 0..count {
+        match lights.split_tree_share(u_select[i]) {
+            Err(infinite) => chosen[i] = infinite,
+            Ok(u_tree) => (u[i], descend) = (u_tree, descend | 1 << i),
+        }
+    }
+    let in_tree = sample_tree(tree, p, n, u, descend);
+    for i in 0..count {
+        if descend >> i & 1 == 1 {
+            chosen[i] = in_tree[i].map(|(index, pmf)| (index, pmf * tree_share));
+        }
+    }
+    chosen
+}
