@@ -161,7 +161,8 @@ pub(super) fn plan_bidirectional(
     let name = super::of_run(run).name();
     let features =
         super::without_visibility_learning(world, features, &format!("{name} picks lights by power"));
-    if run.render.light_selection != LightSelection::Power {
+    // The tree is every run's default: only a choice a user made and bdpt overrides is named.
+    if !matches!(run.render.light_selection, LightSelection::Power | LightSelection::Tree) {
         tracing::warn!(
             "{name} picks lights by power on both sides (a strategy's weight needs the density with which \
              the other side picks a light, and a light tree's depends on a normal the other side cannot \

@@ -6,7 +6,7 @@
 //! | `spp` | u32 | 64 | samples per pixel |
 //! | `max_depth` | u32 or none | none | maximum bounces; none = unbounded, Russian roulette ends paths |
 //! | `rr_depth` | u32 | 5 | first bounce at which Russian roulette may end a path |
-//! | `light_selection` | `uniform` \| `power` \| `tree` \| `visibility` | `power` | how NEE picks a light |
+//! | `light_selection` | `uniform` \| `power` \| `tree` \| `visibility` | `tree` | how NEE picks a light |
 //! | `seed` | u64 | 0 | sampler seed |
 //! | `noise_threshold` | f64 | 0 | adaptive sampling: a pixel stops once its estimated relative error is under it; 0 = off |
 //! | `min_spp` | u32 | 16 | adaptive sampling: samples every pixel takes first |

@@ -49,10 +49,12 @@ pub enum LightSelection {
     /// Every light equally likely.
     Uniform,
     /// In proportion to emitted power.
-    #[default]
     Power,
     /// By a light tree: power, distance and orientation towards the shading point (Conty Estevez &
-    /// Kulla 2018).
+    /// Kulla 2018). The default, as pbrt-v4's and Cycles': it costs what power selection does where a
+    /// scene has a lamp or two, and far less error per second where it has many (veach-mis: 0.46×
+    /// Mitsuba's time to error, power selection 0.94×).
+    #[default]
     Tree,
     /// The light tree plus a grid that learns from the first samples' shadow rays which light
     /// clusters actually reach each region after occlusion (mixed with the tree, so unbiased).

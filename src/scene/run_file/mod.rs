@@ -65,7 +65,7 @@ impl Default for RenderSettings {
             seed: 0,
             max_depth: None,
             rr_depth: 5,
-            light_selection: LightSelection::Power,
+            light_selection: LightSelection::Tree,
             sampler: crate::sampling::SamplerKind::Sobol,
             time_limit: None,
             noise_threshold: 0.0,
