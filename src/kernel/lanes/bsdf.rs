@@ -116,20 +116,23 @@ impl MetalRoughLane {
         f0: Vec3::ZERO,
         f90: 1.0,
         alpha: 1.0,
-        params: ShadingParams {
-            base_color: Vec3::ONE,
-            metallic: 0.0,
-            roughness: 1.0,
-            transmission: 0.0,
-            ior: 1.5,
-            specular: 1.0,
-            specular_color: Vec3::ONE,
-            clearcoat: 0.0,
-            clearcoat_roughness: 0.0,
-            thickness: 0.0,
-        },
+        params: PLACEHOLDER_PARAMS,
     };
 }
+
+/// The parameters of an unused lane.
+pub const PLACEHOLDER_PARAMS: ShadingParams = ShadingParams {
+    base_color: Vec3::ONE,
+    metallic: 0.0,
+    roughness: 1.0,
+    transmission: 0.0,
+    ior: 1.5,
+    specular: 1.0,
+    specular_color: Vec3::ONE,
+    clearcoat: 0.0,
+    clearcoat_roughness: 0.0,
+    thickness: 0.0,
+};
 
 impl MetalRough {
     /// Lane constants from a hit's parameters, as `Mixture::new` makes them; `None` where the scalar
@@ -138,8 +141,17 @@ impl MetalRough {
     /// transmission or a coat after textures.
     pub fn lane(p: &ShadingParams) -> Option<MetalRoughLane> {
         let unit = |x: f32| if x.is_nan() { 0.0 } else { x.clamp(0.0, 1.0) };
+        if unit(p.clearcoat) > 0.0 {
+            return None;
+        }
+        Self::lane_under_coat(p)
+    }
+
+    /// [`MetalRough::lane`] for the base below a coat (`coat.rs`), whatever the coat's weight.
+    pub fn lane_under_coat(p: &ShadingParams) -> Option<MetalRoughLane> {
+        let unit = |x: f32| if x.is_nan() { 0.0 } else { x.clamp(0.0, 1.0) };
         let (metallic, transmission, specular) = (unit(p.metallic), unit(p.transmission), unit(p.specular));
-        if transmission != 0.0 || unit(p.clearcoat) > 0.0 || (metallic == 0.0 && specular == 0.0) {
+        if transmission != 0.0 || (metallic == 0.0 && specular == 0.0) {
             return None;
         }
         let ggx = crate::materials::Ggx::from_roughness(p.roughness);

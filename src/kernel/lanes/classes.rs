@@ -15,18 +15,23 @@ pub enum LaneClass {
     /// glTF's metallic-roughness mixture without transmission or coat: a rough GGX conductor beside
     /// GGX specular over a Fresnel-coupled Lambertian, textured or not.
     MetalRough,
+    /// [`LaneClass::Lambert`] under a rough clear coat (KHR_materials_clearcoat).
+    LambertCoated,
+    /// [`LaneClass::MetalRough`] under a rough clear coat.
+    MetalRoughCoated,
     /// What the lanes leave to the scalar kernel: misses, emitters, spheres, moving or vertex-coloured
     /// triangles, paths inside a medium or at their last depth, and materials no lane class holds
-    /// (transmission, clear coat, volumes).
+    /// (transmission, a coat with a normal map of its own, volumes).
     Scalar,
 }
 
 /// The lane classes there are, the scalar kernel's last.
-pub const CLASSES: usize = 3;
+pub const CLASSES: usize = 5;
 
 impl LaneClass {
     /// Every class, in index order.
-    pub const ALL: [LaneClass; CLASSES] = [Self::Lambert, Self::MetalRough, Self::Scalar];
+    pub const ALL: [LaneClass; CLASSES] =
+        [Self::Lambert, Self::MetalRough, Self::LambertCoated, Self::MetalRoughCoated, Self::Scalar];
 
     /// Its index among [`CLASSES`].
     #[inline]
@@ -39,6 +44,8 @@ impl LaneClass {
         match self {
             Self::Lambert => "lambert",
             Self::MetalRough => "metal-rough",
+            Self::LambertCoated => "lambert-coated",
+            Self::MetalRoughCoated => "metal-rough-coated",
             Self::Scalar => "scalar",
         }
     }
@@ -98,15 +105,22 @@ fn is_textured(m: &MaterialDesc) -> bool {
 /// metallic, specular, transmission and clear coat all zero is Lambert's BSDF everywhere;
 /// transmission and coat zero with metallic or specular not is the metallic-roughness mixture
 /// (whose lanes hand back to the scalar kernel a hit whose textures make it Lambertian or mirror
-/// smooth).
+/// smooth); a coat makes either the coated class (whose lanes hand back a hit whose texture takes
+/// the coat away or makes it mirror smooth).
 fn class_of(m: &MaterialDesc) -> LaneClass {
     let s = &m.shading;
     let unit = |x: f32| if x.is_nan() { 0.0 } else { x.clamp(0.0, 1.0) };
     let (metallic, transmission, specular) = (unit(s.metallic), unit(s.transmission), unit(s.specular));
-    if transmission > 0.0 || unit(s.clearcoat) > 0.0 {
+    if transmission > 0.0 || (unit(s.clearcoat) > 0.0 && m.clearcoat_normal_texture.is_some()) {
         return LaneClass::Scalar;
     }
-    if metallic == 0.0 && specular == 0.0 { LaneClass::Lambert } else { LaneClass::MetalRough }
+    let lambert = metallic == 0.0 && specular == 0.0;
+    match (unit(s.clearcoat) > 0.0, lambert) {
+        (false, true) => LaneClass::Lambert,
+        (false, false) => LaneClass::MetalRough,
+        (true, true) => LaneClass::LambertCoated,
+        (true, false) => LaneClass::MetalRoughCoated,
+    }
 }
 
 /// The albedo of a material whose every hit is a plain Lambertian without textures.

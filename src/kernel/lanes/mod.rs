@@ -20,11 +20,13 @@
 //! | `triangle_light.rs` | a point on a triangle light, by solid angle or by area |
 //! | `shade.rs` | a class's vertices: materials resolved, then the vertex in lanes |
 //! | `bsdf.rs` | the BSDFs of the classes: Lambert's, the metallic-roughness mixture |
+//! | `coat.rs` | a clear coat over either |
 //! | `ggx.rs` | GGX, Schlick's Fresnel and the warps in lanes |
 //! | `v3.rs` | three-vectors of lanes in glam's order of operations |
 
 mod bsdf;
 mod classes;
+mod coat;
 mod columns;
 mod ggx;
 mod light;

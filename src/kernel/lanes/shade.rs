@@ -3,7 +3,8 @@
 //! group in lanes the surface and frame, the light sample with its MIS weight, the BSDF sample,
 //! Russian roulette and the next ray — `path_vertex` for `pt` (`NEE`) and `pt-naive`.
 
-use super::bsdf::{Lambert, LaneBsdf, MetalRough, MetalRoughLane};
+use super::bsdf::{Lambert, LaneBsdf, MetalRough, MetalRoughLane, PLACEHOLDER_PARAMS};
+use super::coat::{CoatLane, Coated};
 use super::columns::CameraColumns;
 use super::light::{LightQuery, sample_lights};
 use super::surface::{GroupHits, Surface};
@@ -33,6 +34,15 @@ pub trait LaneMaterial {
         material: u32,
         params: &crate::materials::ShadingParams,
     ) -> Option<Self::Lane>;
+    /// [`LaneMaterial::resolve`] for the base below a clear coat ([`CoatedClass`]).
+    #[inline(always)]
+    fn resolve_under_coat(
+        scene: &RenderScene,
+        material: u32,
+        params: &crate::materials::ShadingParams,
+    ) -> Option<Self::Lane> {
+        Self::resolve(scene, material, params)
+    }
     /// The group's BSDF from its lanes.
     fn bsdf(lanes: &[Self::Lane; WIDTH]) -> Self::Bsdf;
 }
@@ -70,8 +80,41 @@ impl LaneMaterial for MetalRoughClass {
     }
 
     #[inline(always)]
+    fn resolve_under_coat(
+        _: &RenderScene,
+        _: u32,
+        params: &crate::materials::ShadingParams,
+    ) -> Option<MetalRoughLane> {
+        MetalRough::lane_under_coat(params)
+    }
+
+    #[inline(always)]
     fn bsdf(lanes: &[MetalRoughLane; WIDTH]) -> MetalRough {
         MetalRough::new(lanes)
+    }
+}
+
+/// [`LaneClass::LambertCoated`] and [`LaneClass::MetalRoughCoated`]: class `M` under a clear coat.
+pub struct CoatedClass<M>(std::marker::PhantomData<M>);
+
+impl<M: LaneMaterial> LaneMaterial for CoatedClass<M> {
+    type Lane = (M::Lane, CoatLane, crate::materials::ShadingParams);
+    type Bsdf = Coated<M::Bsdf>;
+    const EMPTY: Self::Lane = (M::EMPTY, CoatLane::EMPTY, PLACEHOLDER_PARAMS);
+
+    #[inline(always)]
+    fn resolve(
+        scene: &RenderScene,
+        material: u32,
+        params: &crate::materials::ShadingParams,
+    ) -> Option<Self::Lane> {
+        let coat = CoatLane::new(params)?;
+        Some((M::resolve_under_coat(scene, material, params)?, coat, *params))
+    }
+
+    #[inline(always)]
+    fn bsdf(lanes: &[Self::Lane; WIDTH]) -> Self::Bsdf {
+        Coated::new(M::bsdf(&lanes.map(|l| l.0)), &lanes.map(|l| l.1), lanes.map(|l| l.2))
     }
 }
 
@@ -87,6 +130,12 @@ pub fn shade_class<const NEE: bool, C: CameraColumns>(
     match class {
         LaneClass::Lambert => shade_rows::<NEE, LambertClass, C>(scene, limits, rows, columns),
         LaneClass::MetalRough => shade_rows::<NEE, MetalRoughClass, C>(scene, limits, rows, columns),
+        LaneClass::LambertCoated => {
+            shade_rows::<NEE, CoatedClass<LambertClass>, C>(scene, limits, rows, columns)
+        }
+        LaneClass::MetalRoughCoated => {
+            shade_rows::<NEE, CoatedClass<MetalRoughClass>, C>(scene, limits, rows, columns)
+        }
         LaneClass::Scalar => {}
     }
 }

@@ -259,6 +259,59 @@ fn textured_lambert_lanes_shade_as_the_scalar_kernel_does_bit_for_bit() {
     assert_eq!(agree_everywhere(&glossy_room(), LaneClass::Lambert), 0);
 }
 
+/// The metallic-roughness mixture under a clear coat: rough walls and a gold ball under coats of
+/// their own weight and roughness, and the textured floor under a coat whose weight and roughness
+/// are textured too (its roughness texels down to a mirror coat, whose rows are handed back).
+#[test]
+fn coated_metal_rough_lanes_shade_as_the_scalar_kernel_does_bit_for_bit() {
+    assert!(
+        agree_everywhere(&coated(glossy_room()), LaneClass::MetalRoughCoated) > 0,
+        "no mirror coat was met"
+    );
+}
+
+/// Lambert's BSDF under a clear coat: the room's plain walls, and its textured table top with a
+/// normal map.
+#[test]
+fn coated_lambert_lanes_shade_as_the_scalar_kernel_does_bit_for_bit() {
+    let mut scene = coated(room());
+    scene.materials[1].clearcoat_roughness_texture = None;
+    agree_everywhere(&scene, LaneClass::LambertCoated);
+    assert_eq!(
+        agree_everywhere(&coated(glossy_room()), LaneClass::LambertCoated),
+        0,
+        "a rough coat handed back"
+    );
+}
+
+/// `scene` with a clear coat on its first three materials (walls, floor, ball) and its table, if
+/// any: the floor's weight in the colour texture's red channel and its roughness in the
+/// metallic-roughness texture's green (squared random numbers: a few texels mirror smooth).
+fn coated(mut scene: Scene) -> Scene {
+    let s = |i: u32, d: u32| Sampler::new(21, i, 0).get1d(d);
+    let texture = |name: &str, texel: &dyn Fn(u32) -> Vec4| Texture {
+        name: name.into(),
+        width: 8,
+        height: 8,
+        texels: (0..64).map(texel).collect(),
+        ..Texture::default()
+    };
+    let first = scene.textures.len() as u32;
+    scene.textures.push(texture("coat", &|i| Vec4::new(0.2 + 0.8 * s(i, 8), 1.0, 1.0, 1.0)));
+    scene.textures.push(texture("coat roughness", &|i| Vec4::new(1.0, s(i, 9) * s(i, 9), 1.0, 1.0)));
+    let texture_ref = |texture| Some(TextureRef { texture, tex_coord: 0, transform: None });
+    let coats = [(0, 0.8, 0.3), (1, 1.0, 0.6), (2, 0.5, 0.2), (5, 0.9, 0.45)];
+    for (material, weight, roughness) in coats {
+        if let Some(m) = scene.materials.get_mut(material) {
+            m.shading.clearcoat = weight;
+            m.shading.clearcoat_roughness = roughness;
+        }
+    }
+    scene.materials[1].clearcoat_texture = texture_ref(first);
+    scene.materials[1].clearcoat_roughness_texture = texture_ref(first + 1);
+    scene
+}
+
 /// [`room`] with the metallic-roughness mixture: rough metal and plastic walls, a gold ball, a
 /// floor textured in base colour, metallic-roughness and normal, and a table top that is a
 /// textured Lambertian with a normal map on mirrored tangents.
@@ -357,7 +410,7 @@ fn light_selection_in_lanes_picks_what_the_scalar_selection_picks() {
                     (Vec3::new(s.get1d(d), s.get1d(d + 1), s.get1d(d + 2)) - 0.5) * 2.4
                 });
                 let n = V3::gather(|i| {
-                    if (group as usize + i) % 5 == 0 {
+                    if (group as usize + i).is_multiple_of(5) {
                         Vec3::ZERO
                     } else {
                         uniform_sphere(s.get2d(40 + 2 * i as u32))
