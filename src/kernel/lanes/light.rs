@@ -1,7 +1,10 @@
-//! Next-event estimation in lanes (`direct::sample_light` with MIS): a light for each lane, a point
-//! on it (in lanes for still triangles, `triangle_light.rs`; one by one for the other lights), then the BSDF towards it, the power heuristic against the class's own pdf, the
-//! contribution and the shadow segment.
+//! Next-event estimation in lanes (`direct::sample_light` with MIS): a light for each lane (`tree.rs`),
+//! a point on it (in lanes for still triangles, `triangle_light.rs`, and for points, spots and suns,
+//! `punctual.rs`; one by one for spheres, the environment and moving triangles), then the BSDF
+//! towards it, the power heuristic against the class's own pdf, the contribution and the shadow
+//! segment.
 
+use super::punctual::{is_punctual, sample_punctual};
 use super::surface::Surface;
 use super::tree::select_lights;
 use super::triangle_light::TriangleLanes;
@@ -36,8 +39,9 @@ pub fn sample_lights(
     let (s, g) = (query.surface, query.group);
     let (p, n_side, times) = (s.p.lanes(), s.n_side.lanes(), g.time.to_array());
     let lights = &scene.lights;
-    let mut triangles: [Option<&Light>; WIDTH] = [None; WIDTH];
-    let (mut in_lanes, mut one_by_one) = (0u32, 0u32);
+    let mut chosen_lights: [Option<&Light>; WIDTH] = [None; WIDTH];
+    // Lanes whose light is a still triangle, a point, spot or sun (both in lanes), or another.
+    let (mut in_lanes, mut punctual, mut one_by_one) = (0u32, 0u32, 0u32);
     // The lights chosen, asked for before any is read: a scene of many emitting triangles (a
     // lamp's mesh) reads them from memory, and the lanes' waits then overlap.
     let u_select = std::array::from_fn(|i| g.u[i].light_select());
@@ -53,8 +57,12 @@ pub fn sample_lights(
         let Some((index, _)) = chosen[i] else { continue };
         match lights.lights.get(index as usize) {
             Some(l) if matches!(l.shape, LightShape::Triangle { .. }) && l.motion == Vec3::ZERO => {
-                triangles[i] = Some(l);
+                chosen_lights[i] = Some(l);
                 in_lanes |= 1 << i;
+            }
+            Some(l) if is_punctual(l) => {
+                chosen_lights[i] = Some(l);
+                punctual |= 1 << i;
             }
             _ => one_by_one |= 1 << i,
         }
@@ -62,7 +70,7 @@ pub fn sample_lights(
     let (mut light_p, mut le, mut light_pdf) = (V3::splat(1.0), V3::splat(1.0), Lanes::ONE);
     let (mut delta, mut valid) = (Mask::ZERO, Mask::ZERO);
     if one_by_one != 0 {
-        // The other lights (spheres, punctual lights, the environment, moving triangles).
+        // The other lights (spheres, the environment, moving triangles).
         let scalar: [Option<LightSample>; WIDTH] = std::array::from_fn(|i| {
             let (index, pmf) = chosen[i].filter(|_| one_by_one >> i & 1 == 1)?;
             let (_, mut ls) =
@@ -79,9 +87,10 @@ pub fn sample_lights(
         valid = Mask::from_fn(|i| scalar[i].is_some());
     }
     if in_lanes != 0 {
-        let first = triangles[in_lanes.trailing_zeros() as usize].expect("a lane's triangle");
+        let first = chosen_lights[in_lanes.trailing_zeros() as usize].expect("a lane's triangle");
         let in_lanes_mask = Mask::from_fn(|i| in_lanes >> i & 1 == 1);
-        let triangles: [&Light; WIDTH] = std::array::from_fn(|i| triangles[i].unwrap_or(first));
+        let triangles: [&Light; WIDTH] =
+            std::array::from_fn(|i| chosen_lights[i].filter(|_| in_lanes >> i & 1 == 1).unwrap_or(first));
         let sampled = TriangleLanes::new(&triangles, g.time);
         let u = [
             Lanes::new(std::array::from_fn(|i| g.u[i].light_point().x)),
@@ -111,6 +120,20 @@ pub fn sample_lights(
         le = V3::select(in_lanes_mask, radiance, le);
         light_pdf = select(in_lanes_mask, pdf * pmf, light_pdf);
         valid = select(in_lanes_mask, drawn, valid);
+    }
+    if punctual != 0 {
+        let first = chosen_lights[punctual.trailing_zeros() as usize].expect("a lane's light");
+        let lanes: [&Light; WIDTH] =
+            std::array::from_fn(|i| chosen_lights[i].filter(|_| punctual >> i & 1 == 1).unwrap_or(first));
+        let sampled = sample_punctual(&lanes, s.p);
+        let pmf = Lanes::new(std::array::from_fn(|i| chosen[i].map_or(1.0, |(_, pmf)| pmf)));
+        let mask = Mask::from_fn(|i| punctual >> i & 1 == 1);
+        light_p = V3::select(mask, sampled.p, light_p);
+        le = V3::select(mask, sampled.le, le);
+        // A delta light's pdf is one, times its choice's probability.
+        light_pdf = select(mask, Lanes::ONE * pmf, light_pdf);
+        delta |= mask;
+        valid = select(mask, sampled.drawn, valid);
     }
     let own = Mask::from_fn(|i| chosen[i].is_some_and(|(index, _)| index == g.own_light[i]));
     let valid = valid & !own;

@@ -18,6 +18,7 @@
 //! | `light.rs` | next-event estimation |
 //! | `tree.rs` | light selection: the light tree's descent in lanes |
 //! | `triangle_light.rs` | a point on a triangle light, by solid angle or by area |
+//! | `punctual.rs` | points, spots and suns |
 //! | `shade.rs` | a class's vertices: materials resolved, then the vertex in lanes |
 //! | `bsdf.rs` | the BSDFs of the classes: Lambert's, the metallic-roughness mixture |
 //! | `coat.rs` | a clear coat over either |
@@ -30,6 +31,7 @@ mod coat;
 mod columns;
 mod ggx;
 mod light;
+mod punctual;
 mod shade;
 mod surface;
 mod tree;

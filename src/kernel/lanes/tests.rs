@@ -259,6 +259,36 @@ fn textured_lambert_lanes_shade_as_the_scalar_kernel_does_bit_for_bit() {
     assert_eq!(agree_everywhere(&glossy_room(), LaneClass::Lambert), 0);
 }
 
+/// Next-event estimation towards points, spots and suns in lanes: the room lit by its two quads,
+/// a point light, a spot whose cone covers part of the room, a narrow spot and a sun, every light
+/// sample the scalar kernel's.
+#[test]
+fn punctual_lights_in_lanes_light_as_the_scalar_kernel_does_bit_for_bit() {
+    use crate::scene::punctual::{PunctualKind, PunctualLightDesc};
+    let light = |name: &str, kind, position, direction: Vec3, intensity| PunctualLightDesc {
+        name: name.into(),
+        kind,
+        position,
+        direction: direction.normalize(),
+        color: Vec3::new(1.0, 0.8, 0.6),
+        intensity,
+    };
+    let spot = |inner: f32, outer: f32| PunctualKind::Spot { inner_cone: inner, outer_cone: outer };
+    let lights = vec![
+        light("point", PunctualKind::Point, Vec3::new(0.3, 0.5, -0.2), Vec3::Y, 900.0),
+        light("spot", spot(0.3, 0.7), Vec3::new(-0.3, 0.6, 0.3), Vec3::new(0.2, -1.0, 0.1), 2000.0),
+        light("narrow spot", spot(0.05, 0.0502), Vec3::new(0.0, 0.6, 0.0), -Vec3::Y, 3000.0),
+        light("sun", PunctualKind::Sun, Vec3::ZERO, Vec3::new(0.3, -1.0, 0.2), 700.0),
+    ];
+    for mut scene in [room(), glossy_room()] {
+        scene.punctual_lights = lights.clone();
+        agree_everywhere(&scene, LaneClass::Lambert);
+    }
+    let mut scene = glossy_room();
+    scene.punctual_lights = lights;
+    agree_everywhere(&scene, LaneClass::MetalRough);
+}
+
 /// The metallic-roughness mixture under a clear coat: rough walls and a gold ball under coats of
 /// their own weight and roughness, and the textured floor under a coat whose weight and roughness
 /// are textured too (its roughness texels down to a mirror coat, whose rows are handed back).
