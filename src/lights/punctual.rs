@@ -8,7 +8,7 @@ use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
 /// The smallest `cos_inner − cos_outer` KHR_lights_punctual's reference falloff divides by.
-const MIN_FALLOFF_WIDTH: f32 = 0.001;
+pub(crate) const MIN_FALLOFF_WIDTH: f32 = 0.001;
 
 /// A spot's cone as cosines of its half-angles.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -24,7 +24,7 @@ fn crosses(wo: Vec3, wi: Vec3) -> bool {
 }
 
 /// Normal-incidence reflectance of the coat (IOR 1.5).
-const COAT_F0: f32 = 0.04;
+pub(crate) const COAT_F0: f32 = 0.04;
 
 /// The coat lobe.
 #[derive(Clone, Copy, Debug)]

@@ -264,7 +264,7 @@ impl MetalRough {
 
 /// `materials::to_upper`: both directions mirrored through the surface where `wo` is below it.
 #[inline(always)]
-fn to_upper(wo: V3, wi: V3) -> (V3, V3) {
+pub(super) fn to_upper(wo: V3, wi: V3) -> (V3, V3) {
     let below = wo.z.simd_lt(Lanes::ZERO);
     let flip = |v: V3| V3 { z: select(below, -v.z, v.z), ..v };
     (flip(wo), flip(wi))

@@ -5,17 +5,15 @@
 //! in every lane and each lane keeps the one its `u_lobe` picked. A smooth coat (a delta lobe) or a
 //! coat with a normal map of its own stays with the scalar kernel.
 
-use super::bsdf::{LaneBsdf, SampleLanes};
+use super::bsdf::{LaneBsdf, SampleLanes, to_upper};
 use super::ggx::{Ggx, clamp, half_vector, reflect, schlick, schlick_scalar};
 use super::v3::{V3, select};
 use super::{Lanes, WIDTH};
+use crate::materials::clearcoat::COAT_F0;
 use crate::materials::microfacet::SMOOTH_ALPHA;
 use crate::materials::{Bsdf, ShadingParams};
 use crate::sampling::ONE_MINUS_EPSILON;
 use glam::Vec3;
-
-/// `clearcoat::COAT_F0`: normal-incidence reflectance of the coat (IOR 1.5).
-const COAT_F0: f32 = 0.04;
 
 /// One lane's coat: its weight and GGX width.
 #[derive(Clone, Copy)]
@@ -88,14 +86,6 @@ impl<B: LaneBsdf> Coated<B> {
         let pdf = select(exists, self.ggx.d_visible(wo, wm) / (Lanes::splat(4.0) * wo.dot(wm)), Lanes::ZERO);
         (select(crosses, Lanes::ZERO, self.weight * f), select(crosses, Lanes::ZERO, pdf))
     }
-}
-
-/// `materials::to_upper`: both directions mirrored through the surface where `wo` is below it.
-#[inline(always)]
-fn to_upper(wo: V3, wi: V3) -> (V3, V3) {
-    let below = wo.z.simd_lt(Lanes::ZERO);
-    let flip = |v: V3| V3 { z: select(below, -v.z, v.z), ..v };
-    (flip(wo), flip(wi))
 }
 
 impl<B: LaneBsdf> LaneBsdf for Coated<B> {

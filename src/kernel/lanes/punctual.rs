@@ -6,10 +6,8 @@
 use super::ggx::clamp;
 use super::v3::{Mask, MaskBits, V3, select};
 use super::{Lanes, WIDTH};
+use crate::lights::punctual::MIN_FALLOFF_WIDTH;
 use crate::lights::{Light, LightShape};
-
-/// `punctual::MIN_FALLOFF_WIDTH`.
-const MIN_FALLOFF_WIDTH: f32 = 0.001;
 
 /// What a lane's punctual light gives: the light point (for a sun, beyond the scene), the radiance
 /// (intensity × falloff / r² or irradiance) and which lanes have a sample (`sample_point` returns

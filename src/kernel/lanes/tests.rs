@@ -318,14 +318,7 @@ fn coated_lambert_lanes_shade_as_the_scalar_kernel_does_bit_for_bit() {
 /// any: the floor's weight in the colour texture's red channel and its roughness in the
 /// metallic-roughness texture's green (squared random numbers: a few texels mirror smooth).
 fn coated(mut scene: Scene) -> Scene {
-    let s = |i: u32, d: u32| Sampler::new(21, i, 0).get1d(d);
-    let texture = |name: &str, texel: &dyn Fn(u32) -> Vec4| Texture {
-        name: name.into(),
-        width: 8,
-        height: 8,
-        texels: (0..64).map(texel).collect(),
-        ..Texture::default()
-    };
+    let s = texel_number;
     let first = scene.textures.len() as u32;
     scene.textures.push(texture("coat", &|i| Vec4::new(0.2 + 0.8 * s(i, 8), 1.0, 1.0, 1.0)));
     scene.textures.push(texture("coat roughness", &|i| Vec4::new(1.0, s(i, 9) * s(i, 9), 1.0, 1.0)));
@@ -342,19 +335,28 @@ fn coated(mut scene: Scene) -> Scene {
     scene
 }
 
-/// [`room`] with the metallic-roughness mixture: rough metal and plastic walls, a gold ball, a
-/// floor textured in base colour, metallic-roughness and normal, and a table top that is a
-/// textured Lambertian with a normal map on mirrored tangents.
-fn glossy_room() -> Scene {
-    let mut scene = room();
-    let s = |i: u32, d: u32| Sampler::new(21, i, 0).get1d(d);
-    let texture = |name: &str, texel: &dyn Fn(u32) -> Vec4| Texture {
+/// Random number `d` of texel `i`, the same in every test scene.
+fn texel_number(i: u32, d: u32) -> f32 {
+    Sampler::new(21, i, 0).get1d(d)
+}
+
+/// An 8×8 texture whose texel `i` is `texel(i)`.
+fn texture(name: &str, texel: &dyn Fn(u32) -> Vec4) -> Texture {
+    Texture {
         name: name.into(),
         width: 8,
         height: 8,
         texels: (0..64).map(texel).collect(),
         ..Texture::default()
-    };
+    }
+}
+
+/// [`room`] with the metallic-roughness mixture: rough metal and plastic walls, a gold ball, a
+/// floor textured in base colour, metallic-roughness and normal, and a table top that is a
+/// textured Lambertian with a normal map on mirrored tangents.
+fn glossy_room() -> Scene {
+    let mut scene = room();
+    let s = texel_number;
     scene.textures = vec![
         texture("colour", &|i| Vec4::new(s(i, 0), s(i, 1), s(i, 2), 1.0)),
         // Roughness in G down to a mirror, metallic in B.
