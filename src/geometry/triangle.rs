@@ -38,8 +38,20 @@ impl ShearedRay {
     #[inline]
     pub fn new(d: Vec3) -> Self {
         let kz = d.abs().max_position() as u8;
+        Self::with_scale(d, kz, 1.0 / d[kz as usize])
+    }
+
+    /// [`ShearedRay::new`] with the reciprocal of the direction's largest component given
+    /// (`inverse[kz]` of the box test's reciprocal: the same division, done once).
+    #[inline(always)]
+    pub fn with_inverse(d: Vec3, inverse: Vec3) -> Self {
+        let kz = d.abs().max_position() as u8;
+        Self::with_scale(d, kz, inverse[kz as usize])
+    }
+
+    #[inline(always)]
+    fn with_scale(d: Vec3, kz: u8, sz: f32) -> Self {
         let d = permute(Vec3A::from(d), kz);
-        let sz = 1.0 / d.z;
         Self { kz, shear_xy: Vec3A::new(-d.x * sz, -d.y * sz, 0.0), scale: Vec3A::new(1.0, 1.0, sz) }
     }
 

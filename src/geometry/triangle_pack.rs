@@ -70,7 +70,17 @@ impl PackRay {
     /// Prepare the ray `o + t·d`.
     #[inline]
     pub fn new(o: Vec3, d: Vec3) -> Self {
-        let sheared = ShearedRay::new(d);
+        Self::from_sheared(o, ShearedRay::new(d))
+    }
+
+    /// [`PackRay::new`] with the direction's reciprocal given (see [`ShearedRay::with_inverse`]).
+    #[inline(always)]
+    pub fn with_inverse(o: Vec3, d: Vec3, inverse: Vec3) -> Self {
+        Self::from_sheared(o, ShearedRay::with_inverse(d, inverse))
+    }
+
+    #[inline(always)]
+    fn from_sheared(o: Vec3, sheared: ShearedRay) -> Self {
         // The cyclic permutation that puts axis kz last, from a table (a remainder by 3 is a division).
         const PERMUTATIONS: [[usize; 3]; 3] = [[1, 2, 0], [2, 0, 1], [0, 1, 2]];
         let k = PERMUTATIONS[sheared.axis()];

@@ -8,7 +8,7 @@ use crate::geometry::sphere::intersect_sphere;
 use crate::geometry::triangle_pack::{
     PackHits, PackLanes, PackRay, intersect_pack, nearest_in_pack, pack_blocks,
 };
-use crate::geometry::wide_bvh::{BoxRay, Counts};
+use crate::geometry::wide_bvh::{BoxRay, ClosestLeaf, Counts};
 use glam::Vec3;
 
 /// A ray prepared once for the box tests and the triangle packs of every set.
@@ -20,7 +20,11 @@ pub(super) struct QueryRay {
 impl QueryRay {
     #[inline(always)]
     pub(super) fn new(ray: &Ray) -> Self {
-        Self { boxes: BoxRay::new(ray.o, ray.d), packs: PackRay::new(ray.o, ray.d) }
+        let inverse = BoxRay::inverse(ray.d);
+        Self {
+            boxes: BoxRay::with_inverse(ray.o, ray.d, inverse),
+            packs: PackRay::with_inverse(ray.o, ray.d, inverse),
+        }
     }
 }
 
@@ -70,16 +74,8 @@ pub(super) fn intersect_set(
     let has_cutouts = !set.cutout.is_empty();
     if !has_cutouts && set.pack_motion.is_empty() {
         // Still, opaque triangles: each pack's nearest hit, the distances not stored.
-        hit.t = set.triangles.closest(&rays.boxes, hit.t, counts, |first, count, mut t_max| {
-            for p in first as usize..(first + count) as usize {
-                let (pack, prims) = &set.packs[p];
-                if let Some((i, t, b1, b2)) = nearest_in_pack(pack, &rays.packs, t_max) {
-                    t_max = t;
-                    *hit = Hit { t, prim: prims[i] | id_bits, b1, b2 };
-                }
-            }
-            t_max
-        });
+        let t_max = hit.t;
+        hit.t = set.triangles.closest(&rays.boxes, t_max, counts, StillPacks { set, rays, id_bits, hit });
     } else {
         intersect_triangles(set, cutouts, ray, rays, id_bits, hit, counts);
     }
@@ -87,6 +83,29 @@ pub(super) fn intersect_set(
         return;
     }
     intersect_spheres(set, ray, rays, id_bits, hit, counts);
+}
+
+/// The leaves of a set of still, opaque triangles: each pack's nearest hit, the distances not
+/// stored; a type of its own so that the traversal inlines it.
+struct StillPacks<'a> {
+    set: &'a PrimitiveSet,
+    rays: &'a QueryRay,
+    id_bits: u32,
+    hit: &'a mut Hit,
+}
+
+impl ClosestLeaf for StillPacks<'_> {
+    #[inline(always)]
+    fn nearest(&mut self, first: u32, count: u32, mut t_max: f32) -> f32 {
+        for p in first as usize..(first + count) as usize {
+            let (pack, prims) = &self.set.packs[p];
+            if let Some((i, t, b1, b2)) = nearest_in_pack(pack, &self.rays.packs, t_max) {
+                t_max = t;
+                *self.hit = Hit { t, prim: prims[i] | self.id_bits, b1, b2 };
+            }
+        }
+        t_max
+    }
 }
 
 /// The triangles of a set that moves or has cut-outs: every hit lane, nearest first, until one is
