@@ -5,6 +5,7 @@
 
 use super::punctual::{self, SpotCone};
 pub use super::sample::{EmissionSample, LightSample};
+use crate::sampling::lane_math::sin_cos;
 use crate::sampling::spherical::{
     SPHERICAL_FROM_SOLID_ANGLE, SphericalTriangle, bilinear_pdf, sample_bilinear,
 };
@@ -13,7 +14,10 @@ use glam::{Vec2, Vec3};
 use std::f32::consts::PI;
 
 /// Below this squared sine of its half-angle a sphere light is not sampled.
-const MIN_SIN2_SUBTENDED: f32 = 1e-30;
+pub(crate) const MIN_SIN2_SUBTENDED: f32 = 1e-30;
+/// Below this squared sine of its half-angle (sin²(1.5°)) a sphere's cone is sampled through the
+/// Taylor expansion of 1 − cos, which loses all precision there.
+pub(crate) const SMALL_CONE_SIN2: f32 = 0.000_685_23;
 
 /// Emitter geometry at shutter open.
 #[derive(Clone, Copy, Debug)]
@@ -176,8 +180,8 @@ impl Light {
                 let mut one_minus_cos_max = 1.0 - cos_max;
                 let mut cos_theta = (cos_max - 1.0) * u.x + 1.0;
                 let mut sin2_theta = 1.0 - cos_theta * cos_theta;
-                if sin2_max < 0.000_685_23 {
-                    // Small cones: 1 − cos loses all precision; use its Taylor expansion (sin²(1.5°)).
+                if sin2_max < SMALL_CONE_SIN2 {
+                    // Small cones: 1 − cos loses all precision; use its Taylor expansion.
                     sin2_theta = sin2_max * u.x;
                     cos_theta = (1.0 - sin2_theta).sqrt();
                     one_minus_cos_max = sin2_max / 2.0;
@@ -188,7 +192,9 @@ impl Light {
                 let sin_alpha = (1.0 - cos_alpha * cos_alpha).max(0.0).sqrt();
                 let phi = u.y * 2.0 * PI;
                 let frame = Frame::from_z((c - p_ref).normalize());
-                let w = Vec3::new(sin_alpha * phi.cos(), sin_alpha * phi.sin(), cos_alpha);
+                // lane_math's sine and cosine, which the lanes (`kernel/lanes/sphere_light.rs`) match.
+                let (sin_phi, cos_phi) = sin_cos(phi);
+                let w = Vec3::new(sin_alpha * cos_phi, sin_alpha * sin_phi, cos_alpha);
                 let n = frame.to_world(-w);
                 Some(LightSample {
                     p: c + radius * n,

@@ -1,10 +1,12 @@
 //! Next-event estimation in lanes (`direct::sample_light` with MIS): a light for each lane (`tree.rs`),
-//! a point on it (in lanes for still triangles, `triangle_light.rs`, and for points, spots and suns,
-//! `punctual.rs`; one by one for spheres, the environment and moving triangles), then the BSDF
+//! a point on it (in lanes for still triangles, `triangle_light.rs`, spheres, `sphere_light.rs`,
+//! and points, spots and suns, `punctual.rs`; one by one for the environment and moving
+//! triangles), then the BSDF
 //! towards it, the power heuristic against the class's own pdf, the contribution and the shadow
 //! segment.
 
 use super::punctual::{is_punctual, sample_punctual};
+use super::sphere_light::{is_sphere, sample_spheres};
 use super::surface::Surface;
 use super::tree::select_lights;
 use super::triangle_light::TriangleLanes;
@@ -40,8 +42,8 @@ pub fn sample_lights(
     let (p, n_side, times) = (s.p.lanes(), s.n_side.lanes(), g.time.to_array());
     let lights = &scene.lights;
     let mut chosen_lights: [Option<&Light>; WIDTH] = [None; WIDTH];
-    // Lanes whose light is a still triangle, a point, spot or sun (both in lanes), or another.
-    let (mut in_lanes, mut punctual, mut one_by_one) = (0u32, 0u32, 0u32);
+    // Lanes whose light is a still triangle, a point, spot or sun, a sphere (all in lanes), or another.
+    let (mut in_lanes, mut punctual, mut spheres, mut one_by_one) = (0u32, 0u32, 0u32, 0u32);
     // The lights chosen, asked for before any is read: a scene of many emitting triangles (a
     // lamp's mesh) reads them from memory, and the lanes' waits then overlap.
     let u_select = std::array::from_fn(|i| g.u[i].light_select());
@@ -64,13 +66,17 @@ pub fn sample_lights(
                 chosen_lights[i] = Some(l);
                 punctual |= 1 << i;
             }
+            Some(l) if is_sphere(l) => {
+                chosen_lights[i] = Some(l);
+                spheres |= 1 << i;
+            }
             _ => one_by_one |= 1 << i,
         }
     }
     let (mut light_p, mut le, mut light_pdf) = (V3::splat(1.0), V3::splat(1.0), Lanes::ONE);
     let (mut delta, mut valid) = (Mask::ZERO, Mask::ZERO);
     if one_by_one != 0 {
-        // The other lights (spheres, the environment, moving triangles).
+        // The other lights (the environment, moving triangles).
         let scalar: [Option<LightSample>; WIDTH] = std::array::from_fn(|i| {
             let (index, pmf) = chosen[i].filter(|_| one_by_one >> i & 1 == 1)?;
             let (_, mut ls) =
@@ -133,6 +139,22 @@ pub fn sample_lights(
         // A delta light's pdf is one, times its choice's probability.
         light_pdf = select(mask, Lanes::ONE * pmf, light_pdf);
         delta |= mask;
+        valid = select(mask, sampled.drawn, valid);
+    }
+    if spheres != 0 {
+        let first = chosen_lights[spheres.trailing_zeros() as usize].expect("a lane's light");
+        let lanes: [&Light; WIDTH] =
+            std::array::from_fn(|i| chosen_lights[i].filter(|_| spheres >> i & 1 == 1).unwrap_or(first));
+        let u = [
+            Lanes::new(std::array::from_fn(|i| g.u[i].light_point().x)),
+            Lanes::new(std::array::from_fn(|i| g.u[i].light_point().y)),
+        ];
+        let sampled = sample_spheres(&lanes, s.p, g.time, u);
+        let pmf = Lanes::new(std::array::from_fn(|i| chosen[i].map_or(1.0, |(_, pmf)| pmf)));
+        let mask = Mask::from_fn(|i| spheres >> i & 1 == 1);
+        light_p = V3::select(mask, sampled.p, light_p);
+        le = V3::select(mask, sampled.le, le);
+        light_pdf = select(mask, sampled.pdf * pmf, light_pdf);
         valid = select(mask, sampled.drawn, valid);
     }
     let own = Mask::from_fn(|i| chosen[i].is_some_and(|(index, _)| index == g.own_light[i]));

@@ -33,6 +33,7 @@ mod ggx;
 mod light;
 mod punctual;
 mod shade;
+mod sphere_light;
 mod surface;
 mod tree;
 mod triangle_light;

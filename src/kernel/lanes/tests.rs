@@ -10,7 +10,7 @@ use crate::kernel::{CameraPath, PathLimits, ShadowSample};
 use crate::render_scene::RenderScene;
 use crate::sampling::warp::uniform_sphere;
 use crate::sampling::{Sampler, SamplerKind};
-use crate::scene::{LightSelection, Scene, Texture, TextureRef};
+use crate::scene::{LightSelection, Scene, Sphere, Texture, TextureRef};
 use crate::test_scenes::{diffuse, quad, uv_sphere};
 use glam::{Vec3, Vec4};
 
@@ -287,6 +287,32 @@ fn punctual_lights_in_lanes_light_as_the_scalar_kernel_does_bit_for_bit() {
     let mut scene = glossy_room();
     scene.punctual_lights = lights;
     agree_everywhere(&scene, LaneClass::MetalRough);
+}
+
+/// Next-event estimation towards spherical lamps in lanes: a large lamp near the walls (wide
+/// cones), a small one (cones on both sides of the Taylor expansion's bound), one inside the ball (no sample
+/// from outside it) and one that moves over the shutter, every light sample the scalar kernel's.
+#[test]
+fn sphere_lamps_in_lanes_light_as_the_scalar_kernel_does_bit_for_bit() {
+    let lamp = |name: &str, center, radius, material, motion| Sphere {
+        name: name.into(),
+        center,
+        radius,
+        material,
+        motion,
+    };
+    for mut scene in [room(), glossy_room()] {
+        let emitter = scene.materials.len() as u32;
+        scene.materials.push(diffuse("sphere lamp", Vec3::ZERO, Vec3::new(6.0, 5.0, 4.0)));
+        scene.spheres = vec![
+            lamp("large", Vec3::new(-0.5, 0.4, -0.4), 0.3, emitter, None),
+            lamp("small", Vec3::new(0.4, 0.6, 0.3), 0.02, emitter, None),
+            lamp("in the ball", Vec3::new(0.2, -0.3, 0.1), 0.05, emitter, None),
+            lamp("moving", Vec3::new(0.1, 0.2, -0.6), 0.1, emitter, Some(Vec3::new(0.3, 0.0, 0.1))),
+        ];
+        let class = if scene.textures.is_empty() { LaneClass::Lambert } else { LaneClass::MetalRough };
+        agree_everywhere(&scene, class);
+    }
 }
 
 /// The metallic-roughness mixture under a clear coat: rough walls and a gold ball under coats of
