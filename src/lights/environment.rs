@@ -13,6 +13,7 @@
 
 use super::light::{EmissionSample, LightSample, luminance};
 use crate::sampling::distribution::Distribution2D;
+use crate::sampling::lane_math::sin_cos;
 use crate::sampling::warp::{
     Frame, UNIFORM_SPHERE_PDF, concentric_disk, cosine_hemisphere, cosine_hemisphere_pdf, uniform_sphere,
 };
@@ -132,8 +133,9 @@ pub fn direction_to_uv(d: Vec3) -> Vec2 {
 /// The unit direction in the map's frame at (u, v); inverse of [`direction_to_uv`].
 #[inline]
 pub fn uv_to_direction(uv: Vec2) -> Vec3 {
-    let (sin_theta, cos_theta) = (PI * uv.y).sin_cos();
-    let (sin_phi, cos_phi) = (2.0 * PI * uv.x).sin_cos();
+    // lane_math's sines, which the lanes (`kernel/lanes/environment_light.rs`) match.
+    let (sin_theta, cos_theta) = sin_cos(PI * uv.y);
+    let (sin_phi, cos_phi) = sin_cos(2.0 * PI * uv.x);
     Vec3::new(sin_theta * sin_phi, cos_theta, -sin_theta * cos_phi)
 }
 
@@ -223,7 +225,7 @@ impl Environment {
             Radiance::Constant(c) => Some((uniform_sphere(u), UNIFORM_SPHERE_PDF, *c)),
             Radiance::Map(map) => {
                 let (uv, pdf_uv) = map.distribution.sample(u);
-                let sin_theta = (PI * uv.y).sin();
+                let sin_theta = sin_cos(PI * uv.y).0;
                 if sin_theta <= 0.0 || pdf_uv <= 0.0 {
                     return None;
                 }
@@ -231,6 +233,36 @@ impl Environment {
                 Some((self.to_world * uv_to_direction(uv), pdf, map.radiance(uv)))
             }
         }
+    }
+
+    /// The constant radiance of an environment without a map.
+    #[inline]
+    pub(crate) fn constant_radiance(&self) -> Option<Vec3> {
+        match &self.radiance {
+            Radiance::Constant(c) => Some(*c),
+            Radiance::Map(_) => None,
+        }
+    }
+
+    /// The map's frame to the world's.
+    #[inline]
+    pub(crate) fn to_world(&self) -> Mat3 {
+        self.to_world
+    }
+
+    /// The scene's bounding sphere (centre, radius), beyond which a sampled point is put.
+    #[inline]
+    pub(crate) fn bounding_sphere(&self) -> (Vec3, f32) {
+        (self.center, self.radius)
+    }
+
+    /// For `N` numbers at once, what [`Environment::sample`] reads of a map: the sampled (u, v), its
+    /// density over the square and the radiance there; `None` for a constant environment.
+    #[inline]
+    pub(crate) fn sample_map_many<const N: usize>(&self, u: &[Vec2; N]) -> Option<[(Vec2, f32, Vec3); N]> {
+        let Radiance::Map(map) = &self.radiance else { return None };
+        let sampled = map.distribution.sample_many(u);
+        Some(sampled.map(|(uv, pdf_uv)| (uv, pdf_uv, map.radiance(uv))))
     }
 
     /// Density with which [`Environment::sample_emission`] starts a subpath whose direction towards

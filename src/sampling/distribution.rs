@@ -69,24 +69,34 @@ impl Distribution1D {
     /// level by level, so that their loads overlap instead of waiting on each other.
     #[inline]
     pub fn sample_discrete_many<const N: usize>(&self, u: &[f32; N]) -> [(usize, f32); N] {
-        let cdf = self.cdf.as_slice();
+        Self::sample_discrete_each(&[self; N], u)
+    }
+
+    /// [`Distribution1D::sample_discrete`] of `N` numbers in `N` distributions of as many steps
+    /// (the rows of a [`Distribution2D`]), the searches interleaved as in
+    /// [`Distribution1D::sample_discrete_many`].
+    #[inline]
+    pub fn sample_discrete_each<const N: usize>(dists: &[&Self; N], u: &[f32; N]) -> [(usize, f32); N] {
+        let len = dists[0].cdf.len();
+        debug_assert!(dists.iter().all(|d| d.cdf.len() == len), "distributions of as many steps");
         // The first index whose CDF exceeds u (`partition_point(|&c| c <= u)`): the CDF does not
         // decrease, so any search for it finds the same index.
         let mut base = [0usize; N];
-        let mut size = cdf.len();
+        let mut size = len;
         while size > 1 {
             let half = size / 2;
-            for (b, &u) in base.iter_mut().zip(u) {
-                let mid = *b + half;
+            for k in 0..N {
+                let mid = base[k] + half;
                 // A data-dependent choice that no predictor guesses: a conditional move, not a branch.
-                *b = std::hint::select_unpredictable(cdf[mid] <= u, mid, *b);
+                base[k] = std::hint::select_unpredictable(dists[k].cdf[mid] <= u[k], mid, base[k]);
             }
             size -= half;
         }
         std::array::from_fn(|k| {
-            let after = base[k] + (cdf[base[k]] <= u[k]) as usize;
-            let i = (after.max(1) - 1).min(self.len() - 1);
-            (i, self.step_probability(i))
+            let dist = dists[k];
+            let after = base[k] + (dist.cdf[base[k]] <= u[k]) as usize;
+            let i = (after.max(1) - 1).min(dist.len() - 1);
+            (i, dist.step_probability(i))
         })
     }
 
@@ -94,6 +104,12 @@ impl Distribution1D {
     #[inline]
     pub fn sample(&self, u: f32) -> (f32, f32, usize) {
         let (i, probability) = self.sample_discrete(u);
+        self.point_in_step(u, i, probability)
+    }
+
+    /// Where `u` falls in step `i` of probability `probability` (the step that holds it).
+    #[inline(always)]
+    fn point_in_step(&self, u: f32, i: usize, probability: f32) -> (f32, f32, usize) {
         let offset = if probability > 0.0 { (u - self.cdf[i]) / probability } else { 0.0 };
         let n = self.len() as f32;
         let x = ((i as f32 + offset.clamp(0.0, 1.0)) / n).min(ONE_MINUS_EPSILON);
@@ -149,6 +165,22 @@ impl Distribution2D {
         let (v, pdf_v, row) = self.marginal.sample(u.y);
         let (x, pdf_u, _) = self.rows[row].sample(u.x);
         (Vec2::new(x, v), pdf_v * pdf_u)
+    }
+
+    /// [`Distribution2D::sample`] for `N` points at once: the marginal's searches interleaved, then
+    /// the rows' (each point's own row) interleaved.
+    #[inline]
+    pub fn sample_many<const N: usize>(&self, u: &[Vec2; N]) -> [(Vec2, f32); N] {
+        let (uy, ux): ([f32; N], [f32; N]) = (u.map(|u| u.y), u.map(|u| u.x));
+        let steps = self.marginal.sample_discrete_many(&uy);
+        let v: [(f32, f32, usize); N] =
+            std::array::from_fn(|k| self.marginal.point_in_step(uy[k], steps[k].0, steps[k].1));
+        let rows: [&Distribution1D; N] = std::array::from_fn(|k| &self.rows[v[k].2]);
+        let columns = Distribution1D::sample_discrete_each(&rows, &ux);
+        std::array::from_fn(|k| {
+            let (x, pdf_u, _) = rows[k].point_in_step(ux[k], columns[k].0, columns[k].1);
+            (Vec2::new(x, v[k].0), v[k].1 * pdf_u)
+        })
     }
 
     /// Density at `p` in [0, 1)².

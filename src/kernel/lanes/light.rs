@@ -1,10 +1,11 @@
 //! Next-event estimation in lanes (`direct::sample_light` with MIS): a light for each lane (`tree.rs`),
 //! a point on it (in lanes for still triangles, `triangle_light.rs`, spheres, `sphere_light.rs`,
-//! and points, spots and suns, `punctual.rs`; one by one for the environment and moving
-//! triangles), then the BSDF
+//! points, spots and suns, `punctual.rs`, and the environment, `environment_light.rs`; one by one
+//! for moving triangles), then the BSDF
 //! towards it, the power heuristic against the class's own pdf, the contribution and the shadow
 //! segment.
 
+use super::environment_light::{sample_environment, takes};
 use super::punctual::{is_punctual, sample_punctual};
 use super::sphere_light::{is_sphere, sample_spheres};
 use super::surface::Surface;
@@ -42,8 +43,9 @@ pub fn sample_lights(
     let (p, n_side, times) = (s.p.lanes(), s.n_side.lanes(), g.time.to_array());
     let lights = &scene.lights;
     let mut chosen_lights: [Option<&Light>; WIDTH] = [None; WIDTH];
-    // Lanes whose light is a still triangle, a point, spot or sun, a sphere (all in lanes), or another.
-    let (mut in_lanes, mut punctual, mut spheres, mut one_by_one) = (0u32, 0u32, 0u32, 0u32);
+    // Lanes whose light is a still triangle, a point, spot or sun, a sphere, the environment (all
+    // in lanes), or another.
+    let (mut in_lanes, mut punctual, mut spheres, mut sky, mut one_by_one) = (0u32, 0u32, 0u32, 0u32, 0u32);
     // The lights chosen, asked for before any is read: a scene of many emitting triangles (a
     // lamp's mesh) reads them from memory, and the lanes' waits then overlap.
     let u_select = std::array::from_fn(|i| g.u[i].light_select());
@@ -70,13 +72,14 @@ pub fn sample_lights(
                 chosen_lights[i] = Some(l);
                 spheres |= 1 << i;
             }
+            None if lights.environment.as_ref().is_some_and(|e| takes(e, n_side[i])) => sky |= 1 << i,
             _ => one_by_one |= 1 << i,
         }
     }
     let (mut light_p, mut le, mut light_pdf) = (V3::splat(1.0), V3::splat(1.0), Lanes::ONE);
     let (mut delta, mut valid) = (Mask::ZERO, Mask::ZERO);
     if one_by_one != 0 {
-        // The other lights (the environment, moving triangles).
+        // The other lights (moving triangles, a constant sky seen from a zero normal).
         let scalar: [Option<LightSample>; WIDTH] = std::array::from_fn(|i| {
             let (index, pmf) = chosen[i].filter(|_| one_by_one >> i & 1 == 1)?;
             let (_, mut ls) =
@@ -152,6 +155,16 @@ pub fn sample_lights(
         let sampled = sample_spheres(&lanes, s.p, g.time, u);
         let pmf = Lanes::new(std::array::from_fn(|i| chosen[i].map_or(1.0, |(_, pmf)| pmf)));
         let mask = Mask::from_fn(|i| spheres >> i & 1 == 1);
+        light_p = V3::select(mask, sampled.p, light_p);
+        le = V3::select(mask, sampled.le, le);
+        light_pdf = select(mask, sampled.pdf * pmf, light_pdf);
+        valid = select(mask, sampled.drawn, valid);
+    }
+    if let Some(environment) = lights.environment.as_ref().filter(|_| sky != 0) {
+        let u = std::array::from_fn(|i| g.u[i].light_point());
+        let sampled = sample_environment(environment, s.p, s.n_side, u);
+        let pmf = Lanes::new(std::array::from_fn(|i| chosen[i].map_or(1.0, |(_, pmf)| pmf)));
+        let mask = Mask::from_fn(|i| sky >> i & 1 == 1);
         light_p = V3::select(mask, sampled.p, light_p);
         le = V3::select(mask, sampled.le, le);
         light_pdf = select(mask, sampled.pdf * pmf, light_pdf);

@@ -29,6 +29,7 @@ mod bsdf;
 mod classes;
 mod coat;
 mod columns;
+mod environment_light;
 mod ggx;
 mod light;
 mod punctual;

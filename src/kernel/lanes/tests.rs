@@ -315,6 +315,39 @@ fn sphere_lamps_in_lanes_light_as_the_scalar_kernel_does_bit_for_bit() {
     }
 }
 
+/// Next-event estimation towards the environment in lanes: a constant sky (by the cosine about the
+/// normal) and a rotated map with dark rows and a bright spot (by its luminance), every light
+/// sample the scalar kernel's. The room is closed, so the samples are tested, not what they light.
+#[test]
+fn environment_in_lanes_lights_as_the_scalar_kernel_does_bit_for_bit() {
+    use crate::film::Image;
+    use crate::scene::environment::{EnvironmentDesc, EnvironmentRadiance};
+    let (width, height) = (16, 8);
+    let pixels = (0..width * height)
+        .map(|i| match (i % width, i / width) {
+            (_, 0 | 7) => Vec3::ZERO,
+            (5, 2) => Vec3::new(400.0, 300.0, 200.0),
+            _ => Vec3::new(texel_number(i, 10), texel_number(i, 11), texel_number(i, 12)),
+        })
+        .collect();
+    let skies = [
+        EnvironmentRadiance::Constant(Vec3::new(0.4, 0.5, 0.7)),
+        EnvironmentRadiance::Map(Image { width, height, pixels }),
+    ];
+    for radiance in skies {
+        let environment = EnvironmentDesc {
+            name: "sky".into(),
+            radiance,
+            strength: 1.5,
+            rotation: glam::Quat::from_rotation_y(0.7) * glam::Quat::from_rotation_x(0.3),
+        };
+        for (mut scene, class) in [(room(), LaneClass::Lambert), (glossy_room(), LaneClass::MetalRough)] {
+            scene.environment = Some(environment.clone());
+            agree_everywhere(&scene, class);
+        }
+    }
+}
+
 /// The metallic-roughness mixture under a clear coat: rough walls and a gold ball under coats of
 /// their own weight and roughness, and the textured floor under a coat whose weight and roughness
 /// are textured too (its roughness texels down to a mirror coat, whose rows are handed back).
