@@ -210,6 +210,16 @@ impl Lights {
         }
     }
 
+    /// The tree, the visibility grid and the share of selections they take, where selection is
+    /// visibility-aware: what the lanes descend (`kernel::lanes::tree`).
+    #[inline]
+    pub(crate) fn tree_and_visibility(&self) -> Option<(&LightTree, &VisibilityGrid, f32)> {
+        match (&self.tree, &self.visibility) {
+            (Some(tree), Some(grid)) => Some((tree, grid, 1.0 - self.tree_infinite_share())),
+            _ => None,
+        }
+    }
+
     /// [`Lights::select`] for the first `count` of `N` shading points at once, the same picks (the
     /// rest `None`): by the selector, `N` searches of its CDF interleaved; by the tree, one point
     /// after another.

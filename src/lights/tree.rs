@@ -250,6 +250,12 @@ impl LightTree {
         &self.nodes
     }
 
+    /// A light's path from the root (bit `l`: the turn at level `l`, set for the second child).
+    #[inline]
+    pub(crate) fn trail(&self, light: u32) -> Option<u64> {
+        self.trails.get(light as usize).copied()
+    }
+
     /// Whether the tree holds no light.
     pub fn is_empty(&self) -> bool {
         self.nodes.is_empty()

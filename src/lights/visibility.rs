@@ -153,7 +153,7 @@ impl VisibilityGrid {
 
     /// The cluster distribution of the cell holding (p, n), if it learned one.
     #[inline]
-    fn row(&self, p: Vec3, n: Vec3) -> Option<&[f32]> {
+    pub(crate) fn row(&self, p: Vec3, n: Vec3) -> Option<&[f32]> {
         if !self.ready || !p.is_finite() || !n.is_finite() {
             return None;
         }
@@ -170,11 +170,8 @@ impl VisibilityGrid {
         let light = if u < DEFENSIVE {
             tree.sample(p, n, u / DEFENSIVE)?.0
         } else {
-            let u = ((u - DEFENSIVE) / (1.0 - DEFENSIVE)).min(ONE_MINUS_EPSILON);
-            let cluster = row.partition_point(|&c| c <= u).min(CLUSTERS - 1);
-            let lo = if cluster == 0 { 0.0 } else { row[cluster - 1] };
-            let u = ((u - lo) / (row[cluster] - lo)).clamp(0.0, ONE_MINUS_EPSILON);
-            tree.sample_in_cluster(cluster as u32, CLUSTER_DEPTH, p, n, u)?.0
+            let (cluster, u) = choose_cluster(row, u);
+            tree.sample_in_cluster(cluster, CLUSTER_DEPTH, p, n, u)?.0
         };
         let pmf = self.pmf(tree, light, p, n);
         (pmf > 0.0).then_some((light, pmf))
@@ -185,10 +182,27 @@ impl VisibilityGrid {
     pub fn pmf(&self, tree: &LightTree, light: u32, p: Vec3, n: Vec3) -> f32 {
         let Some(row) = self.row(p, n) else { return tree.pmf(light, p, n) };
         let (tree_pmf, in_cluster) = tree.pmf_and_in_cluster(light, CLUSTER_DEPTH, p, n);
-        let cluster = tree.cluster(light, CLUSTER_DEPTH) as usize;
-        let p_cluster = row[cluster] - if cluster == 0 { 0.0 } else { row[cluster - 1] };
-        DEFENSIVE * tree_pmf + (1.0 - DEFENSIVE) * p_cluster * in_cluster
+        mixture_pmf(row, tree.cluster(light, CLUSTER_DEPTH), tree_pmf, in_cluster)
     }
+}
+
+/// The cluster a cell's learned `row` picks for `u` in [0, 1) past the defensive share (`u` is the
+/// whole selection number, ≥ [`DEFENSIVE`]), and the number that descends within it.
+#[inline]
+pub(crate) fn choose_cluster(row: &[f32], u: f32) -> (u32, f32) {
+    let u = ((u - DEFENSIVE) / (1.0 - DEFENSIVE)).min(ONE_MINUS_EPSILON);
+    let cluster = row.partition_point(|&c| c <= u).min(CLUSTERS - 1);
+    let lo = if cluster == 0 { 0.0 } else { row[cluster - 1] };
+    (cluster as u32, ((u - lo) / (row[cluster] - lo)).clamp(0.0, ONE_MINUS_EPSILON))
+}
+
+/// The mixture's probability of a light in `cluster` whose probability is `tree_pmf` by the tree
+/// and `in_cluster` within its cluster, where the cell learned `row`.
+#[inline]
+pub(crate) fn mixture_pmf(row: &[f32], cluster: u32, tree_pmf: f32, in_cluster: f32) -> f32 {
+    let cluster = cluster as usize;
+    let p_cluster = row[cluster] - if cluster == 0 { 0.0 } else { row[cluster - 1] };
+    DEFENSIVE * tree_pmf + (1.0 - DEFENSIVE) * p_cluster * in_cluster
 }
 
 #[cfg(test)]

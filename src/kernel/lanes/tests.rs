@@ -489,9 +489,14 @@ fn light_selection_in_lanes_picks_what_the_scalar_selection_picks() {
     let mut with_sky = scene.clone();
     with_sky.environment = Some(crate::scene::environment::EnvironmentDesc::constant(Vec3::splat(0.3)));
     let mut compared = 0;
+    let selections =
+        [LightSelection::Tree, LightSelection::Visibility, LightSelection::Power, LightSelection::Uniform];
     for scene in [&scene, &with_sky] {
-        for selection in [LightSelection::Tree, LightSelection::Power, LightSelection::Uniform] {
-            let render_scene = RenderScene::build(scene, selection);
+        for selection in selections {
+            let mut render_scene = RenderScene::build(scene, selection);
+            if selection == LightSelection::Visibility {
+                learn_visibility(&mut render_scene);
+            }
             let lights = &render_scene.lights;
             assert!(lights.lights.len() > 300, "{} lights", lights.lights.len());
             for group in 0..300u32 {
@@ -521,4 +526,19 @@ fn light_selection_in_lanes_picks_what_the_scalar_selection_picks() {
         }
     }
     assert!(compared > 10_000, "only {compared} selections compared");
+}
+
+/// Visibility-aware selection that has learned: random shadow-ray outcomes recorded over the room
+/// (a third of the cells' lights blocked), most cells left with a distribution of their own, some
+/// (outside the room) with none.
+fn learn_visibility(scene: &mut RenderScene) {
+    let lights = scene.lights.lights.len() as u32;
+    for k in 0..400_000u32 {
+        let s = Sampler::new(23, k, 0);
+        let p = (Vec3::new(s.get1d(0), s.get1d(1), s.get1d(2)) - 0.5) * 2.0;
+        let n = uniform_sphere(s.get2d(3));
+        let light = ((s.get1d(5) * lights as f32) as u32).min(lights - 1);
+        scene.lights.record_visibility(p, n, light, s.get1d(6) > 0.33);
+    }
+    scene.lights.finish_learning();
 }

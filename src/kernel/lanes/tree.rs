@@ -9,7 +9,8 @@
 use super::v3::{Mask, MaskBits, V3, select};
 use super::{Lanes, WIDTH};
 use crate::lights::tree::{Node, NodeBounds};
-use crate::lights::{LightTree, Lights};
+use crate::lights::visibility::{CLUSTER_DEPTH, DEFENSIVE, choose_cluster, mixture_pmf};
+use crate::lights::{LightTree, Lights, VisibilityGrid};
 use crate::sampling::ONE_MINUS_EPSILON;
 
 /// A node's bounds in each lane.
@@ -81,15 +82,56 @@ pub fn sample_tree(
     u: [f32; WIDTH],
     active: u32,
 ) -> [Option<(u32, f32)>; WIDTH] {
+    descend(tree, p, n, u, Descent { active, root_checked: active, cluster: [0; WIDTH], depth: [0; WIDTH] })
+}
+
+/// Which lanes descend and how: the lanes in `root_checked` first ask whether the root reaches
+/// their point (`LightTree::sample`); lane `i` takes the first `depth[i]` turns of `cluster[i]`'s
+/// bits without choosing (`LightTree::sample_in_cluster`), its probability within the cluster.
+struct Descent {
+    active: u32,
+    root_checked: u32,
+    cluster: [u32; WIDTH],
+    depth: [u32; WIDTH],
+}
+
+/// The children of each lane's node `at[i]` and the probability of its first: `LightTree::split`
+/// in lanes, and the lanes where it has none (both children rule the point out and hold no power).
+#[inline(always)]
+fn split(
+    nodes: &[Node],
+    at: &[u32; WIDTH],
+    p: V3,
+    n: V3,
+    has_n: Mask,
+) -> ([u32; WIDTH], [u32; WIDTH], Lanes, u32) {
+    let first: [u32; WIDTH] = std::array::from_fn(|i| at[i] + 1);
+    let second: [u32; WIDTH] = std::array::from_fn(|i| nodes[at[i] as usize].index);
+    let (a, b) = (BoundsLanes::gather(nodes, &first), BoundsLanes::gather(nodes, &second));
+    let (ia, ib) = (a.importance(p, n, has_n), b.importance(p, n, has_n));
+    // By importance, by power where both children rule the point out.
+    let total = ia + ib;
+    let by_importance = total.simd_gt(Lanes::ZERO) & total.is_finite();
+    let phi = a.phi + b.phi;
+    let p_first = select(by_importance, ia / total, a.phi / phi);
+    let no_split = (!by_importance & !phi.simd_gt(Lanes::ZERO)).bits();
+    (first, second, p_first, no_split)
+}
+
+fn descend(tree: &LightTree, p: V3, n: V3, u: [f32; WIDTH], how: Descent) -> [Option<(u32, f32)>; WIDTH] {
     let nodes = tree.nodes();
     let mut chosen = [None; WIDTH];
-    if nodes.is_empty() || active == 0 {
+    if nodes.is_empty() || how.active == 0 {
         return chosen;
     }
     let has_n = !n.is_zero();
-    let root = BoundsLanes::gather(nodes, &[0; WIDTH]).importance(p, n, has_n);
-    let reached = active & !root.simd_le(Lanes::ZERO).bits();
+    let mut reached = how.active;
+    if how.root_checked != 0 {
+        let root = BoundsLanes::gather(nodes, &[0; WIDTH]).importance(p, n, has_n);
+        reached &= !(root.simd_le(Lanes::ZERO).bits() & how.root_checked);
+    }
     let mut node = [0u32; WIDTH];
+    let mut level = [0u32; WIDTH];
     let mut u = Lanes::new(u);
     let mut pmf = Lanes::ONE;
     let mut walking = if nodes[0].leaf { 0 } else { reached };
@@ -98,16 +140,11 @@ pub fn sample_tree(
         // Lanes that have stopped walk along with the first that has not (their results are kept).
         let lead = node[walking.trailing_zeros() as usize];
         let at: [u32; WIDTH] = std::array::from_fn(|i| if walking >> i & 1 == 1 { node[i] } else { lead });
-        let first: [u32; WIDTH] = std::array::from_fn(|i| at[i] + 1);
-        let second: [u32; WIDTH] = std::array::from_fn(|i| nodes[at[i] as usize].index);
-        let (a, b) = (BoundsLanes::gather(nodes, &first), BoundsLanes::gather(nodes, &second));
-        let (ia, ib) = (a.importance(p, n, has_n), b.importance(p, n, has_n));
-        // `LightTree::split`: by importance, by power where both children rule the point out.
-        let total = ia + ib;
-        let by_importance = total.simd_gt(Lanes::ZERO) & total.is_finite();
-        let phi = a.phi + b.phi;
-        let p_first = select(by_importance, ia / total, a.phi / phi);
-        let no_split = (!by_importance & !phi.simd_gt(Lanes::ZERO)).bits() & walking;
+        let (first, second, p_first, no_split) = split(nodes, &at, p, n, has_n);
+        // Lanes still within their forced prefix turn as their cluster says and choose nothing.
+        let forced =
+            (0..WIDTH).fold(0u32, |bits, i| bits | ((level[i] < how.depth[i]) as u32) << i) & walking;
+        let no_split = no_split & walking & !forced;
         let go_first = u.simd_lt(p_first);
         let one_minus_epsilon = Lanes::splat(ONE_MINUS_EPSILON);
         let u_next = select(
@@ -115,7 +152,8 @@ pub fn sample_tree(
             (u / p_first).min(one_minus_epsilon),
             ((u - p_first) / (Lanes::ONE - p_first)).min(one_minus_epsilon),
         );
-        let moving = Mask::from_fn(|i| walking >> i & 1 == 1);
+        let choosing = walking & !forced;
+        let moving = Mask::from_fn(|i| choosing >> i & 1 == 1);
         u = select(moving, u_next, u);
         pmf = select(moving, pmf * select(go_first, p_first, Lanes::ONE - p_first), pmf);
         let go_first = go_first.bits();
@@ -125,7 +163,13 @@ pub fn sample_tree(
         while still != 0 {
             let i = still.trailing_zeros() as usize;
             still &= still - 1;
-            node[i] = if go_first >> i & 1 == 1 { first[i] } else { second[i] };
+            let first_turn = if forced >> i & 1 == 1 {
+                how.cluster[i] & (1 << level[i]) == 0
+            } else {
+                go_first >> i & 1 == 1
+            };
+            node[i] = if first_turn { first[i] } else { second[i] };
+            level[i] += 1;
             if nodes[node[i] as usize].leaf {
                 walking &= !(1 << i);
             }
@@ -141,9 +185,122 @@ pub fn sample_tree(
     chosen
 }
 
-/// `Lights::select` for the first `count` lanes: by the tree in lanes where selection is by the
-/// tree alone, else `Lights::select_many` (the selector's searches interleaved, or a
-/// visibility-aware tree one lane after another).
+/// `LightTree::pmf_and_in_cluster(light[i], depth, p, n)` for the lanes in `active`: each lane
+/// walks its light's trail from the root, the splits on the way computed in lanes.
+fn pmf_along_trails(
+    tree: &LightTree,
+    light: [u32; WIDTH],
+    depth: u32,
+    p: V3,
+    n: V3,
+    active: u32,
+) -> [(f32, f32); WIDTH] {
+    let nodes = tree.nodes();
+    let mut out = [(0.0, 0.0); WIDTH];
+    if nodes.is_empty() {
+        return out;
+    }
+    let trail: [u64; WIDTH] = std::array::from_fn(|i| tree.trail(light[i]).unwrap_or(0));
+    let known = (0..WIDTH).fold(0u32, |bits, i| bits | (tree.trail(light[i]).is_some() as u32) << i);
+    let active = active & known;
+    if active == 0 {
+        return out;
+    }
+    let has_n = !n.is_zero();
+    let root = BoundsLanes::gather(nodes, &[0; WIDTH]).importance(p, n, has_n);
+    let root = !root.simd_le(Lanes::ZERO).bits() & !root.is_nan().bits();
+    let (mut above, mut below) = (Lanes::ONE, Lanes::ONE);
+    let mut node = [0u32; WIDTH];
+    let mut level = 0u32;
+    let mut walking = if nodes[0].leaf { 0 } else { active };
+    let mut dead = 0u32;
+    while walking != 0 {
+        let lead = node[walking.trailing_zeros() as usize];
+        let at: [u32; WIDTH] = std::array::from_fn(|i| if walking >> i & 1 == 1 { node[i] } else { lead });
+        let (first, second, p_first, no_split) = split(nodes, &at, p, n, has_n);
+        let first_turn = (0..WIDTH).fold(0u32, |bits, i| bits | ((trail[i] & (1 << level) == 0) as u32) << i);
+        let turn_first = Mask::from_fn(|i| first_turn >> i & 1 == 1);
+        let p_turn = select(turn_first, p_first, Lanes::ONE - p_first);
+        let moving = Mask::from_fn(|i| walking >> i & 1 == 1);
+        if level < depth {
+            let none = Mask::from_fn(|i| no_split >> i & 1 == 1);
+            above = select(moving, above * select(none, Lanes::ZERO, p_turn), above);
+        } else {
+            dead |= no_split & walking;
+            walking &= !no_split;
+            below = select(moving, below * p_turn, below);
+        }
+        let mut still = walking;
+        while still != 0 {
+            let i = still.trailing_zeros() as usize;
+            still &= still - 1;
+            node[i] = if first_turn >> i & 1 == 1 { first[i] } else { second[i] };
+            if nodes[node[i] as usize].leaf {
+                walking &= !(1 << i);
+            }
+        }
+        level += 1;
+    }
+    let (above, below) = (above.to_array(), below.to_array());
+    let mut found = active & !dead;
+    while found != 0 {
+        let i = found.trailing_zeros() as usize;
+        found &= found - 1;
+        if nodes[node[i] as usize].index == light[i] {
+            out[i] = (if root >> i & 1 == 1 { above[i] * below[i] } else { 0.0 }, below[i]);
+        }
+    }
+    out
+}
+
+/// `VisibilityGrid::sample` for the lanes in `active`: where a lane's cell has learned, the
+/// defensive share descends the tree and the rest a cluster the cell picks (its first turns
+/// forced); each picked light's probability under the mixture is then walked along its trail in
+/// lanes. Where the cell has not learned, the tree alone.
+fn sample_visible(
+    tree: &LightTree,
+    grid: &VisibilityGrid,
+    p: V3,
+    n: V3,
+    u: [f32; WIDTH],
+    active: u32,
+) -> [Option<(u32, f32)>; WIDTH] {
+    let (ps, ns) = (p.lanes(), n.lanes());
+    let rows: [Option<&[f32]>; WIDTH] =
+        std::array::from_fn(|i| if active >> i & 1 == 1 { grid.row(ps[i], ns[i]) } else { None });
+    let (mut u_tree, mut root_checked, mut cluster, mut depth) = (u, active, [0u32; WIDTH], [0u32; WIDTH]);
+    for i in 0..WIDTH {
+        let Some(row) = rows[i] else { continue };
+        if u[i] < DEFENSIVE {
+            u_tree[i] = u[i] / DEFENSIVE;
+        } else {
+            (cluster[i], u_tree[i]) = choose_cluster(row, u[i]);
+            depth[i] = CLUSTER_DEPTH;
+            root_checked &= !(1 << i);
+        }
+    }
+    let descended = descend(tree, p, n, u_tree, Descent { active, root_checked, cluster, depth });
+    let learned = (0..WIDTH).fold(0u32, |bits, i| bits | (rows[i].is_some() as u32) << i);
+    let picked = (0..WIDTH).fold(0u32, |bits, i| bits | (descended[i].is_some() as u32) << i);
+    let light = descended.map(|c| c.map_or(0, |(light, _)| light));
+    let mixture = learned & picked;
+    let pmfs = if mixture != 0 {
+        pmf_along_trails(tree, light, CLUSTER_DEPTH, p, n, mixture)
+    } else {
+        [(0.0, 0.0); WIDTH]
+    };
+    std::array::from_fn(|i| {
+        // A cell that has not learned keeps the tree's own pick and probability.
+        let Some(row) = rows[i] else { return descended[i] };
+        let picked = descended[i]?.0;
+        let (tree_pmf, in_cluster) = pmfs[i];
+        let pmf = mixture_pmf(row, tree.cluster(picked, CLUSTER_DEPTH), tree_pmf, in_cluster);
+        (pmf > 0.0).then_some((picked, pmf))
+    })
+}
+
+/// `Lights::select` for the first `count` lanes: by the tree in lanes (visibility-aware or not),
+/// else `Lights::select_many` (the selector's searches interleaved).
 #[inline(never)]
 pub fn select_lights(
     lights: &Lights,
@@ -152,9 +309,27 @@ pub fn select_lights(
     u_select: [f32; WIDTH],
     count: usize,
 ) -> [Option<(u32, f32)>; WIDTH] {
-    let Some((tree, tree_share)) = lights.tree_alone() else {
-        return lights.select_many(&p.lanes(), &n.lanes(), &u_select, count);
-    };
+    if let Some((tree, tree_share)) = lights.tree_alone() {
+        by_tree(lights, u_select, count, tree_share, |u, descend| sample_tree(tree, p, n, u, descend))
+    } else if let Some((tree, grid, tree_share)) = lights.tree_and_visibility() {
+        by_tree(lights, u_select, count, tree_share, |u, descend| {
+            sample_visible(tree, grid, p, n, u, descend)
+        })
+    } else {
+        lights.select_many(&p.lanes(), &n.lanes(), &u_select, count)
+    }
+}
+
+/// The tree's share of the selections (the infinite lights' chosen apart, `Lights::split_tree_share`),
+/// its lanes descended by `sample(u, lanes)`.
+#[inline(always)]
+fn by_tree(
+    lights: &Lights,
+    u_select: [f32; WIDTH],
+    count: usize,
+    tree_share: f32,
+    sample: impl FnOnce([f32; WIDTH], u32) -> [Option<(u32, f32)>; WIDTH],
+) -> [Option<(u32, f32)>; WIDTH] {
     let mut chosen = [None; WIDTH];
     let mut u = [0.0; WIDTH];
     let mut descend = 0u32;
@@ -164,7 +339,7 @@ pub fn select_lights(
             Ok(u_tree) => (u[i], descend) = (u_tree, descend | 1 << i),
         }
     }
-    let in_tree = sample_tree(tree, p, n, u, descend);
+    let in_tree = sample(u, descend);
     for i in 0..count {
         if descend >> i & 1 == 1 {
             chosen[i] = in_tree[i].map(|(index, pmf)| (index, pmf * tree_share));
