@@ -52,7 +52,7 @@ fn peak_and_count(out: &Output) -> (u64, u64) {
     (numbers[0], numbers[1])
 }
 
-/// (At 1200², where the film, the hit points and the light vertices dominate, the count is held to
+/// (At 800², where the film, the hit points and the light vertices dominate, the count is held to
 /// the allocator's own peak in tests/memory_count.rs, without the resident memory's slack.)
 fn check_every_integrator(size: u32, checkpoints: &[bool]) {
     for integrator in caustica::integrators::ALL.map(|i| i.name()) {
