@@ -160,7 +160,7 @@ impl WideBvh {
             );
             StackSize::Heap
         };
-        Self { nodes, stack }
+        Self { nodes, compact: Vec::new(), stack }
     }
 }
 
