@@ -5,7 +5,7 @@ use super::{NO_LIGHT, PrimitiveInfo, PrimitiveKind, PrimitiveSet, PrimitiveShape
 use crate::geometry::alpha::Cutouts;
 use crate::geometry::alpha::NO_CUTOUT;
 use crate::geometry::triangle_pack::{LANES, PackLanes, TrianglePack};
-use crate::geometry::wide_bvh::{COMPACT_ABOVE_BYTES, LeafRule, WideBvh, build_bvh2};
+use crate::geometry::wide_bvh::{LeafRule, WideBvh, build_bvh2};
 use crate::scene::{Mesh, Scene};
 use glam::{Vec2, Vec3, Vec3A};
 use obvhs::BvhBuildParams;
@@ -207,11 +207,8 @@ fn binary_tree(aabbs: Vec<Aabb>, first: u32) -> Option<Bvh2> {
 }
 
 /// The wide tree of `bvh2`, its leaves chosen by `rule` and made by `make_leaf`.
-/// A tree larger than the cache is compacted (`wide_bvh/compact.rs`).
 fn flatten(bvh2: Option<Bvh2>, rule: LeafRule, make_leaf: impl FnMut(&[u32]) -> (u32, u32)) -> WideBvh {
-    let mut tree = bvh2.map_or_else(WideBvh::default, |bvh2| WideBvh::from_bvh2(&bvh2, rule, make_leaf));
-    tree.compact_above(COMPACT_ABOVE_BYTES);
-    tree
+    bvh2.map_or_else(WideBvh::default, |bvh2| WideBvh::from_bvh2(&bvh2, rule, make_leaf))
 }
 
 /// Triangle leaves: one pack of eight, a node test costing about what a pack test does. Measured

@@ -160,7 +160,7 @@ impl WideBvh {
             );
             StackSize::Heap
         };
-        Self { nodes, compact: Vec::new(), stack }
+        Self { nodes, stack }
     }
 }
 

@@ -14,14 +14,12 @@
 //! this file holds the nodes and the box test.
 
 mod build;
-mod compact;
 mod traverse;
 
 pub use build::{LeafRule, build_bvh2};
 pub use traverse::ClosestLeaf;
 
 use super::offset::gamma;
-use compact::CompactNode;
 use wide::f32x8;
 
 /// A lane per child.
@@ -100,23 +98,16 @@ impl Node {
     /// Which children the ray enters before `t_max` (a bit each), and where.
     #[inline(always)]
     fn intersect(&self, ray: &BoxRay, t_max: f32) -> (u32, Lanes) {
-        slab_test(&self.bounds, ray, t_max)
+        let slab = |a: usize, side: usize| (self.bounds[side] - ray.o[a]) * ray.inv[a];
+        // maxps/minps return their second operand when either is NaN (a ray parallel to a slab
+        // that starts on its plane): keeping the running bound second ignores that slab.
+        let near = slab(2, ray.near[2])
+            .fast_max(slab(1, ray.near[1]).fast_max(slab(0, ray.near[0]).fast_max(Lanes::ZERO)));
+        let far = slab(2, ray.far[2])
+            .fast_min(slab(1, ray.far[1]).fast_min(slab(0, ray.far[0]).fast_min(Lanes::splat(t_max))));
+        let mask = near.simd_le(far * Lanes::splat(EXIT_SLACK)).to_bitmask();
+        (mask, near)
     }
-}
-
-/// Which of the eight boxes `bounds` (`bounds[a]` minimum, `bounds[3 + a]` maximum on axis `a`)
-/// the ray enters before `t_max` (a bit each), and where.
-#[inline(always)]
-fn slab_test(bounds: &[Lanes; 6], ray: &BoxRay, t_max: f32) -> (u32, Lanes) {
-    let slab = |a: usize, side: usize| (bounds[side] - ray.o[a]) * ray.inv[a];
-    // maxps/minps return their second operand when either is NaN (a ray parallel to a slab
-    // that starts on its plane): keeping the running bound second ignores that slab.
-    let near = slab(2, ray.near[2])
-        .fast_max(slab(1, ray.near[1]).fast_max(slab(0, ray.near[0]).fast_max(Lanes::ZERO)));
-    let far = slab(2, ray.far[2])
-        .fast_min(slab(1, ray.far[1]).fast_min(slab(0, ray.far[0]).fast_min(Lanes::splat(t_max))));
-    let mask = near.simd_le(far * Lanes::splat(EXIT_SLACK)).to_bitmask();
-    (mask, near)
 }
 
 /// The per-ray part of the box test.
@@ -209,18 +200,10 @@ impl Counts for Uncounted {
 /// A four-wide BVH; its leaves are ranges of items the builder's caller made.
 #[derive(Clone, Debug, Default)]
 pub struct WideBvh {
-    /// The nodes, full (empty once compacted).
     nodes: Vec<Node>,
-    /// The nodes on byte grids, for a tree larger than the cache (`compact.rs`); empty otherwise.
-    compact: Vec<CompactNode>,
     /// The traversal stack the tree's depth needs.
     stack: StackSize,
 }
-
-/// A tree whose full nodes take more than this is compacted: beyond the L2 caches of the
-/// machines we build for, traversal waits on memory and half the lines a node pay for the
-/// decoding (a tree within them traverses faster with the full nodes).
-pub const COMPACT_ABOVE_BYTES: usize = 1 << 20;
 
 /// Which traversal stack a tree needs.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -235,38 +218,18 @@ enum StackSize {
 impl WideBvh {
     /// Inner nodes.
     pub fn node_count(&self) -> usize {
-        self.nodes.len() + self.compact.len()
+        self.nodes.len()
     }
 
     /// Bytes the nodes take.
     pub fn bytes(&self) -> usize {
-        self.nodes.len() * size_of::<Node>() + self.compact.len() * size_of::<CompactNode>()
-    }
-
-    /// Whether the nodes are compact.
-    pub fn is_compact(&self) -> bool {
-        !self.compact.is_empty()
-    }
-
-    /// Put the nodes on byte grids where the full nodes take more than `above_bytes` (and every
-    /// box is finite); otherwise keep them as they are.
-    pub fn compact_above(&mut self, above_bytes: usize) {
-        if self.nodes.len() * size_of::<Node>() <= above_bytes {
-            return;
-        }
-        if let Some(compact) = self.nodes.iter().map(CompactNode::new).collect::<Option<Vec<_>>>() {
-            self.compact = compact;
-            self.nodes = Vec::new();
-        }
+        self.nodes.len() * size_of::<Node>()
     }
 
     /// Recompute every box from the boxes of the leaves (`leaf_box(first, count)`, as min and max),
     /// the tree's shape kept: a refit after its items moved. Children come after their parent in
     /// the node table, so one pass from the end sees every child's box before its parent's.
     pub fn refit(&mut self, leaf_box: impl Fn(u32, u32) -> ([f32; 3], [f32; 3])) {
-        if self.is_compact() {
-            return self.refit_compact(leaf_box);
-        }
         for n in (0..self.nodes.len()).rev() {
             for lane in 0..WIDTH {
                 let code = self.nodes[n].children[lane];
@@ -286,49 +249,6 @@ impl WideBvh {
                 }
             }
             self.nodes[n].order = build::visit_orders(&self.nodes[n]);
-        }
-    }
-
-    /// [`WideBvh::refit`] of compact nodes: each rebuilt as a full node from its leaves' boxes and
-    /// its children's decoded boxes (which hold theirs), then put back on its grid.
-    fn refit_compact(&mut self, leaf_box: impl Fn(u32, u32) -> ([f32; 3], [f32; 3])) {
-        for n in (0..self.compact.len()).rev() {
-            let mut node = Node::EMPTY;
-            node.children = self.compact[n].children;
-            for lane in 0..WIDTH {
-                let code = node.children[lane];
-                if code == u32::MAX {
-                    continue;
-                }
-                let (min, max) = if code & LEAF != 0 {
-                    let (first, count) = leaf_range(code);
-                    leaf_box(first, count)
-                } else {
-                    let child = &self.compact[code as usize];
-                    (0..WIDTH).filter(|&i| child.children[i] != u32::MAX).map(|i| child.child_box(i)).fold(
-                        ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
-                        |(lo, hi), (a, b)| {
-                            (
-                                std::array::from_fn(|k| lo[k].min(a[k])),
-                                std::array::from_fn(|k| hi[k].max(b[k])),
-                            )
-                        },
-                    )
-                };
-                for a in 0..3 {
-                    node.bounds[a].as_mut_array()[lane] = min[a];
-                    node.bounds[3 + a].as_mut_array()[lane] = max[a];
-                }
-            }
-            node.order = build::visit_orders(&node);
-            let Some(compact) = CompactNode::new(&node) else {
-                // A box that is no longer finite cannot go on a grid: back to full nodes (their
-                // decoded boxes, which hold the true ones), refitted as such.
-                self.nodes = self.compact.iter().map(CompactNode::full).collect();
-                self.compact = Vec::new();
-                return self.refit(leaf_box);
-            };
-            self.compact[n] = compact;
         }
     }
 }

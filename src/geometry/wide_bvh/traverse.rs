@@ -1,10 +1,8 @@
 //! The traversal: nearest hit and any hit, children visited nearest first from a stack sized to
 //! the tree (an array on the stack for all but the deepest trees), their nodes prefetched as pushed.
 
-use super::compact::CompactNode;
 use super::{
-    BoxRay, Counts, DEEP_STACK, LEAF, Lanes, Node, SHALLOW_STACK, StackSize, TINY_STACK, WIDTH, WideBvh,
-    leaf_range,
+    BoxRay, Counts, DEEP_STACK, LEAF, Node, SHALLOW_STACK, StackSize, TINY_STACK, WIDTH, WideBvh, leaf_range,
 };
 
 impl WideBvh {
@@ -12,35 +10,20 @@ impl WideBvh {
     /// the new closest distance (`t_max` when nothing nearer was hit). Returns the closest distance.
     #[inline(always)]
     pub fn closest(&self, ray: &BoxRay, t_max: f32, counts: &mut impl Counts, leaf: impl ClosestLeaf) -> f32 {
-        if self.is_compact() {
-            self.closest_in(self.compact.as_slice(), ray, t_max, counts, leaf)
-        } else if self.nodes.is_empty() {
-            t_max
-        } else {
-            self.closest_in(self.nodes.as_slice(), ray, t_max, counts, leaf)
+        if self.nodes.is_empty() {
+            return t_max;
         }
-    }
-
-    #[inline(always)]
-    fn closest_in(
-        &self,
-        nodes: &(impl NodeTable + ?Sized),
-        ray: &BoxRay,
-        t_max: f32,
-        counts: &mut impl Counts,
-        leaf: impl ClosestLeaf,
-    ) -> f32 {
         match self.stack {
             StackSize::Tiny => {
-                closest_with(nodes, ray, t_max, counts, &mut ArrayStack::<TINY_STACK>::new(), leaf)
+                closest_with(self, ray, t_max, counts, &mut ArrayStack::<TINY_STACK>::new(), leaf)
             }
             StackSize::Shallow => {
-                closest_with(nodes, ray, t_max, counts, &mut ArrayStack::<SHALLOW_STACK>::new(), leaf)
+                closest_with(self, ray, t_max, counts, &mut ArrayStack::<SHALLOW_STACK>::new(), leaf)
             }
             StackSize::Deep => {
-                closest_with(nodes, ray, t_max, counts, &mut ArrayStack::<DEEP_STACK>::new(), leaf)
+                closest_with(self, ray, t_max, counts, &mut ArrayStack::<DEEP_STACK>::new(), leaf)
             }
-            StackSize::Heap => closest_with(nodes, ray, t_max, counts, &mut HeapStack(Vec::new()), leaf),
+            StackSize::Heap => closest_with(self, ray, t_max, counts, &mut HeapStack(Vec::new()), leaf),
         }
     }
 
@@ -54,92 +37,17 @@ impl WideBvh {
         counts: &mut impl Counts,
         leaf: impl FnMut(u32, u32) -> bool,
     ) -> bool {
-        if self.is_compact() {
-            self.any_in(self.compact.as_slice(), ray, t_max, counts, leaf)
-        } else if self.nodes.is_empty() {
-            false
-        } else {
-            self.any_in(self.nodes.as_slice(), ray, t_max, counts, leaf)
+        if self.nodes.is_empty() {
+            return false;
         }
-    }
-
-    #[inline(always)]
-    fn any_in(
-        &self,
-        nodes: &(impl NodeTable + ?Sized),
-        ray: &BoxRay,
-        t_max: f32,
-        counts: &mut impl Counts,
-        leaf: impl FnMut(u32, u32) -> bool,
-    ) -> bool {
         match self.stack {
-            StackSize::Tiny => {
-                any_with(nodes, ray, t_max, counts, &mut ArrayStack::<TINY_STACK>::new(), leaf)
-            }
+            StackSize::Tiny => any_with(self, ray, t_max, counts, &mut ArrayStack::<TINY_STACK>::new(), leaf),
             StackSize::Shallow => {
-                any_with(nodes, ray, t_max, counts, &mut ArrayStack::<SHALLOW_STACK>::new(), leaf)
+                any_with(self, ray, t_max, counts, &mut ArrayStack::<SHALLOW_STACK>::new(), leaf)
             }
-            StackSize::Deep => {
-                any_with(nodes, ray, t_max, counts, &mut ArrayStack::<DEEP_STACK>::new(), leaf)
-            }
-            StackSize::Heap => any_with(nodes, ray, t_max, counts, &mut HeapStack(Vec::new()), leaf),
+            StackSize::Deep => any_with(self, ray, t_max, counts, &mut ArrayStack::<DEEP_STACK>::new(), leaf),
+            StackSize::Heap => any_with(self, ray, t_max, counts, &mut HeapStack(Vec::new()), leaf),
         }
-    }
-}
-
-/// The nodes a traversal reads: full ones or compact ones.
-trait NodeTable {
-    /// Which children of node `index` the ray enters before `t_max`, and where.
-    fn test(&self, index: u32, ray: &BoxRay, t_max: f32) -> (u32, Lanes);
-    /// The code of child `lane` of node `index`.
-    fn child(&self, index: u32, lane: usize) -> u32;
-    /// Node `index`'s visit order for rays of `octant`.
-    fn order(&self, index: u32, octant: usize) -> u32;
-    /// Ask for node `index`'s lines.
-    fn prefetch(&self, index: u32);
-}
-
-impl NodeTable for [Node] {
-    #[inline(always)]
-    fn test(&self, index: u32, ray: &BoxRay, t_max: f32) -> (u32, Lanes) {
-        self[index as usize].intersect(ray, t_max)
-    }
-
-    #[inline(always)]
-    fn child(&self, index: u32, lane: usize) -> u32 {
-        self[index as usize].children[lane]
-    }
-
-    #[inline(always)]
-    fn order(&self, index: u32, octant: usize) -> u32 {
-        self[index as usize].order[octant]
-    }
-
-    #[inline(always)]
-    fn prefetch(&self, index: u32) {
-        self[index as usize].prefetch();
-    }
-}
-
-impl NodeTable for [CompactNode] {
-    #[inline(always)]
-    fn test(&self, index: u32, ray: &BoxRay, t_max: f32) -> (u32, Lanes) {
-        self[index as usize].intersect(ray, t_max)
-    }
-
-    #[inline(always)]
-    fn child(&self, index: u32, lane: usize) -> u32 {
-        self[index as usize].children[lane]
-    }
-
-    #[inline(always)]
-    fn order(&self, index: u32, octant: usize) -> u32 {
-        self[index as usize].order[octant]
-    }
-
-    #[inline(always)]
-    fn prefetch(&self, index: u32) {
-        self[index as usize].prefetch();
     }
 }
 
@@ -225,21 +133,21 @@ impl Stack for HeapStack {
     }
 }
 
-/// Prefetch the inner nodes among node `index`'s children in `mask`.
+/// Prefetch the inner nodes among `node`'s children in `mask`.
 #[inline(always)]
-fn prefetch_children(nodes: &(impl NodeTable + ?Sized), index: u32, mut mask: u32) {
+fn prefetch_children(bvh: &WideBvh, node: &Node, mut mask: u32) {
     while mask != 0 {
-        let code = nodes.child(index, mask.trailing_zeros() as usize);
+        let code = node.children[mask.trailing_zeros() as usize];
         mask &= mask - 1;
         if code & LEAF == 0 {
-            nodes.prefetch(code);
+            bvh.nodes[code as usize].prefetch();
         }
     }
 }
 
 #[inline(always)]
 fn closest_with(
-    nodes: &(impl NodeTable + ?Sized),
+    bvh: &WideBvh,
     ray: &BoxRay,
     mut t_max: f32,
     counts: &mut impl Counts,
@@ -249,24 +157,24 @@ fn closest_with(
     let mut child = 0u32;
     loop {
         if child & LEAF == 0 {
-            let node = child;
+            let node = &bvh.nodes[child as usize];
             counts.node();
-            let (mask, near) = nodes.test(node, ray, t_max);
+            let (mask, near) = node.intersect(ray, t_max);
             if mask != 0 {
                 if mask & (mask - 1) == 0 {
-                    child = nodes.child(node, mask.trailing_zeros() as usize);
+                    child = node.children[mask.trailing_zeros() as usize];
                     continue;
                 }
                 // The hit children, farthest first by the octant's order: the nearest ends on top
                 // and is visited next, the others wait (Fuetterling et al. 2017; no sort).
                 let near = near.to_array();
-                let mut order = nodes.order(node, ray.octant);
+                let mut order = node.order[ray.octant];
                 for _ in 0..WIDTH {
                     let slot = (order & 7) as usize;
                     order >>= 3;
-                    stack.push_if(nodes.child(node, slot), near[slot], mask >> slot & 1 != 0);
+                    stack.push_if(node.children[slot], near[slot], mask >> slot & 1 != 0);
                 }
-                prefetch_children(nodes, node, mask);
+                prefetch_children(bvh, node, mask);
                 child = stack.pop().map_or(0, |(c, _)| c);
                 continue;
             }
@@ -290,7 +198,7 @@ fn closest_with(
 
 #[inline(always)]
 fn any_with(
-    nodes: &(impl NodeTable + ?Sized),
+    bvh: &WideBvh,
     ray: &BoxRay,
     t_max: f32,
     counts: &mut impl Counts,
@@ -300,19 +208,19 @@ fn any_with(
     let mut child = 0u32;
     loop {
         if child & LEAF == 0 {
-            let node = child;
+            let node = &bvh.nodes[child as usize];
             counts.node();
-            let (mut mask, _) = nodes.test(node, ray, t_max);
+            let (mut mask, _) = node.intersect(ray, t_max);
             if mask != 0 {
-                prefetch_children(nodes, node, mask);
+                prefetch_children(bvh, node, mask);
                 let first = mask.trailing_zeros() as usize;
                 mask &= mask - 1;
                 while mask != 0 {
                     let i = mask.trailing_zeros() as usize;
                     mask &= mask - 1;
-                    stack.push(nodes.child(node, i), 0.0);
+                    stack.push(node.children[i], 0.0);
                 }
-                child = nodes.child(node, first);
+                child = node.children[first];
                 continue;
             }
         } else {
@@ -353,40 +261,11 @@ mod tests {
         let bvh2 = build_bvh2(&boxes, indices, &BvhBuildParams::medium_build());
         let mut leaves: Vec<u32> = Vec::new();
         let rule = LeafRule { pack: 1, max_items: MAX_LEAF_ITEMS, node_cost: 1.0 };
-        let full = WideBvh::from_bvh2(&bvh2, rule, |prims| {
+        let bvh = WideBvh::from_bvh2(&bvh2, rule, |prims| {
             let first = leaves.len() as u32;
             leaves.extend_from_slice(prims);
             (first, prims.len() as u32)
         });
-        let mut compact = full.clone();
-        compact.compact_above(0);
-        assert!(compact.is_compact() && !full.is_compact());
-        for bvh in [&full, &compact] {
-            visits_as_brute_force(bvh, &boxes, &leaves);
-        }
-        // Refitted after every box moved and grew (its shape kept), either kind of node holds them.
-        let moved: Vec<Aabb> = boxes
-            .iter()
-            .enumerate()
-            .map(|(i, b)| {
-                let shift = Vec3A::new((i % 5) as f32 * 0.3, -((i % 3) as f32) * 0.2, 0.1);
-                Aabb::new(b.min + shift, b.max + shift * 1.5 + Vec3A::splat(0.05))
-            })
-            .collect();
-        let leaf_box = |first: u32, count: u32| {
-            let union = leaves[first as usize..(first + count) as usize]
-                .iter()
-                .fold(Aabb::empty(), |acc, &p| acc.union(&moved[p as usize]));
-            (union.min.to_array(), union.max.to_array())
-        };
-        for mut bvh in [full, compact] {
-            bvh.refit(leaf_box);
-            visits_as_brute_force(&bvh, &moved, &leaves);
-        }
-    }
-
-    /// `bvh`'s closest and any hits are brute force's over `boxes`, and it visits few leaves.
-    fn visits_as_brute_force(bvh: &WideBvh, boxes: &[Aabb], leaves: &[u32]) {
         let hit_box = |b: &Aabb, o: Vec3, d: Vec3| {
             let (t0, t1) = ((Vec3::from(b.min) - o) / d, (Vec3::from(b.max) - o) / d);
             let (near, far) = (t0.min(t1).max_element().max(0.0), t0.max(t1).min_element());
