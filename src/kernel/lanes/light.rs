@@ -1,7 +1,7 @@
 //! Next-event estimation in lanes (`direct::sample_light` with MIS): a light for each lane (`tree.rs`),
-//! a point on it (in lanes for still triangles, `triangle_light.rs`, spheres, `sphere_light.rs`,
-//! points, spots and suns, `punctual.rs`, and the environment, `environment_light.rs`; one by one
-//! for moving triangles), then the BSDF
+//! a point on it (in lanes for triangles, still or moving, `triangle_light.rs`, spheres,
+//! `sphere_light.rs`, points, spots and suns, `punctual.rs`, and the environment,
+//! `environment_light.rs`; one by one only for a constant sky seen from a zero normal), then the BSDF
 //! towards it, the power heuristic against the class's own pdf, the contribution and the shadow
 //! segment.
 
@@ -43,8 +43,8 @@ pub fn sample_lights(
     let (p, n_side, times) = (s.p.lanes(), s.n_side.lanes(), g.time.to_array());
     let lights = &scene.lights;
     let mut chosen_lights: [Option<&Light>; WIDTH] = [None; WIDTH];
-    // Lanes whose light is a still triangle, a point, spot or sun, a sphere, the environment (all
-    // in lanes), or another.
+    // Lanes whose light is a triangle, a point, spot or sun, a sphere, the environment (all in
+    // lanes), or another.
     let (mut in_lanes, mut punctual, mut spheres, mut sky, mut one_by_one) = (0u32, 0u32, 0u32, 0u32, 0u32);
     // The lights chosen, asked for before any is read: a scene of many emitting triangles (a
     // lamp's mesh) reads them from memory, and the lanes' waits then overlap.
@@ -60,7 +60,7 @@ pub fn sample_lights(
     for i in 0..query.count {
         let Some((index, _)) = chosen[i] else { continue };
         match lights.lights.get(index as usize) {
-            Some(l) if matches!(l.shape, LightShape::Triangle { .. }) && l.motion == Vec3::ZERO => {
+            Some(l) if matches!(l.shape, LightShape::Triangle { .. }) => {
                 chosen_lights[i] = Some(l);
                 in_lanes |= 1 << i;
             }
@@ -79,7 +79,7 @@ pub fn sample_lights(
     let (mut light_p, mut le, mut light_pdf) = (V3::splat(1.0), V3::splat(1.0), Lanes::ONE);
     let (mut delta, mut valid) = (Mask::ZERO, Mask::ZERO);
     if one_by_one != 0 {
-        // The other lights (moving triangles, a constant sky seen from a zero normal).
+        // The other lights (a constant sky seen from a zero normal).
         let scalar: [Option<LightSample>; WIDTH] = std::array::from_fn(|i| {
             let (index, pmf) = chosen[i].filter(|_| one_by_one >> i & 1 == 1)?;
             let (_, mut ls) =

@@ -94,7 +94,7 @@ fn rows_of(
     for i in 0..n * 8 {
         let s = Sampler::new(11, i, 0);
         let o = (Vec3::new(s.get1d(0), s.get1d(1), s.get1d(2)) - 0.5) * 1.2;
-        let ray = Ray { o, d: uniform_sphere(s.get2d(3)), t_max: f32::INFINITY, time: 0.0 };
+        let ray = Ray { o, d: uniform_sphere(s.get2d(3)), t_max: f32::INFINITY, time: s.get1d(4) };
         let hit = scene.geometry.intersect(&ray);
         let depth = (s.get1d(5) * 9.0) as u32;
         let path = CameraPath {
@@ -311,6 +311,17 @@ fn sphere_lamps_in_lanes_light_as_the_scalar_kernel_does_bit_for_bit() {
             lamp("moving", Vec3::new(0.1, 0.2, -0.6), 0.1, emitter, Some(Vec3::new(0.3, 0.0, 0.1))),
         ];
         let class = if scene.textures.is_empty() { LaneClass::Lambert } else { LaneClass::MetalRough };
+        agree_everywhere(&scene, class);
+    }
+}
+
+/// Next-event estimation towards triangle lamps that move over the shutter, in lanes: the room's
+/// bright lamp moving sideways and its dim one up, every light sample the scalar kernel's.
+#[test]
+fn moving_lamps_in_lanes_light_as_the_scalar_kernel_does_bit_for_bit() {
+    for (mut scene, class) in [(room(), LaneClass::Lambert), (glossy_room(), LaneClass::MetalRough)] {
+        scene.meshes[3].motion = Some(Vec3::new(0.3, 0.0, -0.2));
+        scene.meshes[4].motion = Some(Vec3::new(0.0, 0.2, 0.1));
         agree_everywhere(&scene, class);
     }
 }
