@@ -66,21 +66,26 @@ pub struct ShadingParams {
     pub thickness: f32,
 }
 
-impl Default for ShadingParams {
+impl ShadingParams {
     /// The glTF 2.0 default material's: white, metallic 1, roughness 1, no transmission, thin-walled.
+    pub const GLTF_DEFAULT: ShadingParams = ShadingParams {
+        base_color: Vec3::ONE,
+        metallic: 1.0,
+        roughness: 1.0,
+        transmission: 0.0,
+        ior: 1.5,
+        specular: 1.0,
+        specular_color: Vec3::ONE,
+        clearcoat: 0.0,
+        clearcoat_roughness: 0.0,
+        thickness: 0.0,
+    };
+}
+
+impl Default for ShadingParams {
+    /// [`ShadingParams::GLTF_DEFAULT`].
     fn default() -> Self {
-        Self {
-            base_color: Vec3::ONE,
-            metallic: 1.0,
-            roughness: 1.0,
-            transmission: 0.0,
-            ior: 1.5,
-            specular: 1.0,
-            specular_color: Vec3::ONE,
-            clearcoat: 0.0,
-            clearcoat_roughness: 0.0,
-            thickness: 0.0,
-        }
+        Self::GLTF_DEFAULT
     }
 }
 

@@ -120,19 +120,8 @@ impl MetalRoughLane {
     };
 }
 
-/// The parameters of an unused lane.
-pub const PLACEHOLDER_PARAMS: ShadingParams = ShadingParams {
-    base_color: Vec3::ONE,
-    metallic: 0.0,
-    roughness: 1.0,
-    transmission: 0.0,
-    ior: 1.5,
-    specular: 1.0,
-    specular_color: Vec3::ONE,
-    clearcoat: 0.0,
-    clearcoat_roughness: 0.0,
-    thickness: 0.0,
-};
+/// The parameters of an unused lane (any whose constants are finite will do).
+pub const PLACEHOLDER_PARAMS: ShadingParams = ShadingParams { metallic: 0.0, ..ShadingParams::GLTF_DEFAULT };
 
 impl MetalRough {
     /// Lane constants from a hit's parameters, as `Mixture::new` makes them; `None` where the scalar

@@ -30,6 +30,34 @@ pub struct LightQuery<'a> {
     pub count: usize,
 }
 
+/// Each lane's point on its light, as the lights' kinds sampled it.
+struct Drawn {
+    p: V3,
+    le: V3,
+    /// Solid-angle density, the choice's probability in it.
+    pdf: Lanes,
+    delta: Mask,
+    valid: Mask,
+}
+
+impl Drawn {
+    /// No lane drawn yet (ones where nothing is, so that no lane divides by zero).
+    #[inline(always)]
+    fn none() -> Self {
+        Drawn { p: V3::splat(1.0), le: V3::splat(1.0), pdf: Lanes::ONE, delta: Mask::ZERO, valid: Mask::ZERO }
+    }
+
+    /// The lanes in `bits` take these samples.
+    #[inline(always)]
+    fn take(&mut self, bits: u32, p: V3, le: V3, pdf: Lanes, valid: Mask) {
+        let mask = Mask::from_fn(|i| bits >> i & 1 == 1);
+        self.p = V3::select(mask, p, self.p);
+        self.le = V3::select(mask, le, self.le);
+        self.pdf = select(mask, pdf, self.pdf);
+        self.valid = select(mask, valid, self.valid);
+    }
+}
+
 /// Each lane's light sample: `f(wi)` is the BSDF times |cos| towards local direction `wi`, `pdf(wi)`
 /// the density with which the class's own sampling would have chosen it (MIS).
 #[inline(never)]
@@ -76,41 +104,42 @@ pub fn sample_lights(
             _ => one_by_one |= 1 << i,
         }
     }
-    let (mut light_p, mut le, mut light_pdf) = (V3::splat(1.0), V3::splat(1.0), Lanes::ONE);
-    let (mut delta, mut valid) = (Mask::ZERO, Mask::ZERO);
+    // Each kind's lanes sample in lanes, unused lanes repeating the kind's first light, and the
+    // lanes of a kind take its samples; `pmf`, the choices' probabilities, scales every pdf.
+    let kind_lights = |bits: u32| -> [&Light; WIDTH] {
+        let first = chosen_lights[bits.trailing_zeros() as usize].expect("a lane's light");
+        std::array::from_fn(|i| chosen_lights[i].filter(|_| bits >> i & 1 == 1).unwrap_or(first))
+    };
+    let pmf = Lanes::new(std::array::from_fn(|i| chosen[i].map_or(1.0, |(_, pmf)| pmf)));
+    let u_point = std::array::from_fn(|i| g.u[i].light_point());
+    let u = [Lanes::new(u_point.map(|u| u.x)), Lanes::new(u_point.map(|u| u.y))];
+    let mut drawn = Drawn::none();
     if one_by_one != 0 {
         // The other lights (a constant sky seen from a zero normal).
         let scalar: [Option<LightSample>; WIDTH] = std::array::from_fn(|i| {
             let (index, pmf) = chosen[i].filter(|_| one_by_one >> i & 1 == 1)?;
-            let (_, mut ls) =
-                lights.sample_chosen(index, pmf, p[i], n_side[i], times[i], g.u[i].light_point())?;
+            let (_, mut ls) = lights.sample_chosen(index, pmf, p[i], n_side[i], times[i], u_point[i])?;
             ls.le *= scene.emissive_texel(index, ls.p, times[i]);
             Some(ls)
         });
         let from_scalar =
             |f: &dyn Fn(&LightSample) -> Vec3| V3::gather(|i| scalar[i].as_ref().map_or(Vec3::ONE, f));
-        light_p = from_scalar(&|ls| ls.p);
-        le = from_scalar(&|ls| ls.le);
-        light_pdf = Lanes::new(std::array::from_fn(|i| scalar[i].as_ref().map_or(1.0, |ls| ls.pdf)));
-        delta = Mask::from_fn(|i| scalar[i].as_ref().is_some_and(|ls| ls.delta));
-        valid = Mask::from_fn(|i| scalar[i].is_some());
+        drawn = Drawn {
+            p: from_scalar(&|ls| ls.p),
+            le: from_scalar(&|ls| ls.le),
+            pdf: Lanes::new(std::array::from_fn(|i| scalar[i].as_ref().map_or(1.0, |ls| ls.pdf))),
+            delta: Mask::from_fn(|i| scalar[i].as_ref().is_some_and(|ls| ls.delta)),
+            valid: Mask::from_fn(|i| scalar[i].is_some()),
+        };
     }
     if in_lanes != 0 {
-        let first = chosen_lights[in_lanes.trailing_zeros() as usize].expect("a lane's triangle");
-        let in_lanes_mask = Mask::from_fn(|i| in_lanes >> i & 1 == 1);
-        let triangles: [&Light; WIDTH] =
-            std::array::from_fn(|i| chosen_lights[i].filter(|_| in_lanes >> i & 1 == 1).unwrap_or(first));
+        let triangles = kind_lights(in_lanes);
         let sampled = TriangleLanes::new(&triangles, g.time);
-        let u = [
-            Lanes::new(std::array::from_fn(|i| g.u[i].light_point().x)),
-            Lanes::new(std::array::from_fn(|i| g.u[i].light_point().y)),
-        ];
         let one_by_one = |i: usize| {
-            let ls = triangles[i].sample(p[i], n_side[i], times[i], g.u[i].light_point())?;
+            let ls = triangles[i].sample(p[i], n_side[i], times[i], u_point[i])?;
             Some((ls.p, ls.pdf))
         };
-        let (point, pdf, drawn) = sampled.sample(s.p, s.n_side, u, one_by_one);
-        let pmf = Lanes::new(std::array::from_fn(|i| chosen[i].map_or(1.0, |(_, pmf)| pmf)));
+        let (point, pdf, valid) = sampled.sample(s.p, s.n_side, u, one_by_one);
         // An emissive texture multiplies the radiance where the point landed (a gather a lane).
         let textured = (0..WIDTH).filter(|&i| in_lanes >> i & 1 == 1 && triangles[i].texture.is_some());
         let textured = textured.fold(0u32, |bits, i| bits | 1 << i);
@@ -125,51 +154,23 @@ pub fn sample_lights(
                 _ => le[i],
             })
         };
-        light_p = V3::select(in_lanes_mask, point, light_p);
-        le = V3::select(in_lanes_mask, radiance, le);
-        light_pdf = select(in_lanes_mask, pdf * pmf, light_pdf);
-        valid = select(in_lanes_mask, drawn, valid);
+        drawn.take(in_lanes, point, radiance, pdf * pmf, valid);
     }
     if punctual != 0 {
-        let first = chosen_lights[punctual.trailing_zeros() as usize].expect("a lane's light");
-        let lanes: [&Light; WIDTH] =
-            std::array::from_fn(|i| chosen_lights[i].filter(|_| punctual >> i & 1 == 1).unwrap_or(first));
-        let sampled = sample_punctual(&lanes, s.p);
-        let pmf = Lanes::new(std::array::from_fn(|i| chosen[i].map_or(1.0, |(_, pmf)| pmf)));
-        let mask = Mask::from_fn(|i| punctual >> i & 1 == 1);
-        light_p = V3::select(mask, sampled.p, light_p);
-        le = V3::select(mask, sampled.le, le);
+        let sampled = sample_punctual(&kind_lights(punctual), s.p);
         // A delta light's pdf is one, times its choice's probability.
-        light_pdf = select(mask, Lanes::ONE * pmf, light_pdf);
-        delta |= mask;
-        valid = select(mask, sampled.drawn, valid);
+        drawn.take(punctual, sampled.p, sampled.le, pmf, sampled.drawn);
+        drawn.delta |= Mask::from_fn(|i| punctual >> i & 1 == 1);
     }
     if spheres != 0 {
-        let first = chosen_lights[spheres.trailing_zeros() as usize].expect("a lane's light");
-        let lanes: [&Light; WIDTH] =
-            std::array::from_fn(|i| chosen_lights[i].filter(|_| spheres >> i & 1 == 1).unwrap_or(first));
-        let u = [
-            Lanes::new(std::array::from_fn(|i| g.u[i].light_point().x)),
-            Lanes::new(std::array::from_fn(|i| g.u[i].light_point().y)),
-        ];
-        let sampled = sample_spheres(&lanes, s.p, g.time, u);
-        let pmf = Lanes::new(std::array::from_fn(|i| chosen[i].map_or(1.0, |(_, pmf)| pmf)));
-        let mask = Mask::from_fn(|i| spheres >> i & 1 == 1);
-        light_p = V3::select(mask, sampled.p, light_p);
-        le = V3::select(mask, sampled.le, le);
-        light_pdf = select(mask, sampled.pdf * pmf, light_pdf);
-        valid = select(mask, sampled.drawn, valid);
+        let sampled = sample_spheres(&kind_lights(spheres), s.p, g.time, u);
+        drawn.take(spheres, sampled.p, sampled.le, sampled.pdf * pmf, sampled.drawn);
     }
     if let Some(environment) = lights.environment.as_ref().filter(|_| sky != 0) {
-        let u = std::array::from_fn(|i| g.u[i].light_point());
-        let sampled = sample_environment(environment, s.p, s.n_side, u);
-        let pmf = Lanes::new(std::array::from_fn(|i| chosen[i].map_or(1.0, |(_, pmf)| pmf)));
-        let mask = Mask::from_fn(|i| sky >> i & 1 == 1);
-        light_p = V3::select(mask, sampled.p, light_p);
-        le = V3::select(mask, sampled.le, le);
-        light_pdf = select(mask, sampled.pdf * pmf, light_pdf);
-        valid = select(mask, sampled.drawn, valid);
+        let sampled = sample_environment(environment, s.p, s.n_side, u_point);
+        drawn.take(sky, sampled.p, sampled.le, sampled.pdf * pmf, sampled.drawn);
     }
+    let Drawn { p: light_p, le, pdf: light_pdf, delta, valid } = drawn;
     let own = Mask::from_fn(|i| chosen[i].is_some_and(|(index, _)| index == g.own_light[i]));
     let valid = valid & !own;
     let lights_of = |i: usize| chosen[i].map(|(index, _)| index);

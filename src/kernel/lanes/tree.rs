@@ -95,16 +95,21 @@ struct Descent {
     depth: [u32; WIDTH],
 }
 
-/// The children of each lane's node `at[i]` and the probability of its first: `LightTree::split`
-/// in lanes, and the lanes where it has none (both children rule the point out and hold no power).
+/// The children of each walking lane's node and the probability of its first:
+/// `LightTree::split` in lanes, and the lanes where it has none (both children rule the point out
+/// and hold no power).
 #[inline(always)]
 fn split(
     nodes: &[Node],
-    at: &[u32; WIDTH],
+    node: &[u32; WIDTH],
+    walking: u32,
     p: V3,
     n: V3,
     has_n: Mask,
 ) -> ([u32; WIDTH], [u32; WIDTH], Lanes, u32) {
+    // Lanes that have stopped walk along with the first that has not (their results are kept).
+    let lead = node[walking.trailing_zeros() as usize];
+    let at: [u32; WIDTH] = std::array::from_fn(|i| if walking >> i & 1 == 1 { node[i] } else { lead });
     let first: [u32; WIDTH] = std::array::from_fn(|i| at[i] + 1);
     let second: [u32; WIDTH] = std::array::from_fn(|i| nodes[at[i] as usize].index);
     let (a, b) = (BoundsLanes::gather(nodes, &first), BoundsLanes::gather(nodes, &second));
@@ -116,6 +121,33 @@ fn split(
     let p_first = select(by_importance, ia / total, a.phi / phi);
     let no_split = (!by_importance & !phi.simd_gt(Lanes::ZERO)).bits();
     (first, second, p_first, no_split)
+}
+
+/// Each walking lane goes down to its first child where `first_turn` has its bit, else to its
+/// second; a lane that reaches a leaf stops walking.
+#[inline(always)]
+fn step_down(
+    nodes: &[Node],
+    node: &mut [u32; WIDTH],
+    walking: &mut u32,
+    first_turn: u32,
+    (first, second): ([u32; WIDTH], [u32; WIDTH]),
+) {
+    let mut still = *walking;
+    while still != 0 {
+        let i = still.trailing_zeros() as usize;
+        still &= still - 1;
+        node[i] = if first_turn >> i & 1 == 1 { first[i] } else { second[i] };
+        if nodes[node[i] as usize].leaf {
+            *walking &= !(1 << i);
+        }
+    }
+}
+
+/// The lanes whose bit `level` of `bits[i]` is clear (a first turn on a trail or cluster prefix).
+#[inline(always)]
+fn first_turns(bits: &[u64; WIDTH], level: u32) -> u32 {
+    (0..WIDTH).fold(0u32, |turns, i| turns | ((bits[i] & (1 << level) == 0) as u32) << i)
 }
 
 fn descend(tree: &LightTree, p: V3, n: V3, u: [f32; WIDTH], how: Descent) -> [Option<(u32, f32)>; WIDTH] {
@@ -131,19 +163,17 @@ fn descend(tree: &LightTree, p: V3, n: V3, u: [f32; WIDTH], how: Descent) -> [Op
         reached &= !(root.simd_le(Lanes::ZERO).bits() & how.root_checked);
     }
     let mut node = [0u32; WIDTH];
-    let mut level = [0u32; WIDTH];
+    let cluster = how.cluster.map(u64::from);
+    // Every walking lane is as deep as the others: all start at the root and go down together.
+    let mut level = 0u32;
     let mut u = Lanes::new(u);
     let mut pmf = Lanes::ONE;
     let mut walking = if nodes[0].leaf { 0 } else { reached };
     let mut lost = 0u32;
     while walking != 0 {
-        // Lanes that have stopped walk along with the first that has not (their results are kept).
-        let lead = node[walking.trailing_zeros() as usize];
-        let at: [u32; WIDTH] = std::array::from_fn(|i| if walking >> i & 1 == 1 { node[i] } else { lead });
-        let (first, second, p_first, no_split) = split(nodes, &at, p, n, has_n);
+        let (first, second, p_first, no_split) = split(nodes, &node, walking, p, n, has_n);
         // Lanes still within their forced prefix turn as their cluster says and choose nothing.
-        let forced =
-            (0..WIDTH).fold(0u32, |bits, i| bits | ((level[i] < how.depth[i]) as u32) << i) & walking;
+        let forced = (0..WIDTH).fold(0u32, |bits, i| bits | ((level < how.depth[i]) as u32) << i) & walking;
         let no_split = no_split & walking & !forced;
         let go_first = u.simd_lt(p_first);
         let one_minus_epsilon = Lanes::splat(ONE_MINUS_EPSILON);
@@ -156,24 +186,11 @@ fn descend(tree: &LightTree, p: V3, n: V3, u: [f32; WIDTH], how: Descent) -> [Op
         let moving = Mask::from_fn(|i| choosing >> i & 1 == 1);
         u = select(moving, u_next, u);
         pmf = select(moving, pmf * select(go_first, p_first, Lanes::ONE - p_first), pmf);
-        let go_first = go_first.bits();
         lost |= no_split;
         walking &= !no_split;
-        let mut still = walking;
-        while still != 0 {
-            let i = still.trailing_zeros() as usize;
-            still &= still - 1;
-            let first_turn = if forced >> i & 1 == 1 {
-                how.cluster[i] & (1 << level[i]) == 0
-            } else {
-                go_first >> i & 1 == 1
-            };
-            node[i] = if first_turn { first[i] } else { second[i] };
-            level[i] += 1;
-            if nodes[node[i] as usize].leaf {
-                walking &= !(1 << i);
-            }
-        }
+        let first_turn = (forced & first_turns(&cluster, level)) | (!forced & go_first.bits());
+        step_down(nodes, &mut node, &mut walking, first_turn, (first, second));
+        level += 1;
     }
     let pmf = pmf.to_array();
     let mut found = reached & !lost;
@@ -208,17 +225,15 @@ fn pmf_along_trails(
     }
     let has_n = !n.is_zero();
     let root = BoundsLanes::gather(nodes, &[0; WIDTH]).importance(p, n, has_n);
-    let root = !root.simd_le(Lanes::ZERO).bits() & !root.is_nan().bits();
+    let root = root.simd_gt(Lanes::ZERO).bits();
     let (mut above, mut below) = (Lanes::ONE, Lanes::ONE);
     let mut node = [0u32; WIDTH];
     let mut level = 0u32;
     let mut walking = if nodes[0].leaf { 0 } else { active };
     let mut dead = 0u32;
     while walking != 0 {
-        let lead = node[walking.trailing_zeros() as usize];
-        let at: [u32; WIDTH] = std::array::from_fn(|i| if walking >> i & 1 == 1 { node[i] } else { lead });
-        let (first, second, p_first, no_split) = split(nodes, &at, p, n, has_n);
-        let first_turn = (0..WIDTH).fold(0u32, |bits, i| bits | ((trail[i] & (1 << level) == 0) as u32) << i);
+        let (first, second, p_first, no_split) = split(nodes, &node, walking, p, n, has_n);
+        let first_turn = first_turns(&trail, level);
         let turn_first = Mask::from_fn(|i| first_turn >> i & 1 == 1);
         let p_turn = select(turn_first, p_first, Lanes::ONE - p_first);
         let moving = Mask::from_fn(|i| walking >> i & 1 == 1);
@@ -230,15 +245,7 @@ fn pmf_along_trails(
             walking &= !no_split;
             below = select(moving, below * p_turn, below);
         }
-        let mut still = walking;
-        while still != 0 {
-            let i = still.trailing_zeros() as usize;
-            still &= still - 1;
-            node[i] = if first_turn >> i & 1 == 1 { first[i] } else { second[i] };
-            if nodes[node[i] as usize].leaf {
-                walking &= !(1 << i);
-            }
-        }
+        step_down(nodes, &mut node, &mut walking, first_turn, (first, second));
         level += 1;
     }
     let (above, below) = (above.to_array(), below.to_array());
